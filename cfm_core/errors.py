@@ -1,0 +1,31 @@
+"""Exception types shared by the whole project.
+
+Two families, so the CLI can tell a user's mistake from a numerical failure:
+
+- :class:`InputError` (a ``ValueError``): bad names, parameters, files or geometry. The CLI prints
+  its one-paragraph message and exits with status 2, without a traceback.
+- :class:`NumericalError` (a ``RuntimeError``): overflow, element inversion or time-step collapse
+  during a run. It names where (element, node) and when (time in s) it happened; the CLI prints it
+  and exits with status 3. Nothing is written as if the run had succeeded.
+"""
+
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """A user-facing input problem: the message names the field, the value and what is allowed."""
+
+
+class NumericalError(RuntimeError):
+    """A numerical failure during a computation.
+
+    Attributes are optional context for reports: ``time`` (s), ``element`` (index), ``quantity``
+    (what went wrong: "J", "exp argument", "time step", ...).
+    """
+
+    def __init__(self, message: str, *, time: float | None = None, element: int | None = None,
+                 quantity: str | None = None):
+        super().__init__(message)
+        self.time = time
+        self.element = element
+        self.quantity = quantity

@@ -1,0 +1,222 @@
+"""Materials: a declaration (:class:`MaterialSpec`) and a parameterised instance (:class:`Material`).
+
+A spec is isochoric terms + at most one volumetric term + an optional Prony series. Binding
+parameter values gives a :class:`Material`, which every backend reads: ``param_array()``,
+``prony_arrays()`` and generated code (``numba_source()``, ``kernels("numpy" | "torch")``). The
+numpy evaluation in :mod:`cfm_core.kinematics` is the reference every backend is checked against.
+
+Moduli convention (DESIGN.md section 2): with ``moduli="instantaneous"`` the isochoric parameters
+are the instantaneous (g(0) = 1) values; with ``moduli="long-term"`` they are the relaxed values,
+so the instantaneous isochoric energy is the written one divided by gamma_inf. ``elastic=True``
+switches the Prony series off (g = 1) and uses the parameters as written.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from . import codegen
+from .errors import InputError
+from .parameters import Parameter
+from .prony import PronySeries
+
+MODULI = ("instantaneous", "long-term")
+_RESERVED = {"m1", "m2", "m3", "p", "J", "s_iso", "zero_", "math", "numpy", "torch"}
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """Declaration of a material: energy terms, Prony series and defaults (no values bound)."""
+
+    name: str
+    isochoric: tuple = ()
+    volumetric: object = None
+    prony: PronySeries | None = None
+    description: str = ""
+    default_moduli: str = "long-term"
+
+    @classmethod
+    def compose(cls, name, terms, prony=None, description=""):
+        """Build a spec from a sequence of terms (at most one volumetric)."""
+        spec = cls(name=name, description=description, prony=prony)
+        for t in terms:
+            spec = spec & t
+        return spec
+
+    def __and__(self, other):
+        from .terms import Term
+
+        if isinstance(other, PronySeries):
+            if self.prony is not None:
+                raise InputError(f"material '{self.name}' already has a Prony series.")
+            return _replace(self, prony=other)
+        if isinstance(other, Term):
+            if other.kind == "isochoric":
+                return _replace(self, isochoric=self.isochoric + (other,))
+            if self.volumetric is not None:
+                raise InputError(
+                    f"material '{self.name}' already has the volumetric term '{self.volumetric.name}'; "
+                    f"cannot add '{other.name}' (one volumetric term per material)."
+                )
+            return _replace(self, volumetric=other)
+        raise InputError(f"cannot compose material '{self.name}' with {other!r}: expected a Term or PronySeries.")
+
+    def named(self, name: str, description: str = "") -> "MaterialSpec":
+        """The same spec under another name (and description)."""
+        return _replace(self, name=name, description=description or self.description)
+
+    @functools.cached_property
+    def energy_parameters(self) -> tuple[Parameter, ...]:
+        """Parameters of the energy terms, each name once, in order of appearance."""
+        seen: dict[str, Parameter] = {}
+        for term in self.isochoric + ((self.volumetric,) if self.volumetric else ()):
+            for p in term.parameters:
+                if p.name in _RESERVED:
+                    raise InputError(f"term '{term.name}': parameter name '{p.name}' is reserved; rename it.")
+                if p.name in seen and seen[p.name] != p:
+                    raise InputError(
+                        f"material '{self.name}': parameter '{p.name}' is declared twice with different "
+                        f"unit, default or range ({seen[p.name]} vs {p}); give one of them another name."
+                    )
+                seen[p.name] = p
+        return tuple(seen.values())
+
+    @property
+    def parameters(self) -> tuple[Parameter, ...]:
+        """All parameters: energy terms first, then the Prony series (g1, tau1, ...)."""
+        return self.energy_parameters + (self.prony.parameters if self.prony else ())
+
+    def bind(self, parameters: dict | None = None, moduli: str | None = None, elastic: bool = False) -> "Material":
+        """A :class:`Material` with defaults overridden by ``parameters`` (name -> value, SI units)."""
+        moduli = self.default_moduli if moduli is None else moduli
+        if moduli not in MODULI:
+            raise InputError(f"moduli = {moduli!r} is not allowed; use one of {', '.join(MODULI)}.")
+        decl = {p.name: p for p in self.parameters}
+        values = {p.name: p.default for p in self.parameters}
+        for key, value in (parameters or {}).items():
+            if key not in decl:
+                raise InputError(
+                    f"material '{self.name}' has no parameter '{key}' (given {value!r}); "
+                    f"its parameters are: {', '.join(decl) or 'none'}."
+                )
+            values[key] = decl[key].check(value, context=f"material '{self.name}' parameter")
+        return Material(self, values, moduli, bool(elastic) or self.prony is None)
+
+    @functools.cached_property
+    def symbolic(self):
+        """(psi_iso, psi_vol, parameter names) as sympy expressions in m1, m2, m3."""
+        names = [p.name for p in self.energy_parameters] + ["s_iso"]
+        syms = {n: sp.Symbol(n, real=True) for n in names}
+        iso, vol = codegen.energies(self.isochoric, self.volumetric, syms)
+        return iso, vol, names
+
+    @functools.cached_property
+    def derivatives(self):
+        """Dict of generated-function name -> sympy expressions (see :mod:`cfm_core.codegen`)."""
+        iso, vol, _ = self.symbolic
+        return codegen.derivative_table(iso, vol)
+
+    @functools.lru_cache(maxsize=None)
+    def source(self, dialect: str) -> str:
+        """Generated module source for ``dialect`` ("math", "numpy" or "torch")."""
+        return codegen.module_source(self.derivatives, self.symbolic[2], dialect)
+
+    @functools.lru_cache(maxsize=None)
+    def kernels(self, dialect: str):
+        """Namespace with psi_energy, psi_grad, psi_hess_diag, psi_hess compiled from ``source``."""
+        src = self.source(dialect)
+        namespace: dict = {}
+        code = compile(src, f"<cfm material {self.name} ({dialect})>", "exec")
+        exec(code, namespace)  # generated from the symbolic energy only
+        return _Kernels(namespace)
+
+    def fingerprint(self) -> str:
+        """Hash of the generated scalar code (identifies compiled kernels in caches)."""
+        return hashlib.sha256(self.source("math").encode()).hexdigest()[:16]
+
+    def __hash__(self):
+        return hash((self.name, id(self)))
+
+    def __eq__(self, other):
+        return self is other
+
+
+@dataclass(frozen=True)
+class _Kernels:
+    namespace: dict
+
+    def __getattr__(self, item):
+        try:
+            return self.namespace[item]
+        except KeyError:
+            raise AttributeError(item) from None
+
+
+def _replace(spec: MaterialSpec, **changes) -> MaterialSpec:
+    fields = dict(name=spec.name, isochoric=spec.isochoric, volumetric=spec.volumetric,
+                  prony=spec.prony, description=spec.description, default_moduli=spec.default_moduli)
+    fields.update(changes)
+    return MaterialSpec(**fields)
+
+
+@dataclass(frozen=True)
+class Material:
+    """A material with parameter values bound (SI units), a moduli convention and elastic flag."""
+
+    spec: MaterialSpec
+    values: dict = field(repr=True)
+    moduli: str = "long-term"
+    elastic: bool = False
+
+    def __post_init__(self):
+        if not self.elastic:
+            self.spec.prony.arrays(self.values)  # validates sum of gammas < 1
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def prony_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(gammas, taus) of the active Prony series; empty arrays when elastic."""
+        if self.elastic:
+            return np.zeros(0), np.zeros(0)
+        return self.spec.prony.arrays(self.values)
+
+    @property
+    def iso_scale(self) -> float:
+        """Factor on the written isochoric energy giving the instantaneous one (-)."""
+        if self.elastic or self.moduli == "instantaneous":
+            return 1.0
+        gammas, _ = self.prony_arrays()
+        return 1.0 / (1.0 - math.fsum(gammas))
+
+    def param_array(self) -> np.ndarray:
+        """Energy parameter values in declaration order, then s_iso (float64)."""
+        vals = [self.values[p.name] for p in self.spec.energy_parameters] + [self.iso_scale]
+        return np.array(vals, dtype=np.float64)
+
+    def numba_source(self) -> str:
+        """Scalar Python source (math module) of psi_energy, psi_grad, psi_hess_diag, psi_hess."""
+        return self.spec.source("math")
+
+    def kernels(self, dialect: str = "numpy"):
+        """Compiled generated functions for an array dialect ("numpy" or "torch")."""
+        return self.spec.kernels(dialect)
+
+    def with_values(self, **changes) -> "Material":
+        """A copy with some parameter values changed (validated)."""
+        return self.spec.bind({**self.values, **changes}, self.moduli, self.elastic)
+
+
+def make_material(name: str, parameters: dict | None = None, moduli: str | None = None,
+                  elastic: bool = False) -> Material:
+    """Look up a registered material by name and bind parameters (SI units)."""
+    from .registry import get_material
+
+    return get_material(name).bind(parameters, moduli, elastic)

@@ -1,0 +1,1 @@
+"""Cross-backend verification suite (import name ``cfm_verification``)."""
