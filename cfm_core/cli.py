@@ -116,9 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
     p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
     p.add_argument("--out", required=True, help="output CSV (t,s11,s22,s33,s12,s23,s13 in s and Pa; or t,stretch,nominal_stress,lateral_stretch)")
-    from . import drop_cli
+    from . import scene_cli
 
-    drop_cli.add_parser(sub)
+    scene_cli.add_parser(sub)
     return parser
 
 
@@ -128,9 +128,9 @@ COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cm
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from . import drop_cli
+    from . import scene_cli
 
-    handler = COMMANDS.get(args.command) or drop_cli.COMMANDS[args.command]
+    handler = COMMANDS.get(args.command) or scene_cli.COMMANDS[args.command]
     try:
         return handler(args)
     except InputError as exc:

@@ -124,8 +124,14 @@ class MaterialSpec:
 
     @functools.lru_cache(maxsize=None)
     def source(self, dialect: str) -> str:
-        """Generated module source for ``dialect`` ("math", "numpy" or "torch")."""
-        return codegen.module_source(self.derivatives, self.symbolic[2], dialect)
+        """Generated module source for ``dialect`` ("math", "numpy" or "torch").
+
+        Sources are cached on disk (see :mod:`cfm_core.cache`) under a fingerprint of the terms'
+        code, so sympy differentiates a material once per machine, not once per run.
+        """
+        from .cache import codegen_cache
+
+        return codegen_cache(self, dialect, lambda: codegen.module_source(self.derivatives, self.symbolic[2], dialect))
 
     @functools.lru_cache(maxsize=None)
     def kernels(self, dialect: str):
@@ -134,7 +140,10 @@ class MaterialSpec:
         namespace: dict = {}
         code = compile(src, f"<cfm material {self.name} ({dialect})>", "exec")
         exec(code, namespace)  # generated from the symbolic energy only
-        return _Kernels(namespace)
+        kernels = _Kernels(namespace)
+        if dialect == "numpy":
+            check_spec(self, kernels)
+        return kernels
 
     def fingerprint(self) -> str:
         """Hash of the generated scalar code (identifies compiled kernels in caches)."""
@@ -156,6 +165,31 @@ class _Kernels:
             return self.namespace[item]
         except KeyError:
             raise AttributeError(item) from None
+
+
+def check_spec(spec: MaterialSpec, kernels) -> None:
+    """Check a spec against what every backend assumes: isotropy and a stress-free reference.
+
+    The energy must be symmetric in the principal stretches, and its gradient must vanish at
+    C = I for the default parameters. Raises InputError naming the material.
+    """
+    p = np.array([q.default for q in spec.energy_parameters] + [1.0])
+    m = np.array([[1.3, 0.8, 1.1], [0.7, 1.2, 0.95]])
+    with np.errstate(all="ignore"):
+        base = np.stack(kernels.psi_energy(m[:, 0], m[:, 1], m[:, 2], p))
+        for perm in ((1, 0, 2), (0, 2, 1), (2, 1, 0)):
+            other = np.stack(kernels.psi_energy(m[:, perm[0]], m[:, perm[1]], m[:, perm[2]], p))
+            if not np.allclose(base, other, rtol=1e-9, atol=1e-12 * np.abs(base).max()):
+                raise InputError(
+                    f"material '{spec.name}': the energy is not symmetric in the principal stretches "
+                    f"(swapping stretches {perm} changes it); isotropic terms must treat l1, l2, l3 alike.")
+        one = np.ones(1)
+        g = np.stack(kernels.psi_grad(one, one, one, p))
+        h = np.stack(kernels.psi_hess(one, one, one, p))
+    if not np.isfinite(g).all() or np.abs(g).max() > 1e-8 * max(np.abs(h).max(), 1.0):
+        raise InputError(
+            f"material '{spec.name}': the reference state C = I is not stress-free (d psi / d m = "
+            f"{g.ravel().tolist()} Pa); a volumetric term needs U'(1) = 0.")
 
 
 def _replace(spec: MaterialSpec, **changes) -> MaterialSpec:

@@ -1,0 +1,119 @@
+"""``cfm drop-test`` (the main job) and ``cfm run`` (any scene file)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from .errors import InputError
+
+
+class Progress:
+    """A one-line progress bar on stderr (a line every 10 % when stderr is not a terminal)."""
+
+    def __init__(self, end_time: float, label: str, enabled: bool = True):
+        self.end, self.label, self.enabled = end_time, label, enabled
+        self.tty = sys.stderr.isatty()
+        self.last = -1
+        self.start = time.perf_counter()
+
+    def __call__(self, t: float) -> None:
+        if not self.enabled:
+            return
+        frac = min(max(t / self.end, 0.0), 1.0)
+        step = int(frac * (50 if self.tty else 10))
+        if step == self.last:
+            return
+        self.last = step
+        wall = time.perf_counter() - self.start
+        if self.tty:
+            bar = "#" * int(frac * 30)
+            sys.stderr.write(f"\r{self.label} [{bar:<30}] t = {1e3 * t:7.3f} ms  ({wall:.1f} s)")
+        else:
+            sys.stderr.write(f"{self.label}: t = {1e3 * t:.3f} ms ({wall:.1f} s wall)\n")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled and self.tty:
+            sys.stderr.write("\n")
+
+
+def add_parser(sub) -> None:
+    from .cli import add_material_options
+
+    p = sub.add_parser("drop-test", help="the paper's drop test: impactor acceleration history (CFC 600)",
+                       description="Rigid hemispherical impactor on a fat specimen on a rigid plate (SI units). "
+                                   "Writes acceleration.csv (t s, a_raw and a_cfc600 m/s^2), summary.json and "
+                                   "acceleration.png into --out.")
+    p.add_argument("--scene", help="scene TOML file (default: the built-in drop-test scene)")
+    p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--thickness", type=float, help="specimen thickness, m (paper: 0.0048 .. 0.0083; default 0.008)")
+    p.add_argument("--element-size", type=float, help="hexahedron edge, m (default 0.001)")
+    p.add_argument("--velocity", type=float, help="impact speed, m/s (default 1.0)")
+    p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
+    p.add_argument("--symmetry", choices=["quarter", "none"], help="quarter model (default) or full specimen")
+    add_material_options(p, default_material=None)
+    p.add_argument("--vtu", action="store_true", help="also write the deformed specimen over time (ParaView .pvd/.vtu)")
+    p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--out", required=True, help="output directory")
+
+
+def scene_from_args(args):
+    """The scene of ``cfm drop-test`` with the command-line overrides applied."""
+    from .cli import parse_params
+    from .scene import builtin_scene, load_scene
+
+    scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
+    over = {}
+    for key, value in (("thickness", args.thickness), ("element_size", args.element_size),
+                       ("velocity", args.velocity), ("friction", args.friction), ("symmetry", args.symmetry),
+                       ("material", args.material), ("moduli", args.moduli)):
+        if value is not None:
+            over[key] = value
+    if args.elastic:
+        over["elastic"] = True
+    params = parse_params(args.param)
+    if params:
+        over["parameters"] = params
+    return scene.with_overrides(**over) if over else scene
+
+
+def _cmd_drop_test(args) -> int:
+    from . import plotting, simulate, writers
+
+    scene = scene_from_args(args)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is not a directory.")
+    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({args.backend})",
+                        enabled=not args.quiet)
+    options = {}
+    if args.vtu:
+        options["frame_interval"] = 2e-4
+    try:
+        outcome = simulate.drop_test(scene, args.backend, progress=progress, **options)
+    finally:
+        progress.close()
+    (out / "summary.json").unlink(missing_ok=True)  # an earlier success must not survive a failure
+    out.mkdir(parents=True, exist_ok=True)
+    if args.vtu:
+        writers.write_vtu_series(out, outcome.model.nodes, outcome.model.hexes, outcome.result.frames)
+    if not args.no_plot:
+        s = outcome.summary
+        title = (f"Drop test, {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, {s['material']} "
+                 f"({s['moduli']}), {s['backend']}")
+        plotting.plot_acceleration(out / "acceleration.png", outcome.t, outcome.a_raw, outcome.a_cfc, title)
+    writers.write_drop_test(out, outcome.t, outcome.a_raw, outcome.a_cfc, outcome.summary)  # summary.json last
+    s = outcome.summary
+    print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
+          f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
+          f"hourglass/internal {100 * s.get('hourglass_ratio', math.nan):.2f} %")
+    print(f"wrote {out}/acceleration.csv, summary.json" + ("" if args.no_plot else ", acceleration.png"))
+    return 0
+
+
+COMMANDS = {"drop-test": _cmd_drop_test}

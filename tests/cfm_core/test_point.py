@@ -1,0 +1,151 @@
+"""Material-point driver and `cfm point` against independent references and bad input."""
+
+import csv
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+from cfm_core import make_material
+from cfm_core import point as pt
+from cfm_core.cli import main
+
+HEADER = "t,F11,F12,F13,F21,F22,F23,F31,F32,F33"
+
+
+def cfm_energy_mp(C, c=10.0, k1=1320.0, k2=1.66, kappa=666.1e3):
+    """The paper's Eq. 2-7 written out in mpmath (independent of the package's code generation)."""
+    Cm = mp.matrix(C)
+    ev, _ = mp.eigsy(Cm)
+    J = mp.sqrt(mp.det(Cm))
+    mb = [ev[i] * J ** (-mp.mpf(2) / 3) for i in range(3)]
+    w = c / 2 * (mb[0] + mb[1] + mb[2] - 3)
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        x = (mb[a] + mb[b]) / 2
+        if x >= 1:
+            w += k1 / (2 * k2) * (mp.exp(k2 * (x - 1) ** 2) - 1)
+    return w + kappa / 81 * (9 * mp.log(J) + J**-9 - 1)
+
+
+def cauchy_mp(F, **params):
+    """sigma = J^-1 F (2 dW/dC) F^T with dW/dC by high-precision central differences."""
+    with mp.workdps(40):
+        Fm = mp.matrix(F.tolist())
+        C = Fm.T * Fm
+        h = mp.mpf("1e-15")
+        S = mp.matrix(3, 3)
+        for i in range(3):
+            for j in range(i, 3):
+                Cp, Cm_ = C.copy(), C.copy()
+                for (a, b) in {(i, j), (j, i)}:
+                    Cp[a, b] += h / 2 if i != j else h
+                    Cm_[a, b] -= h / 2 if i != j else h
+                d = (cfm_energy_mp(Cp.tolist(), **params) - cfm_energy_mp(Cm_.tolist(), **params)) / (2 * h)
+                S[i, j] = S[j, i] = 2 * d
+        sig = Fm * S * Fm.T / mp.det(Fm)
+        return np.array(sig.tolist(), dtype=float)
+
+
+def write_history(path, t, F):
+    with open(path, "w") as fh:
+        fh.write(HEADER + "\n")
+        for ti, Fi in zip(t, F):
+            fh.write(",".join(repr(float(v)) for v in [ti, *Fi.ravel()]) + "\n")
+
+
+def read_out(path):
+    with open(path) as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
+    return np.array(rows[1:], dtype=float)
+
+
+def test_elastic_cli_matches_independent_mpmath_reference(tmp_path):
+    rng = np.random.default_rng(7)
+    Fs = [np.eye(3), np.diag([0.6, 1.25, 1.3]), np.diag([0.8, 1.1, 1.1]),  # repeated stretches
+          np.eye(3) + 0.2 * rng.standard_normal((3, 3)), np.array([[1, 0.4, 0], [0, 1, 0], [0, 0, 1.0]])]
+    t = np.arange(len(Fs)) * 1e-3
+    write_history(tmp_path / "F.csv", t, np.array(Fs))
+    assert main(["point", "--material", "cfm", "--elastic", "--history", str(tmp_path / "F.csv"),
+                 "--out", str(tmp_path / "s.csv")]) == 0
+    got = read_out(tmp_path / "s.csv")
+    assert np.allclose(got[:, 0], t)
+    for row, F in zip(got, Fs):
+        truth = cauchy_mp(F)
+        tv = np.array([truth[0, 0], truth[1, 1], truth[2, 2], truth[0, 1], truth[1, 2], truth[0, 2]])
+        scale = max(np.abs(tv).max(), 1.0)
+        assert np.abs(row[1:] - tv).max() / scale < 1e-6
+
+
+def test_uniaxial_mode_zero_lateral_stress_and_energy_consistency(tmp_path):
+    out = tmp_path / "u.csv"
+    assert main(["point", "--material", "cfm", "--elastic", "--uniaxial", "--rate", "100", "--stretch", "0.5",
+                 "--steps", "50", "--out", str(out)]) == 0
+    rows = list(csv.reader(open(out)))
+    assert rows[0] == ["t", "stretch", "nominal_stress", "lateral_stretch"]
+    data = np.array(rows[1:], dtype=float)
+    assert data[-1, 1] == pytest.approx(0.5)
+    assert data[-1, 0] == pytest.approx(0.005)
+    # independent check: P11 = d W(diag(l, lt, lt)) / d l at fixed lt (lateral stress is zero)
+    mat = make_material("cfm", elastic=True)
+    from cfm_core import reference as ref
+
+    for _, lam, P, lt in data[5::10]:
+        h = 1e-7
+        Wp = ref.energy(mat, np.diag([lam + h, lt, lt]))[0]
+        Wm = ref.energy(mat, np.diag([lam - h, lt, lt]))[0]
+        assert P == pytest.approx((Wp - Wm) / (2 * h), rel=1e-6)
+        sigma = ref.cauchy(mat, np.diag([lam, lt, lt]))[0]
+        assert abs(sigma[1, 1]) < 1e-8 * abs(sigma[0, 0])
+
+
+def test_viscoelastic_uniaxial_is_stiffer_at_higher_rate():
+    mat = make_material("cfm")
+    _, _, P_slow, _ = pt.uniaxial(mat, 1.0, 0.6, steps=40)
+    _, _, P_fast, _ = pt.uniaxial(mat, 1000.0, 0.6, steps=40)
+    assert P_fast[-1] < P_slow[-1] < 0  # compression: more negative when faster
+
+
+@pytest.mark.parametrize("content,needle", [
+    ("t,F11\n0,1\n", "header must be exactly"),
+    (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,1,0,0,0\n", "line 3"),
+    (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,x,0,0,0,1\n", "line 3: not a number"),
+    (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,-1,0,0,0,1,0,0,0,1\n", "line 3: det F"),
+    (HEADER + "\n0.2,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,1,0,0,0,1\n", "line 3: time"),
+    (HEADER + "\n0,nan,0,0,0,1,0,0,0,1\n", "line 2: NaN"),
+    (HEADER + "\n", "no data rows"),
+])
+def test_malformed_history_names_the_line_and_leaves_no_output(tmp_path, capsys, content, needle):
+    (tmp_path / "F.csv").write_text(content)
+    out = tmp_path / "s.csv"
+    assert main(["point", "--history", str(tmp_path / "F.csv"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--material", "nope"], "unknown material 'nope'; available: cfm"),
+    (["--param", "c=-1"], "'c' = -1.0 Pa is outside the allowed range (0, inf) Pa"),
+    (["--param", "c=nan"], "'c' = nan Pa is outside"),
+    (["--param", "zz=1"], "has no parameter 'zz'"),
+    (["--param", "g1=0.6"], "must be below 1"),
+    (["--param", "tau2=0"], "'tau2' = 0.0 s is outside the allowed range (0, inf) s"),
+    (["--param", "c"], "NAME=VALUE"),
+    (["--backend", "nope"], "unknown backend 'nope'"),
+])
+def test_bad_material_input_is_a_clear_error(tmp_path, capsys, args, needle):
+    write_history(tmp_path / "F.csv", np.array([0.0]), np.eye(3)[None])
+    out = tmp_path / "s.csv"
+    assert main(["point", "--history", str(tmp_path / "F.csv"), "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert needle in err, err
+    assert not out.exists()
+
+
+def test_listing_commands(capsys):
+    assert main(["materials"]) == 0
+    text = capsys.readouterr().out
+    assert "cfm:" in text and "kappa" in text and "666100" in text and "Pa" in text
+    assert main(["backends"]) == 0
+    assert "numpy" in capsys.readouterr().out

@@ -1,0 +1,134 @@
+"""Registries: fake entry points, broken plugins, duplicates, runtime registration, lazy imports."""
+
+import subprocess
+import sys
+import warnings
+from importlib.metadata import EntryPoint
+
+import numpy as np
+import pytest
+
+from cfm_core import (InputError, MaterialSpec, isochoric, make_material, positive, register_material, registry,
+                      volumetric)
+from cfm_core import reference as ref
+
+
+@pytest.fixture
+def fake_entry_points(monkeypatch):
+    """Replace installed entry points by a table the test controls."""
+    table = {}
+
+    def fake(group):
+        return table.get(group, [])
+
+    monkeypatch.setattr(registry, "_iter_entry_points", fake)
+    registry.refresh()
+    yield table
+    registry.refresh()
+
+
+def test_broken_plugin_is_reported_and_skipped(fake_entry_points):
+    fake_entry_points["cfm.materials"] = [
+        EntryPoint("good", "cfm_plugins.neo_hookean:NEO_HOOKEAN", "cfm.materials"),
+        EntryPoint("broken", "no_such_module_xyz:THING", "cfm.materials"),
+        EntryPoint("wrongtype", "math:pi", "cfm.materials"),
+    ]
+    with pytest.warns(RuntimeWarning, match="broken"):
+        entries = registry.entries("materials")
+    assert entries["good"][1] is None
+    assert "No module named 'no_such_module_xyz'" in entries["broken"][1]
+    assert "not a MaterialSpec" in entries["wrongtype"][1]
+    assert registry.get_material("good").name == "neo-hookean"
+    with pytest.raises(InputError, match="could not be used"):
+        registry.get_material("broken")
+
+
+def test_duplicate_names_warn_and_keep_the_first(fake_entry_points):
+    fake_entry_points["cfm.materials"] = [
+        EntryPoint("dup", "cfm_plugins.neo_hookean:NEO_HOOKEAN", "cfm.materials"),
+        EntryPoint("dup", "cfm_plugins.cfm:CFM", "cfm.materials"),
+    ]
+    with pytest.warns(RuntimeWarning, match="keeping the first"):
+        spec = registry.get_material("dup")
+    assert spec.name == "neo-hookean"
+
+
+def test_unknown_name_lists_what_exists(fake_entry_points):
+    fake_entry_points["cfm.backends"] = [EntryPoint("numpy", "cfm_core.reference_backend:NumpyReferenceBackend", "cfm.backends")]
+    with pytest.raises(InputError, match=r"unknown backend 'gpu'; available: numpy"):
+        registry.get_backend("gpu")
+
+
+def test_runtime_registration_of_a_ten_line_material():
+    @isochoric(positive("c10", "Pa", 200.0), positive("c01", "Pa", 50.0))
+    def my_mooney_rivlin(l1, l2, l3, c10, c01):
+        i1 = l1**2 + l2**2 + l3**2
+        i2 = (l1 * l2) ** 2 + (l2 * l3) ** 2 + (l1 * l3) ** 2
+        return c10 * (i1 - 3) + c01 * (i2 - 3)
+
+    @volumetric(positive("K", "Pa", 1e5))
+    def my_volume(J, K):
+        return K / 2 * (J - 1) ** 2
+
+    register_material(my_mooney_rivlin & my_volume, name="my-mr")
+    try:
+        mat = make_material("my-mr", {"c10": 300.0})
+        # small-strain shear modulus of Mooney-Rivlin: 2 (c10 + c01)
+        CC = ref.tangent(mat, np.eye(3))[0]
+        assert CC[0, 1, 0, 1] == pytest.approx(2 * (300.0 + 50.0), rel=1e-10)
+        with pytest.raises(InputError, match="already registered"):
+            register_material(my_mooney_rivlin & my_volume, name="my-mr")
+    finally:
+        registry.unregister("materials", "my-mr")
+
+
+def test_term_signature_is_checked_against_declaration():
+    with pytest.raises(InputError, match="must be the kinematic arguments"):
+        @isochoric(positive("mu", "Pa", 1.0))
+        def bad(l1, l2, l3, not_mu):
+            return not_mu * l1
+
+    assert isinstance(MaterialSpec(name="x"), MaterialSpec)
+
+
+def test_importing_core_and_listing_backends_imports_no_heavy_library():
+    code = (
+        "import sys, warnings\n"
+        "warnings.simplefilter('ignore')\n"
+        "import cfm_core\n"
+        "from cfm_core import registry\n"
+        "registry.entries('backends'); registry.entries('materials')\n"
+        "from cfm_core.cli import main\n"
+        "main(['backends'])\n"
+        "heavy = [m for m in ('numba', 'torch', 'skfem') if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+
+
+def test_warnings_are_clean_for_installed_plugins():
+    registry.refresh()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        entries = registry.entries("materials")
+    assert {"cfm", "neo-hookean", "ogden", "mooney-rivlin"} <= set(entries)
+
+
+def test_plugin_breaking_the_specification_is_rejected_with_its_name():
+    @isochoric(positive("a", "Pa", 1.0))
+    def lopsided(l1, l2, l3, a):
+        return a * (l1**2 - 1) ** 2
+
+    @volumetric(positive("K", "Pa", 1.0))
+    def prestressed(J, K):
+        return K * (J - 1)
+
+    with pytest.raises(InputError, match="'anisotropic'.*not symmetric"):
+        (lopsided & prestressed).named("anisotropic").bind().kernels("numpy")
+
+    @isochoric(positive("a", "Pa", 1.0))
+    def fine(l1, l2, l3, a):
+        return a * (l1**2 + l2**2 + l3**2 - 3)
+
+    with pytest.raises(InputError, match="'prestressed-material'.*not stress-free"):
+        (fine & prestressed).named("prestressed-material").bind().kernels("numpy")
