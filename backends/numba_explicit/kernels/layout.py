@@ -1,0 +1,94 @@
+"""Index layout of the small arrays the numba kernels share with Python (plain constants).
+
+Numba freezes module-level integers into compiled code, so these names cost nothing at run time.
+``par`` (float64) holds run parameters, ``ipar`` (int64) switches, ``sc`` (float64) the scalar
+state that survives between calls of the time loop, and each row of ``hist`` one time step.
+"""
+
+# LLVM fast-math flags of every kernel: reciprocal approximation of divisions (arcp), fused
+# multiply-add (contract), no signed zeros (nsz); about 10 % faster. Deliberately *not* nnan /
+# ninf: the kernels must still see inf and NaN to report overflow and inversion. Every kernel
+# also uses error_model="numpy": a division by zero gives inf / NaN (caught by the finiteness
+# checks) instead of a per-division test raising ZeroDivisionError.
+FASTMATH = {"arcp", "contract", "nsz"}
+
+# ---- par: run parameters (SI units) ----
+P_RHO = 0           # density (kg/m^3)
+P_HG = 1            # hourglass coefficient Q_hg (-)
+P_SAFETY = 2        # time-step safety factor on L / c (-)
+P_DTMAX = 3         # upper bound of the time step (s)
+P_COLLAPSE = 4      # time-step collapse threshold, fraction of the first step (-)
+P_RADIUS = 5        # sphere radius (m)
+P_SMASS = 6         # sphere mass of the modelled part (kg)
+P_CX = 7            # sphere centre x (m)
+P_CY = 8            # sphere centre y (m)
+P_PLANEZ = 9        # plane height (m)
+P_MU = 10           # Coulomb friction coefficient (-)
+P_GRAV = 11         # downward gravity on the sphere (m/s^2)
+P_SYM = 12          # symmetry factor (-)
+P_TEND = 13         # end time (s)
+P_SEPTIME = 14      # time after separation before stopping (s)
+P_GINF = 15         # Prony long-term coefficient gamma_inf (-)
+P_N = 16
+
+# ---- ipar: switches ----
+I_HGWAVE = 0        # 0: hourglass wave speed from the isochoric modulus, 1: full longitudinal
+I_SPHERE = 1        # 1 if a rigid sphere exists
+I_PLANE = 2         # 1 if a rigid plane exists
+I_PRESC = 3         # 1 if prescribed motion exists
+I_PDOF = 4          # prescribed dof (0, 1, 2)
+I_STOPSEP = 5       # 1: stop after separation
+I_N = 6
+
+# ---- sc: scalar state carried between calls ----
+S_T = 0             # time t^n (s)
+S_DTPREV = 1        # previous step dt_{n-1/2} (s)
+S_Z = 2             # sphere centre z (m)
+S_V = 3             # sphere velocity v^{n-1/2} (m/s)
+S_IE = 4            # internal energy, trapezoid stress work (J, modelled part)
+S_WINT = 5          # accumulated work of internal forces (J)
+S_WHG = 6           # ... of hourglass forces
+S_WC = 7            # ... of contact constraint forces
+S_WEXT = 8          # ... of prescribed motion and gravity
+S_IMP = 9           # accumulated contact impulse on the sphere (N s, modelled part)
+S_DT0 = 10          # first stable step (s), reference for collapse detection
+S_SEEN = 11         # 1 once the contact force has been positive
+S_SEPT = 12         # time separated so far (s)
+S_STEPS = 13        # number of steps taken
+S_ERRE = 14         # element (or node) of an error
+S_ERRV = 15         # value of an error (J, dt, ...)
+S_ERRM0 = 16        # eigenvalues of C at an error
+S_ERRM1 = 17
+S_ERRM2 = 18
+S_DTMIN = 19        # smallest / largest step taken (s)
+S_DTMAX = 20
+S_KE0 = 21          # kinetic energy at t = 0 (J)
+S_MAXPEN = 22       # largest sphere penetration after correction (m)
+S_N = 23
+
+# ---- hist columns (one row per step; forces, impulses and energies of the full model) ----
+H_T = 0             # t^n (s)
+H_F = 1             # contact force on the impactor, + decelerating (N)
+H_IMP = 2           # impulse int_0^t F dt (N s)
+H_Z = 3             # impactor centre z (m)
+H_V = 4             # impactor velocity (m/s)
+H_R = 5             # reaction force at prescribed nodes (N)
+H_KE = 6            # kinetic energy (J)
+H_IE = 7            # internal energy (J)
+H_HG = 8            # hourglass energy (J)
+H_C = 9             # contact energy (J)
+H_EXT = 10          # external work (J)
+H_WINT = 11         # work of the internal nodal forces (J), diagnostic
+H_DT = 12           # step dt_{n+1/2} taken from t^n (s)
+H_PEN = 13          # largest sphere penetration after correction (m)
+H_PZ = 14           # z momentum of nodes + sphere (kg m/s, full model)
+H_N = 15
+
+# ---- return codes of the time loop ----
+R_CHUNK = 0         # reached the requested time or buffer end
+R_DONE = 1          # end time reached
+R_SEPARATED = 2     # impactor separated
+R_INVERTED = 10     # element with J <= 0
+R_NONFINITE = 11    # non-finite material derivative / stress
+R_COLLAPSE = 12     # time-step collapse
+R_STATE = 13        # non-finite kinematic state

@@ -1,0 +1,263 @@
+"""Run a :class:`cfm_core.model.Model` implicitly: adaptive time stepping, histories, Result.
+
+Steps are cut (x ``cut``) and retried when Newton fails and grow (x ``grow``) after a fast
+convergence, never beyond ``dt_max`` (default: the model's output interval, so histories are
+recorded at least that often), and they land exactly on the breakpoints of a prescribed motion
+and on the end time. Histories are recorded at every accepted step. Forces, impulses and
+energies in the Result are for the full model (x ``model.symmetry_factor``), SI units.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from cfm_core.errors import InputError, NumericalError
+from cfm_core.results import Result
+
+from .constitutive import History
+from .options import check_options
+from .stepper import State, StepFailure, Stepper
+from .system import System
+
+
+def _quasi_static(model, o) -> bool:
+    if o["quasi_static"] is not None:
+        return bool(o["quasi_static"])
+    return bool(model.meta.get("quasi_static", False))
+
+
+class _Schedule:
+    """Largest admissible step at time t: dt_max, end time, breakpoints of the prescribed motion."""
+
+    def __init__(self, model, dt_max: float, segment_steps: int):
+        self.end = float(model.end_time)
+        self.dt_max = dt_max
+        pr = model.prescribed
+        self.times = np.asarray(pr.times, dtype=float) if pr is not None else np.zeros(0)
+        self.values = np.asarray(pr.values, dtype=float) if pr is not None else np.zeros(0)
+        self.segment_steps = segment_steps
+
+    def segment(self, t: float) -> int:
+        return int(np.searchsorted(self.times, t, side="right")) - 1
+
+    def limit(self, t: float, dt: float) -> float:
+        dt = min(dt, self.dt_max, self.end - t)
+        i = self.segment(t)
+        if 0 <= i < self.times.size - 1:
+            seg = self.times[i + 1] - self.times[i]
+            if self.values[i + 1] != self.values[i]:
+                dt = min(dt, seg / self.segment_steps)
+            dt = min(dt, self.times[i + 1] - t)
+            if self.times[i + 1] - (t + dt) < 1e-9 * dt:  # land exactly on the breakpoint
+                dt = self.times[i + 1] - t
+        if self.end - (t + dt) < 1e-9 * dt:
+            dt = self.end - t
+        return dt
+
+
+def run_model(model, progress=None, **options) -> Result:
+    """Run ``model``; see :class:`cfm_backends.skfem_implicit.SkfemImplicitBackend`."""
+    o = check_options(options)
+    wall0 = time.perf_counter()
+    quasi = _quasi_static(model, o)
+    if float(model.friction) != 0.0:
+        raise InputError(f"skfem backend: friction = {model.friction!r} is not supported (frictionless "
+                         f"penalty contact only); set [contact] friction = 0 or use the numba backend.")
+    if quasi and model.sphere is not None:
+        raise InputError(f"skfem backend: model '{model.name}' has a rigid impactor, which needs inertia; "
+                         f"run it dynamically (quasi_static=False).")
+    if not quasi and not (float(model.density) > 0.0):
+        raise InputError(f"model '{model.name}': density = {model.density!r} kg/m^3 must be > 0 for a "
+                         f"dynamic run; quasi-static scenes set meta['quasi_static'] = True.")
+    end = float(model.end_time)
+    if not (end > 0.0 and math.isfinite(end)):
+        raise InputError(f"model '{model.name}': end_time = {end!r} s must be finite and > 0.")
+    sys_ = System(model, o["volumetric"], quasi)
+    h = sys_.disc.size
+    sys_.penalty = float(o["penalty"]) if o["penalty"] is not None else o["penalty_factor"] * sys_.kappa0 * h
+    atol = float(o["atol"]) if o["atol"] is not None else 1e-10 * sys_.kappa0 * h * h
+    solver = o["linear_solver"]
+    if solver == "auto":
+        solver = "direct" if (quasi or sys_.n <= o["direct_limit"]) else "cg"
+    dt_max = float(o["dt_max"]) if o["dt_max"] is not None else float(model.output_interval)
+    sched = _Schedule(model, dt_max, o["segment_steps"])
+    if o["dt"] is not None:
+        dt = float(o["dt"])
+    elif quasi:
+        dt = sched.limit(0.0, dt_max)
+    else:
+        dt = dt_max / 10.0
+    dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
+    stepper = Stepper(sys_, o, solver, atol)
+    state = _initial_state(sys_, stepper)
+    rec = _Recorder(sys_, model)
+    rec.record(state, None, 0.0)
+    setup = time.perf_counter() - wall0
+    frames = [] if o["frame_interval"] is None else [(0.0, np.zeros((sys_.n_nodes, 3)))]
+    next_frame = o["frame_interval"] or math.inf
+    q_prev, t_prev_seg = None, None
+    stats = {"newton_iterations": 0, "rejected_steps": 0, "linear_iterations": 0}
+    newton_log = []
+    seen, separated_for, separated = False, 0.0, False
+    next_progress = end / 100.0
+    steps = 0
+    while state.t < end * (1.0 - 1e-12):
+        if steps >= o["max_steps"]:
+            raise NumericalError(f"skfem backend: more than max_steps = {o['max_steps']} steps before "
+                                 f"t = {end:g} s (reached t = {state.t:.6g} s).", time=state.t, quantity="steps")
+        dt_try = sched.limit(state.t, dt)
+        while True:
+            q_pred = _predict(stepper, sched, state, dt_try, q_prev, t_prev_seg)
+            try:
+                new, info = stepper.step(state, dt_try, q_pred)
+                break
+            except StepFailure as fail:
+                stats["rejected_steps"] += 1
+                if dt_try <= dt_min * (1.0 + 1e-12):
+                    raise _final_error(model, fail, state.t + dt_try, dt_try) from None
+                dt_try = max(dt_try * o["cut"], dt_min)
+                dt = dt_try
+        stats["newton_iterations"] += info.iterations
+        stats["linear_iterations"] += info.linear_iterations
+        if o["record_newton"]:
+            newton_log.append([new.t, dt_try, info.residuals])
+        q_prev, t_prev_seg = (state.q, state.t), sched.segment(state.t + 0.5 * dt_try)
+        rec.record(new, state, dt_try)
+        state = new
+        steps += 1
+        if info.iterations <= o["grow_iterations"]:
+            dt = dt_try * o["grow"]
+        elif info.iterations > 0.6 * o["max_iterations"]:
+            dt = dt_try * 0.7
+        else:
+            dt = max(dt, dt_try)
+        dt = max(dt, dt_min)
+        if state.t >= next_frame - 1e-12 * end:
+            frames.append((state.t, sys_.displacement(state.q).copy()))
+            next_frame += o["frame_interval"]
+        if progress is not None and state.t >= next_progress:
+            progress(state.t)
+            next_progress = state.t + end / 100.0
+        if sys_.has_w:
+            if state.fz > 0.0:
+                seen, separated_for = True, 0.0
+            elif seen and state.v[sys_.w_dof] > 0.0:
+                separated_for += dt_try
+                if model.stop_after_separation and separated_for >= o["separation_time"] - 1e-12:
+                    separated = True
+                    break
+    wall = time.perf_counter() - wall0
+    info = {"elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
+            "linear_solver": solver, "volumetric": o["volumetric"],
+            "integrator": "quasi-static" if quasi else f"generalized-alpha(rho_inf={o['rho_inf']:g})",
+            "element_size": h, **stats}
+    if sys_.has_w or model.plane is not None:
+        info.update(penalty=sys_.penalty, max_penetration_sphere=rec.pen_s, max_penetration_plane=rec.pen_p,
+                    penetration_ratio=max(rec.pen_s, rec.pen_p) / h, separated=separated)
+    if o["record_newton"]:
+        info["newton"] = newton_log
+    return rec.result(model, steps, wall, frames, info)
+
+
+def _initial_state(sys_: System, stepper: Stepper) -> State:
+    q = np.zeros(sys_.n)
+    v = np.zeros(sys_.n)
+    if sys_.has_w:
+        v[sys_.w_dof] = float(sys_.sphere.velocity)
+    pr = sys_.model.prescribed
+    if pr is not None and not sys_.quasi_static:
+        v[sys_.presc_dofs] = pr.velocity(0.0)
+    hist = History.relaxed(sys_.mat.k, sys_.disc.w.size) if sys_.mat.k else None
+    ev = sys_.evaluate(q, hist, 0.0, tangent=False)
+    a = np.zeros(sys_.n)
+    if not sys_.quasi_static:
+        free = ~sys_.constrained & (sys_.mass > 0)
+        a[free] = (sys_.f_ext - ev.f_int - ev.f_c)[free] / sys_.mass[free]
+    cs = ev.contact
+    return State(0.0, q, v, a, hist, ev.f_int, ev.f_c, fz=cs.force_on_impactor if cs else 0.0,
+                 contact_energy=cs.energy if cs else 0.0)
+
+
+def _predict(stepper: Stepper, sched: _Schedule, s: State, dt: float, q_prev, seg_prev) -> np.ndarray:
+    """Newmark predictor (a_{n+1} = a_n) or, quasi-static, linear extrapolation within a segment."""
+    if stepper.dynamic:
+        return s.q + dt * s.v + 0.5 * dt * dt * s.a
+    if q_prev is None or seg_prev != sched.segment(s.t + 0.5 * dt) or s.t <= q_prev[1]:
+        return s.q.copy()
+    return s.q + (s.q - q_prev[0]) * (dt / (s.t - q_prev[1]))
+
+
+def _final_error(model, fail: StepFailure, t: float, dt: float) -> NumericalError:
+    where = f" in element {fail.element}" if fail.element is not None else ""
+    return NumericalError(
+        f"skfem backend: the step to t = {t:.6g} s failed at the smallest step dt = {dt:.3g} s{where} "
+        f"({fail.quantity}): {fail}. Model '{model.name}': lower the load, refine the mesh, or lower "
+        f"dt_min / raise max_iterations.", time=t, element=fail.element, quantity=fail.quantity)
+
+
+class _Recorder:
+    """Histories at every accepted step (full model: x symmetry factor)."""
+
+    def __init__(self, sys_: System, model):
+        self.sys = sys_
+        self.factor = float(model.symmetry_factor)
+        self.rows = []
+        self.impulse = 0.0
+        self.w_int = 0.0
+        self.w_ext = 0.0
+        self.pen_s = 0.0
+        self.pen_p = 0.0
+
+    def reaction(self, s: State) -> float:
+        d = self.sys.presc_dofs
+        return float(np.sum(s.f_int[d] + s.f_c[d])) if d.size else 0.0
+
+    def record(self, s: State, prev: State | None, dt: float):
+        sys_ = self.sys
+        if prev is not None:
+            dq = s.q - prev.q
+            if sys_.has_w:  # the impactor's momentum change less that of gravity: exact for the integrator
+                m_s = float(sys_.mass[sys_.w_dof])
+                self.impulse += m_s * float(s.v[sys_.w_dof] - prev.v[sys_.w_dof]) - float(sys_.f_ext[sys_.w_dof]) * dt
+            self.w_int += 0.5 * float(np.dot(prev.f_int + s.f_int, dq))
+            self.w_ext += 0.5 * float(np.dot(sys_.f_ext + sys_.f_ext, dq))
+            d = sys_.presc_dofs
+            if d.size:
+                self.w_ext += 0.5 * (self.reaction(prev) + self.reaction(s)) * float(dq[d].mean())
+        self.pen_s = max(self.pen_s, s.pen_sphere)
+        self.pen_p = max(self.pen_p, s.pen_plane)
+        ke = 0.5 * float(np.dot(sys_.mass, s.v * s.v))
+        wz = s.q[sys_.w_dof] if sys_.has_w else 0.0
+        zc = sys_.sphere.center[2] + wz if sys_.has_w else 0.0
+        vz = s.v[sys_.w_dof] if sys_.has_w else 0.0
+        self.rows.append((s.t, s.fz, self.impulse, zc, vz, self.reaction(s), ke, self.w_int,
+                          s.contact_energy, self.w_ext, dt))
+
+    def result(self, model, steps: int, wall: float, frames, info) -> Result:
+        h = np.array(self.rows, dtype=np.float64)
+        if not np.isfinite(h).all():
+            i = int(np.argmax(~np.isfinite(h).all(axis=1)))
+            raise NumericalError(f"skfem backend: non-finite history at t = {h[i, 0]:.6g} s.",
+                                 time=float(h[i, 0]), quantity="history")
+        f = self.factor
+        t = h[:, 0]
+        dts = h[1:, 10]
+        res = Result(t=t, backend="skfem", steps=steps, wall_time=wall,
+                     energies={"kinetic": f * h[:, 6], "internal": f * h[:, 7],
+                               "hourglass": np.zeros_like(t), "contact": f * h[:, 8],
+                               "external": f * h[:, 9]},
+                     dt_min=float(dts.min()) if dts.size else float("nan"),
+                     dt_max=float(dts.max()) if dts.size else float("nan"), frames=frames, info=info)
+        if self.sys.has_w:
+            res.contact_force = f * h[:, 1]
+            res.impulse = f * h[:, 2]
+            res.impactor_z = h[:, 3]
+            res.impactor_v = h[:, 4]
+            if model.mass_full:
+                res.acceleration = res.contact_force / float(model.mass_full)
+        if model.prescribed is not None:
+            res.reaction_force = f * h[:, 5]
+        return res

@@ -1,0 +1,118 @@
+"""The discrete system of one model: dofs, masses, constraints, residual and tangent.
+
+Unknowns q (m): nodal displacements (3 n, dof 3 node + axis) and, with a rigid sphere, its z
+displacement w as the last dof. For a step of size dt with Newmark (beta, gamma), the residual
+and tangent at q are
+
+    R(q) = M a(q) + f_int(q) + dPhi_c/dq - f_ext,   a(q) = (q - q_n - dt v_n) / (beta dt^2) - (1/(2 beta) - 1) a_n
+    K(q) = M / (beta dt^2) + K_int(q) + d2Phi_c/dq2
+
+(M = 0 in quasi-static runs). M is the lumped mass of the nodes and the impactor's mass (modelled
+part); f_ext is gravity on the impactor (|model.gravity| downwards, as the numba backend).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+from cfm_core.errors import InputError
+
+from . import contact, element
+from .constitutive import Constitutive, History
+from .discretization import discretize
+from .linear import Pattern, assemble_vector
+
+
+@dataclass
+class Evaluation:
+    """Residual pieces at one iterate (modelled part, N): see :meth:`System.evaluate`."""
+
+    f_int: np.ndarray
+    f_c: np.ndarray
+    K: sps.csr_matrix | None
+    history: History | None
+    contact: contact.ContactState | None
+    theta: np.ndarray
+
+
+class System:
+    """Everything of a model that does not change during the run."""
+
+    def __init__(self, model, volumetric: str = "mean-dilatation", quasi_static: bool = False):
+        self.model = model
+        self.disc = discretize(model.nodes, model.hexes, model.density if not quasi_static else 0.0)
+        self.mat = Constitutive(model.material)
+        self.volumetric = volumetric
+        self.quasi_static = quasi_static
+        nn = self.disc.n_nodes
+        self.n_nodes = nn
+        self.sphere = model.sphere
+        self.has_w = self.sphere is not None
+        self.n = 3 * nn + (1 if self.has_w else 0)
+        self.w_dof = 3 * nn if self.has_w else -1
+        mass = np.repeat(self.disc.mass, 3)
+        if self.has_w:
+            if not (self.sphere.mass > 0 and self.sphere.radius > 0):
+                raise InputError(f"model '{model.name}': sphere mass {self.sphere.mass!r} kg and radius "
+                                 f"{self.sphere.radius!r} m must be > 0.")
+            mass = np.append(mass, 0.0 if quasi_static else float(self.sphere.mass))
+        self.mass = mass
+        self.constrained = np.zeros(self.n, dtype=bool)
+        fixed = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
+        if fixed.size and (fixed[:, 0].max() >= nn or fixed[:, 0].min() < 0 or not np.isin(fixed[:, 1], (0, 1, 2)).all()):
+            raise InputError(f"model '{model.name}': fixed_dofs must be (node, 0|1|2) pairs with nodes < {nn}.")
+        self.constrained[3 * fixed[:, 0] + fixed[:, 1]] = True
+        pr = model.prescribed
+        self.presc_dofs = np.zeros(0, dtype=np.int64)
+        if pr is not None:
+            if pr.dof not in (0, 1, 2):
+                raise InputError(f"model '{model.name}': prescribed dof = {pr.dof!r}; use 0, 1 or 2.")
+            self.presc_dofs = 3 * np.asarray(pr.nodes, dtype=np.int64) + pr.dof
+            self.constrained[self.presc_dofs] = True
+        self.f_ext = np.zeros(self.n)
+        if self.has_w and not quasi_static:
+            self.f_ext[self.w_dof] = -float(self.sphere.mass) * abs(float(model.gravity))
+        self._pattern_el = Pattern(self.disc.edofs, 3 * nn)
+        self.sphere_nodes = np.asarray(model.sphere_nodes, dtype=np.int64) if self.has_w else np.zeros(0, np.int64)
+        self.plane = model.plane
+        self.plane_nodes = np.asarray(model.plane_nodes, dtype=np.int64) if self.plane is not None else np.zeros(0, np.int64)
+        _, _, d2U = self.mat.volumetric(np.ones(1))
+        self.kappa0 = float(d2U[0])  # small-strain bulk modulus of the material (Pa)
+        self.penalty = 0.0
+
+    # ------------------------------------------------------------------ evaluation
+    def displacement(self, q: np.ndarray) -> np.ndarray:
+        return q[: 3 * self.n_nodes].reshape(-1, 3)
+
+    def evaluate(self, q: np.ndarray, hist: History | None, dt: float, tangent: bool = True) -> Evaluation:
+        """Internal and contact forces (and tangent without the mass term) at q for a step dt.
+
+        Raises :class:`element.Inverted` (J <= 0) and NumericalError (non-finite material values).
+        """
+        u = self.displacement(q)
+        ev = element.evaluate(self.disc, self.mat, u, hist, dt, tangent=tangent, volumetric=self.volumetric)
+        nn3 = 3 * self.n_nodes
+        f_int = np.zeros(self.n)
+        f_int[:nn3] = assemble_vector(self.disc.edofs, ev.force, nn3)
+        f_c = np.zeros(self.n)
+        cs = None
+        K = None
+        if self.has_w or (self.plane is not None and self.plane_nodes.size):
+            w = float(q[self.w_dof]) if self.has_w else 0.0
+            cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
+                                  self.plane_nodes, self.penalty, self.w_dof, tangent=tangent)
+            for dofs, vals in cs.grad:
+                np.add.at(f_c, dofs, vals)
+        if tangent:
+            K = self._pattern_el.matrix(ev.stiffness)
+            if self.has_w:
+                K = sps.bmat([[K, None], [None, sps.csr_matrix((1, 1))]], format="csr")
+            if cs is not None and cs.hess:
+                rows = np.concatenate([h[0] for h in cs.hess])
+                cols = np.concatenate([h[1] for h in cs.hess])
+                vals = np.concatenate([h[2] for h in cs.hess])
+                K = K + sps.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))
+        return Evaluation(f_int, f_c, K, ev.history, cs, ev.theta)

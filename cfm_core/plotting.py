@@ -1,0 +1,85 @@
+"""Figures of drop-test histories (matplotlib, Agg canvas; no pyplot state, no global backend switch).
+
+Inputs are SI (times in s, accelerations in m/s^2); the axes show time in ms and acceleration in
+g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .postprocess import G0
+from .writers import _finite_array, atomic_write
+
+_COLOURS = ["#1f4e9c", "#c0392b", "#27864a", "#8e44ad", "#d68910", "#17879b", "#555555", "#b03a7a"]
+
+
+def _figure(title: str):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4.2), dpi=150, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.set_title(title)
+    ax.set_xlabel("Time (ms)")
+    ax.set_ylabel("Impactor acceleration (g)")
+    ax.grid(True, color="0.88", linewidth=0.6)
+    ax.axhline(0.0, color="0.6", linewidth=0.6)
+    return fig, ax
+
+
+def _save(fig, path) -> None:
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+
+
+def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
+    """Save a PNG of one history: raw (thin grey) and CFC 600 (bold) acceleration against time.
+
+    t (s); a_raw, a_cfc (m/s^2, positive decelerating); plotted in ms and g. The peak of the
+    filtered curve is marked and labelled.
+    """
+    t = _finite_array("t", t, ndim=1)
+    a_raw = _finite_array("a_raw", a_raw, ndim=1)
+    a_cfc = _finite_array("a_cfc", a_cfc, ndim=1)
+    fig, ax = _figure(title)
+    ms = 1e3 * t
+    ax.plot(ms, a_raw / G0, color="0.6", linewidth=0.7, label="raw (50 kHz box average)")
+    ax.plot(ms, a_cfc / G0, color=_COLOURS[0], linewidth=2.2, label="SAE J211 CFC 600")
+    k = int(np.argmax(a_cfc))
+    ax.plot(ms[k], a_cfc[k] / G0, "o", color=_COLOURS[0], markersize=4)
+    ax.annotate(f"{a_cfc[k] / G0:.1f} g at {ms[k]:.2f} ms", (ms[k], a_cfc[k] / G0),
+                xytext=(8, 4), textcoords="offset points", fontsize=8)
+    ax.set_xlim(ms[0], ms[-1])
+    ax.legend(loc="upper right", fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = None) -> None:
+    """Save a PNG of several filtered histories on one axes.
+
+    curves: list of (label, t (s), a_cfc (m/s^2)); reference_peaks: optional {label: peak
+    acceleration in m/s^2} drawn as dashed horizontal lines (e.g. experimental peaks, 52.5 g =
+    52.5 * 9.80665 m/s^2); a line whose label equals a curve's label takes that curve's colour.
+    """
+    fig, ax = _figure(title)
+    colour_of = {}
+    t_max = 0.0
+    for i, (label, t, a) in enumerate(curves):
+        t = _finite_array(f"t of {label!r}", t, ndim=1)
+        a = _finite_array(f"a_cfc of {label!r}", a, ndim=1)
+        colour_of[label] = _COLOURS[i % len(_COLOURS)]
+        ax.plot(1e3 * t, a / G0, color=colour_of[label], linewidth=1.8, label=str(label))
+        t_max = max(t_max, 1e3 * float(t[-1]))
+    for j, (label, peak) in enumerate((reference_peaks or {}).items()):
+        peak = float(_finite_array(f"reference peak {label!r}", peak))
+        colour = colour_of.get(label, _COLOURS[(len(curves) + j) % len(_COLOURS)])
+        ax.axhline(peak / G0, color=colour, linestyle="--", linewidth=1.0)
+        ax.annotate(f"exp. {label}: {peak / G0:.1f} g", (1.0, peak / G0), xycoords=("axes fraction", "data"),
+                    xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7, color=colour)
+    if t_max > 0.0:
+        ax.set_xlim(0.0, t_max)
+    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
+    if curves:
+        ax.legend(loc="upper left", fontsize=8, frameon=False)
+    _save(fig, path)

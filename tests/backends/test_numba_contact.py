@@ -1,0 +1,114 @@
+"""Kinematic contact of the numba backend: symmetry, momentum, penetration, energy, drop test."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+try:
+    import cfm_backends.numba_explicit  # noqa: F401
+except ImportError:  # package not installed: map the backends/ folder to cfm_backends
+    import importlib.util
+    import pathlib
+    import sys
+
+    _root = pathlib.Path(__file__).resolve().parents[2] / "backends"
+    _spec = importlib.util.spec_from_file_location("cfm_backends", _root / "__init__.py",
+                                                   submodule_search_locations=[str(_root)])
+    sys.modules["cfm_backends"] = importlib.util.module_from_spec(_spec)
+    _spec.loader.exec_module(sys.modules["cfm_backends"])
+
+from cfm_backends.numba_explicit import NumbaExplicitBackend  # noqa: E402
+from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn, drop_test_model  # noqa: E402
+
+MAT = NeoHookeanStandIn(mu=50.0e3, kappa=1.0e6)
+SMALL = dict(width=12e-3, thickness=4e-3, h=2e-3, mass=0.05, velocity=1.0, end_time=20e-3)
+
+
+@pytest.fixture(scope="module")
+def quarter():
+    return NumbaExplicitBackend().run(drop_test_model(MAT, quarter=True, **SMALL))
+
+
+def test_quarter_equals_full(quarter):
+    full = NumbaExplicitBackend().run(drop_test_model(MAT, quarter=False, **SMALL))
+    assert quarter.steps == full.steps
+    scale = np.abs(full.acceleration).max()
+    np.testing.assert_allclose(quarter.t, full.t, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(quarter.acceleration, full.acceleration, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(quarter.impulse, full.impulse, rtol=0, atol=1e-8 * np.abs(full.impulse).max())
+    for key, e in full.energies.items():
+        np.testing.assert_allclose(quarter.energies[key], e, rtol=0, atol=1e-8 * full.energies["kinetic"][0])
+
+
+def test_elastic_impact(quarter):
+    r = quarter
+    assert r.info["stop_reason"] == "separated" and r.impactor_v[-1] > 0.9  # elastic rebound
+    assert r.energy_error() < 5e-3
+    assert r.hourglass_ratio() < 0.1
+    assert r.info["max_sphere_penetration"] < 1e-14
+    assert 0.0 <= r.energies["contact"][-1] < 0.02 * r.energies["kinetic"][0]
+    assert np.all(r.contact_force >= 0.0) and r.acceleration.max() > 10 * 9.81
+    # the impulse is the integral of the contact force and the impactor's momentum change
+    np.testing.assert_allclose(r.impulse[-1], 0.05 * (r.impactor_v[-1] - r.impactor_v[0]), rtol=1e-9)
+    assert np.all(np.isfinite(r.acceleration)) and r.dt_min > 0.2 * r.dt_max
+
+
+def test_momentum_and_penetration_without_supports():
+    model = drop_test_model(MAT, quarter=False, plane=False, stop_after_separation=False,
+                            **{**SMALL, "end_time": 3e-3})
+    r = NumbaExplicitBackend().run(model)
+    p0 = 0.05 * 1.0
+    assert r.info["momentum_z_drift"] < 1e-12 * p0
+    assert r.info["max_sphere_penetration"] < 1e-14
+    assert r.contact_force.max() > 0.0
+
+
+def test_friction_dissipates_and_balances(quarter):
+    r = NumbaExplicitBackend().run(drop_test_model(MAT, quarter=True, friction=0.5, **SMALL))
+    assert r.energy_error() < 1e-2
+    assert r.energies["contact"][-1] > quarter.energies["contact"][-1]
+    assert r.acceleration.max() != pytest.approx(quarter.acceleration.max(), rel=1e-6)
+
+
+def test_threads_give_identical_dynamics():
+    model = drop_test_model(MAT, quarter=True, **{**SMALL, "end_time": 2e-3})
+    one = NumbaExplicitBackend().run(model, threads=1)
+    two = NumbaExplicitBackend().run(model, threads=2)
+    np.testing.assert_array_equal(one.acceleration, two.acceleration)
+    np.testing.assert_array_equal(one.impactor_z, two.impactor_z)
+
+
+def test_gravity_free_fall():
+    model = drop_test_model(MAT, quarter=True, gravity=9.81, **{**SMALL, "end_time": 2e-3})
+    model = type(model)(**{**model.__dict__, "sphere": type(model.sphere)(
+        model.sphere.radius, model.sphere.mass, (0.0, 0.0, 0.1), -1.0)})   # far above: no contact
+    r = NumbaExplicitBackend().run(model)
+    t = r.t
+    np.testing.assert_allclose(r.impactor_v, -1.0 - 9.81 * t, rtol=1e-12)
+    np.testing.assert_allclose(r.impactor_z, 0.1 - t - 0.5 * 9.81 * t ** 2, rtol=1e-9)
+    assert np.all(r.contact_force == 0.0)
+    assert r.energy_error() < 1e-9 and r.energies["external"][-1] > 0
+
+
+def test_cfm_drop_test_coarse():
+    """The paper's drop test, 8 mm, 2 mm elements: a plausible, balanced, hourglass-free impact."""
+    from cfm_core.material import make_material
+
+    mat = make_material("cfm", {}, "long-term", False)
+    r = NumbaExplicitBackend().run(drop_test_model(mat, thickness=8e-3, h=2e-3))
+    peak = r.acceleration.max() / 9.81
+    assert 30.0 < peak < 120.0, peak
+    assert r.info["stop_reason"] == "separated"
+    assert r.energy_error() < 1e-2 and r.hourglass_ratio() < 0.1
+    assert r.info["max_sphere_penetration"] < 1e-14
+
+
+def test_time_step_collapse_and_options():
+    from cfm_core.errors import NumericalError
+
+    model = drop_test_model(MAT, quarter=True, **SMALL)
+    with pytest.raises(NumericalError, match=r"time-step collapse at t = .* element \d+") as info:
+        NumbaExplicitBackend().run(model, collapse=0.97)     # any stiffening "collapses" the step
+    assert info.value.quantity == "time step" and info.value.element is not None
+    r = NumbaExplicitBackend().run(model, dt_max=1e-6, hourglass=0.05, hourglass_wave="longitudinal")
+    assert r.dt_max <= 1e-6 and r.info["hourglass_wave"] == "longitudinal" and r.energy_error() < 5e-3

@@ -1,0 +1,71 @@
+"""Symmetric 3x3 eigen-solver of the numba backend: accuracy for general and repeated spectra."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+try:
+    import cfm_backends.numba_explicit  # noqa: F401
+except ImportError:  # package not installed: map the backends/ folder to cfm_backends
+    import importlib.util
+    import pathlib
+    import sys
+
+    _root = pathlib.Path(__file__).resolve().parents[2] / "backends"
+    _spec = importlib.util.spec_from_file_location("cfm_backends", _root / "__init__.py",
+                                                   submodule_search_locations=[str(_root)])
+    sys.modules["cfm_backends"] = importlib.util.module_from_spec(_spec)
+    _spec.loader.exec_module(sys.modules["cfm_backends"])
+
+from cfm_backends.numba_explicit.kernels.eigen import eig3, eig3_jacobi  # noqa: E402
+
+
+def _decompose(A, solver=eig3):
+    r = solver(A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2])
+    return np.array(r[:3]), np.array(r[3:]).reshape(3, 3)
+
+
+def _errors(A, solver=eig3):
+    m, Q = _decompose(A, solver)
+    scale = np.abs(A).max()
+    recon = np.abs(Q @ np.diag(m) @ Q.T - A).max() / scale
+    ortho = np.abs(Q.T @ Q - np.eye(3)).max()
+    values = np.abs(np.sort(m) - np.linalg.eigvalsh(A)).max() / scale
+    return recon, ortho, values
+
+
+def _rotated(d, rng):
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    A = Q @ np.diag(d) @ Q.T
+    return 0.5 * (A + A.T)
+
+
+@pytest.mark.parametrize("solver", [eig3, eig3_jacobi])
+def test_random_spd(solver):
+    rng = np.random.default_rng(0)
+    for _ in range(3000):
+        F = np.eye(3) + 0.4 * rng.normal(size=(3, 3))
+        C = F.T @ F
+        assert max(_errors(C, solver)) < 1e-13
+
+
+@pytest.mark.parametrize("solver", [eig3, eig3_jacobi])
+def test_exactly_repeated(solver):
+    for A in (np.eye(3), 2.5 * np.eye(3), np.diag([2.0, 2.0, 3.0]), np.diag([0.7, 1.3, 1.3]),
+              np.diag([1.1, 0.4, 1.1]), np.zeros((3, 3))):
+        m, Q = _decompose(A, solver)
+        np.testing.assert_allclose(np.sort(m), np.sort(np.diag(A)), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(Q @ np.diag(m) @ Q.T, A, rtol=0, atol=1e-15)
+    m, Q = _decompose(np.eye(3), solver)
+    np.testing.assert_array_equal(Q, np.eye(3))  # the reference state: exact, no rotation
+
+
+def test_nearly_repeated_and_rotated():
+    rng = np.random.default_rng(1)
+    for k in range(4000):
+        g = 10.0 ** rng.uniform(-16, -3)
+        base = 10.0 ** rng.uniform(-3, 2)
+        d = base * [np.array([1.0, 1.0, 1.7]), np.array([1.0, 1.0 + g, 0.6]),
+                    np.array([1.0, 1.0 + g, 1.0 - g]), np.array([1.0, 1.0 + g, 1.0 + 2.3 * g]),
+                    10.0 ** rng.uniform(-6, 0, size=3)][k % 5]
+        assert max(_errors(_rotated(d, rng))) < 1e-13
