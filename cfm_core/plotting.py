@@ -44,12 +44,14 @@ def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
     a_cfc = _finite_array("a_cfc", a_cfc, ndim=1)
     fig, ax = _figure(title)
     ms = 1e3 * t
-    ax.plot(ms, a_raw / G0, color="0.6", linewidth=0.7, label="raw (50 kHz box average)")
-    ax.plot(ms, a_cfc / G0, color=_COLOURS[0], linewidth=2.2, label="SAE J211 CFC 600")
     k = int(np.argmax(a_cfc))
+    ax.plot(ms, a_raw / G0, color="0.6", linewidth=0.7, label="raw (box average)")
+    ax.plot(ms, a_cfc / G0, color=_COLOURS[0], linewidth=2.2,
+            label=f"SAE J211 CFC 600 (peak {a_cfc[k] / G0:.1f} g at {ms[k]:.2f} ms)")
     ax.plot(ms[k], a_cfc[k] / G0, "o", color=_COLOURS[0], markersize=4)
-    ax.annotate(f"{a_cfc[k] / G0:.1f} g at {ms[k]:.2f} ms", (ms[k], a_cfc[k] / G0),
-                xytext=(8, 4), textcoords="offset points", fontsize=8)
+    top = max(float(np.max(a_raw)), float(np.max(a_cfc))) / G0
+    if top > 0.0:
+        ax.set_ylim(top=1.15 * top)  # room for the legend
     ax.set_xlim(ms[0], ms[-1])
     ax.legend(loc="upper right", fontsize=8, frameon=False)
     _save(fig, path)
@@ -64,22 +66,24 @@ def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = 
     """
     fig, ax = _figure(title)
     colour_of = {}
-    t_max = 0.0
+    t_max, top = 0.0, 0.0
     for i, (label, t, a) in enumerate(curves):
         t = _finite_array(f"t of {label!r}", t, ndim=1)
         a = _finite_array(f"a_cfc of {label!r}", a, ndim=1)
         colour_of[label] = _COLOURS[i % len(_COLOURS)]
         ax.plot(1e3 * t, a / G0, color=colour_of[label], linewidth=1.8, label=str(label))
         t_max = max(t_max, 1e3 * float(t[-1]))
+        top = max(top, float(np.max(a)) / G0)
     for j, (label, peak) in enumerate((reference_peaks or {}).items()):
         peak = float(_finite_array(f"reference peak {label!r}", peak))
         colour = colour_of.get(label, _COLOURS[(len(curves) + j) % len(_COLOURS)])
+        top = max(top, peak / G0)
         ax.axhline(peak / G0, color=colour, linestyle="--", linewidth=1.0)
         ax.annotate(f"exp. {label}: {peak / G0:.1f} g", (1.0, peak / G0), xycoords=("axes fraction", "data"),
                     xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7, color=colour)
     if t_max > 0.0:
         ax.set_xlim(0.0, t_max)
-    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
+    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]), top=1.25 * top if top > 0.0 else None)
     if curves:
-        ax.legend(loc="upper left", fontsize=8, frameon=False)
+        ax.legend(loc="upper left", fontsize=8, framealpha=0.95, edgecolor="0.8", ncols=min(len(curves), 4))
     _save(fig, path)

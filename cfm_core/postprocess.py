@@ -210,7 +210,8 @@ SUMMARY_UNITS = {
     "peak_g": "g (9.80665 m/s^2)", "t_peak": "s", "duration": "s", "pulse_width": "s",
     "loading_time": "s", "unloading_time": "s", "t5_start": "s", "t5_end": "s", "steps": "-",
     "elements": "-", "wall_time": "s", "energy_error": "-", "hourglass_ratio": "-", "dt_min": "s",
-    "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg",
+    "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
+    "element_size": "m", "velocity": "m/s",
 }
 
 
