@@ -2,8 +2,8 @@
 
 Total Lagrangian hex8 elements with one-point integration (Flanagan-Belytschko mean gradient)
 and viscous hourglass control, lumped mass, central differences with the stable step
-dt = 0.9 min_e L_e / c_e recomputed every step from the current tangent (L_e = V0 / largest face
-area, c_e from max_a d^2 Psi / d lambda_a^2), kinematic (momentum-exchange) contact with a rigid
+dt = 0.9 min_e L_e / c_e recomputed every step from the current tangent (L_e from the
+Flanagan-Belytschko eigenvalue bound, edge / sqrt(3) for a cube; c_e from max_a d^2 Psi / d lambda_a^2), kinematic (momentum-exchange) contact with a rigid
 sphere and a rigid plane, so the contact never limits the step (DESIGN.md section 5). The
 material's generated scalar code and the kernels (``kernels/``) are compiled together by numba
 and cached on disk (``codegen``). numba is imported only when a run or a point evaluation starts.

@@ -125,6 +125,17 @@ def module_source(material) -> str:
             + src + "\n\n" + wrap + "\n\n\n" + "\n\n".join(kernels) + "\n")
 
 
+def _prune(folder: Path, prefix: str, keep: Path, n_keep: int = 6) -> None:
+    """Delete all but the n_keep newest generated modules of one material (and their numba cache)."""
+    files = sorted(folder.glob(prefix + "*.py"), key=lambda f: f.stat().st_mtime, reverse=True)
+    for old in [f for f in files if f != keep][n_keep - 1:]:
+        for f in [old, *(folder / "__pycache__").glob(old.stem + ".*")]:
+            try:
+                f.unlink()
+            except OSError:  # another process removed it first, or it is read-only
+                pass
+
+
 def load(material):
     """The imported generated module for ``material`` (written on first use, then reused)."""
     text = module_source(material)
@@ -139,6 +150,7 @@ def load(material):
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text)
         os.replace(tmp, path)
+        _prune(path.parent, f"cfm_numba_{safe}_", keep=path)
     spec = importlib.util.spec_from_file_location(modname, path)
     mod = importlib.util.module_from_spec(spec)
     sys.modules[modname] = mod

@@ -231,9 +231,9 @@ def warm_up(mod, material) -> float:
 def run_model(model, progress=None, **options) -> Result:
     """Run ``model``; see :class:`cfm_backends.numba_explicit.NumbaExplicitBackend`."""
     o = check_options(options)
-    # Worker threads that sleep at the end of a parallel loop instead of spinning: on a machine
-    # where another process holds a core, spinning OpenMP threads made 2 threads 10x slower than
-    # one; sleeping ones cost ~2 % when the machine is idle. Set before numba starts its threads
+    # Worker threads that sleep at the end of a parallel loop instead of spinning: on a 2-core
+    # machine where another process held one core, spinning OpenMP threads made 2 threads about
+    # 10x slower than one, sleeping ones about as fast as one. Set before numba starts its threads
     # (no effect afterwards); a value the user chose is kept.
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     import numba

@@ -1,4 +1,4 @@
-"""Kinematic contact of the numba backend: symmetry, momentum, penetration, energy, drop test."""
+"""Kinematic contact of the numba backend: symmetry, momentum, penetration, energy balance."""
 
 import numpy as np
 import pytest
@@ -88,19 +88,6 @@ def test_gravity_free_fall():
     np.testing.assert_allclose(r.impactor_z, 0.1 - t - 0.5 * 9.81 * t ** 2, rtol=1e-9)
     assert np.all(r.contact_force == 0.0)
     assert r.energy_error() < 1e-9 and r.energies["external"][-1] > 0
-
-
-def test_cfm_drop_test_coarse():
-    """The paper's drop test, 8 mm, 2 mm elements: a plausible, balanced, hourglass-free impact."""
-    from cfm_core.material import make_material
-
-    mat = make_material("cfm", {}, "long-term", False)
-    r = NumbaExplicitBackend().run(drop_test_model(mat, thickness=8e-3, h=2e-3))
-    peak = r.acceleration.max() / 9.81
-    assert 30.0 < peak < 120.0, peak
-    assert r.info["stop_reason"] == "separated"
-    assert r.energy_error() < 1e-2 and r.hourglass_ratio() < 0.1
-    assert r.info["max_sphere_penetration"] < 1e-14
 
 
 def test_time_step_collapse_and_options():

@@ -106,8 +106,6 @@ def test_inverted_point_raises():
 class Overflowing(NeoHookeanStandIn):
     """Neo-Hookean whose gradient carries exp(p2 (I1 - 3)^2): overflows for large stretch."""
 
-    name = "overflowing-stand-in"
-
     def param_array(self):
         return np.array([self.mu, self.kappa, 1000.0])
 
@@ -120,7 +118,7 @@ class Overflowing(NeoHookeanStandIn):
 def test_exp_overflow_is_reported():
     F = np.array([np.eye(3), np.diag([3.0, 1.0, 1.0])])
     with pytest.raises(NumericalError, match="overflow") as info:
-        NumbaExplicitBackend().point(Overflowing(MU, KAPPA), np.array([0.0, 1e-3]), F)
+        NumbaExplicitBackend().point(Overflowing(MU, KAPPA, name="overflowing"), np.array([0.0, 1e-3]), F)
     assert info.value.element == 1 and info.value.time == pytest.approx(1e-3)
 
 
