@@ -12,14 +12,22 @@ from __future__ import annotations
 import hashlib
 import inspect
 import os
+import tempfile
 from pathlib import Path
 
 
 def cache_dir(*parts: str) -> Path:
-    """The cache folder (created), optionally a subfolder."""
+    """The cache folder (created), optionally a subfolder; the temporary folder if home is read-only."""
     root = Path(os.environ.get("CFM_CACHE_DIR") or Path.home() / ".cache" / "cfm")
     path = root.joinpath(*parts)
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".probe-{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+    except OSError:
+        path = Path(tempfile.gettempdir()).joinpath("cfm-cache", *parts)
+        path.mkdir(parents=True, exist_ok=True)
     return path
 
 

@@ -14,6 +14,8 @@ functions, all of ``(m1, m2, m3, p)``:
 - ``psi_grad``      -> (i1, i2, i3, v1, v2, v3), d psi / d m_a          [Pa]
 - ``psi_hess_diag`` -> (i11, i22, i33, v11, v22, v33)                   [Pa]
 - ``psi_hess``      -> (i11, i22, i33, i12, i23, i13, v11, ..., v13)    [Pa]
+- ``psi_grad_hess_diag`` -> psi_grad then psi_hess_diag, sharing subexpressions (explicit solvers
+  need both every step)                                                  [Pa]
 
 Dialects: "math" (scalar code for numba and plain Python), "numpy" and "torch" (array code).
 """
@@ -110,6 +112,7 @@ def derivative_table(iso, vol):
         "psi_grad": gi + gv,
         "psi_hess_diag": hi[:3] + hv[:3],
         "psi_hess": hi + hv,
+        "psi_grad_hess_diag": gi + gv + hi[:3] + hv[:3],
     }
 
 
