@@ -2,7 +2,8 @@
 
 Only what the scene needs is built (DESIGN.md section 4): the drop test gets a rigid sphere and
 a rigid plane instead of meshed metal, and a quarter model with symmetry planes by default; the
-single element gets a prescribed top-face motion and no contact. SI units: m, s, kg, Pa.
+single element gets a prescribed top-face motion and no contact; the relaxation scene is the
+single element without inertia (quasi-static). SI units: m, s, kg, Pa.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ def build_model(scene: Scene, material=None) -> Model:
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
     if scene.type == "drop-test":
         return _drop_test(scene, material)
+    if scene.type == "relaxation":
+        return _relaxation(scene, material)
     return _single_element(scene, material)
 
 
@@ -139,5 +142,39 @@ def _single_element(scene: Scene, material) -> Model:
         name=scene.settings.name, nodes=nodes, hexes=hexes, density=el.density,
         material=material, end_time=scene.end_time,
         output_interval=1.0 / scene.settings.output_rate, fixed_dofs=fixed,
+        prescribed=prescribed, stop_after_separation=False, meta=meta,
+    )
+
+
+def _relaxation(scene: Scene, material) -> Model:
+    """One cube of edge ``size`` in [0, size]^3, quasi-static (no inertia).
+
+    Fixed: u_z on the bottom face, u_x on x = 0, u_y on y = 0; with lateral = "confined" also
+    u_x on x = size and u_y on y = size (uniaxial strain), else the lateral faces are free
+    (uniaxial stress). The top face moves u_z(t) linearly to (stretch - 1) * size in load_time,
+    then holds until load_time + hold. ``meta["quasi_static"]`` is True and density is 0: the
+    scene has no inertia (explicit backends cannot run it).
+    """
+    rx = scene.relaxation
+    a = rx.size
+    nodes, hexes = structured_hex_mesh(a, a, a, 1, 1, 1)
+    tol = 1e-9 * a
+    sets = [(nodes_on_plane(nodes, 2, 0.0, tol), 2), (nodes_on_plane(nodes, 0, 0.0, tol), 0),
+            (nodes_on_plane(nodes, 1, 0.0, tol), 1)]
+    if rx.lateral == "confined":
+        sets += [(nodes_on_plane(nodes, 0, a, tol), 0), (nodes_on_plane(nodes, 1, a, tol), 1)]
+    top = nodes_on_plane(nodes, 2, a, tol)
+    d = (rx.stretch - 1.0) * a
+    prescribed = Prescribed(nodes=top, dof=2, times=np.array([0.0, rx.load_time, rx.load_time + rx.hold]),
+                            values=np.array([0.0, d, d]))
+    meta = {
+        "scene_type": scene.type, "size": a, "stretch": rx.stretch, "load_time": rx.load_time,
+        "hold": rx.hold, "lateral": rx.lateral, "quasi_static": True,
+        "moduli": scene.material.moduli, "elastic": scene.material.elastic,
+    }
+    return Model(
+        name=scene.settings.name, nodes=nodes, hexes=hexes, density=0.0,
+        material=material, end_time=scene.end_time,
+        output_interval=1.0 / scene.settings.output_rate, fixed_dofs=_fixed(sets),
         prescribed=prescribed, stop_after_separation=False, meta=meta,
     )

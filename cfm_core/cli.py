@@ -119,10 +119,23 @@ def build_parser() -> argparse.ArgumentParser:
     from . import scene_cli
 
     scene_cli.add_parser(sub)
+    v = sub.add_parser("verify", help="cross-backend verification suite: agreement, work-precision, stability, "
+                                      "paper comparison; writes report.md, report.json and PNGs; exit 1 if a check fails")
+    mode = v.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="small scenes, CI-sized (default)")
+    mode.add_argument("--full", action="store_true", help="full-size drop tests at 5-8 mm, meshes down to 0.5 mm")
+    v.add_argument("--backends", default=None, metavar="NAME,...", help="only these backends (default: all installed)")
+    v.add_argument("--out", required=True, help="output directory for report.md, report.json and figures")
     return parser
 
 
-COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cmd_point}
+def _cmd_verify(args) -> int:
+    from cfm_verification.suite import cli as verify_cli  # imported lazily: runs solvers
+
+    return verify_cli(args)
+
+
+COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cmd_point, "verify": _cmd_verify}
 
 
 def main(argv=None) -> int:

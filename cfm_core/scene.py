@@ -1,7 +1,8 @@
 """Scenes: what is simulated, read from TOML, validated, in SI units (m, s, kg, Pa).
 
-Two scene types (DESIGN.md section 4). ``drop-test``: sections [scene], [specimen], [impactor],
-[contact], [material]. ``single-element``: [scene], [element], [material]. Every value is checked
+Three scene types (DESIGN.md section 4). ``drop-test``: sections [scene], [specimen], [impactor],
+[contact], [material]. ``single-element``: [scene], [element], [material]. ``relaxation``
+(quasi-static, no inertia): [scene], [relaxation], [material]. Every value is checked
 when its frozen section dataclass (:mod:`cfm_core.scene_sections`) is built; a bad value, a wrong
 type or an unknown key raises :class:`cfm_core.errors.InputError` naming the section, the key,
 the value, the unit and what is allowed. The built-in scene files (``cfm_core/scenes/*.toml``)
@@ -22,10 +23,10 @@ from typing import Mapping
 
 from .errors import InputError
 from .scene_sections import (SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings,
-                             SceneSettings, Specimen, _choice, _set)
+                             RelaxationTest, SceneSettings, Specimen, _choice, _set)
 
 __all__ = ["Scene", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
-           "ElementTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
+           "ElementTest", "RelaxationTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
            "builtin_scenes", "scene_to_dict", "scene_to_toml"]
 
 # ----------------------------------------------------------------------------- the scene
@@ -33,6 +34,7 @@ _LAYOUT = {
     "drop-test": {"scene": SceneSettings, "specimen": Specimen, "impactor": Impactor,
                   "contact": Contact, "material": MaterialSettings},
     "single-element": {"scene": SceneSettings, "element": ElementTest, "material": MaterialSettings},
+    "relaxation": {"scene": SceneSettings, "relaxation": RelaxationTest, "material": MaterialSettings},
 }
 _OVERRIDES_COMMON = {"name": ("scene", "name"), "end_time": ("scene", "end_time"),
                      "output_rate": ("scene", "output_rate"), "material": ("material", "name"),
@@ -45,6 +47,8 @@ _OVERRIDES = {
                   "friction": ("contact", "friction"), **_OVERRIDES_COMMON},
     "single-element": {**{k: ("element", k) for k in ("size", "stretch", "rate", "hold",
                                                        "density")}, **_OVERRIDES_COMMON},
+    "relaxation": {**{k: ("relaxation", k) for k in ("size", "stretch", "load_time", "hold",
+                                                      "lateral")}, **_OVERRIDES_COMMON},
 }
 
 
@@ -58,13 +62,15 @@ class Scene:
     impactor: Impactor | None = None
     contact: Contact | None = None
     element: ElementTest | None = None
+    relaxation: RelaxationTest | None = None
 
     def __post_init__(self):
         if not isinstance(self.settings, SceneSettings):
             raise InputError(f"Scene.settings must be a SceneSettings, got {self.settings!r}.")
         layout = _LAYOUT[self.type]
         for key, cls in (("specimen", Specimen), ("impactor", Impactor), ("contact", Contact),
-                         ("element", ElementTest), ("material", MaterialSettings)):
+                         ("element", ElementTest), ("relaxation", RelaxationTest),
+                         ("material", MaterialSettings)):
             val = getattr(self, key)
             if key not in layout:
                 if val is not None:
@@ -84,13 +90,15 @@ class Scene:
         """End time (s): [scene] end_time if given, else automatic.
 
         drop-test: 10 * thickness / velocity + 5e-3 s, a generous bound (the sphere cannot travel
-        further than the thickness, and the run stops earlier once it separates); single-element:
-        load time + hold.
+        further than the thickness, and the run stops earlier once it separates); single-element
+        and relaxation: load time + hold.
         """
         if self.settings.end_time is not None:
             return self.settings.end_time
         if self.type == "drop-test":
             return 10.0 * self.specimen.thickness / self.impactor.velocity + 5e-3
+        if self.type == "relaxation":
+            return self.relaxation.load_time + self.relaxation.hold
         return self.element.load_time + self.element.hold
 
     def with_overrides(self, **kw) -> "Scene":
@@ -189,7 +197,7 @@ def builtin_scenes() -> list[str]:
 
 
 def builtin_scene(name: str) -> Scene:
-    """A built-in scene by name ("drop-test", "single-element")."""
+    """A built-in scene by name ("drop-test", "single-element", "relaxation")."""
     if name not in builtin_scenes():
         raise InputError(f"unknown built-in scene {name!r}; available: "
                          f"{', '.join(builtin_scenes())}.")
@@ -201,7 +209,7 @@ def builtin_scene(name: str) -> Scene:
 _UNITS = {"end_time": "s", "output_rate": "Hz", "width": "m", "thickness": "m",
           "element_size": "m", "density": "kg/m^3", "radius": "m", "mass": "kg",
           "velocity": "m/s, impact speed, positive = down", "friction": "-", "size": "m",
-          "stretch": "-", "rate": "1/s", "hold": "s"}
+          "stretch": "-", "rate": "1/s", "hold": "s", "load_time": "s"}
 
 
 def scene_to_dict(scene: Scene) -> dict:

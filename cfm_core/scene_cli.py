@@ -50,6 +50,9 @@ def add_parser(sub) -> None:
                                    "acceleration.png into --out.")
     p.add_argument("--scene", help="scene TOML file (default: the built-in drop-test scene)")
     p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N; default cpu)")
+    p.add_argument("--dtype", choices=["float64", "float32"],
+                   help="floating-point type for backends that have a choice (torch; default float64)")
     p.add_argument("--thickness", type=float, help="specimen thickness, m (paper: 0.0048 .. 0.0083; default 0.008)")
     p.add_argument("--element-size", type=float, help="hexahedron edge, m (default 0.001)")
     p.add_argument("--velocity", type=float, help="impact speed, m/s (default 1.0)")
@@ -94,6 +97,10 @@ def _cmd_drop_test(args) -> int:
     options = {}
     if args.vtu:
         options["frame_interval"] = 2e-4
+    if args.device is not None:
+        options["device"] = args.device
+    if args.dtype is not None:
+        options["dtype"] = args.dtype
     try:
         outcome = simulate.drop_test(scene, args.backend, progress=progress, **options)
     finally:

@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import InputError
 
-SCENE_TYPES = ("drop-test", "single-element")
+SCENE_TYPES = ("drop-test", "single-element", "relaxation")
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
 
 
@@ -59,7 +59,7 @@ def _set(obj, **kw):
 # ----------------------------------------------------------------------------- sections
 @dataclass(frozen=True)
 class SceneSettings:
-    """[scene]: type ("drop-test" | "single-element"); name (text, default: the type);
+    """[scene]: type ("drop-test" | "single-element" | "relaxation"); name (text, default: the type);
     end_time (s, upper bound; None: automatic, see :attr:`Scene.end_time`);
     output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper)."""
 
@@ -300,3 +300,33 @@ class ElementTest:
     def load_time(self) -> float:
         """Time (s) to reach the stretch: |stretch - 1| / rate."""
         return abs(self.stretch - 1.0) / self.rate
+
+
+@dataclass(frozen=True)
+class RelaxationTest:
+    """[relaxation] of a quasi-static relaxation scene: one cube compressed, then held.
+
+    size (m, edge, default 0.001); stretch (-, held stretch of the top face, 0.05..3, != 1,
+    default 0.7 = 30 % compression); load_time (s, ramp time to the stretch, default 1e-3);
+    hold (s, hold time, default 30: three times the longest Prony time of the paper, 10 s);
+    lateral ("free": lateral faces traction free, uniaxial stress | "confined": lateral faces
+    held in their planes, uniaxial strain). No inertia: the scene is quasi-static (there is no
+    density); an explicit solver would need millions of steps for the hold.
+    """
+
+    size: float = 0.001
+    stretch: float = 0.7
+    load_time: float = 1e-3
+    hold: float = 30.0
+    lateral: str = "free"
+
+    def __post_init__(self):
+        r = "relaxation"
+        _set(self, size=_num(r, "size", self.size, "m", 1e-5, 1.0))
+        _set(self, stretch=_num(r, "stretch", self.stretch, "-", 0.05, 3.0))
+        if self.stretch == 1.0:
+            raise InputError("[relaxation] stretch = 1.0 (-) means no deformation; give a stretch != 1 "
+                             "in 0.05 <= stretch <= 3 (e.g. 0.7 for 30 % compression).")
+        _set(self, load_time=_num(r, "load_time", self.load_time, "s", 0, 1e4, lo_open=True))
+        _set(self, hold=_num(r, "hold", self.hold, "s", 0, 1e5, lo_open=True))
+        _choice(r, "lateral", self.lateral, ("free", "confined"))

@@ -5,21 +5,28 @@ points), locking free through the mean-dilatation (Q1/P0, equivalently F-bar) tr
 volumetric term; Newton's method with the consistent tangent taken from the material's single
 definition (generated psi_grad / psi_hess and :func:`cfm_core.kinematics.tangent_from_principal`,
 exact at repeated principal stretches; Prony history at the Gauss points with the tangent factor
-:func:`cfm_core.prony.effective_factor`); Newmark average acceleration for dynamic scenes, a
-quasi-static mode (no inertia) for scenes with ``model.meta["quasi_static"]``; adaptive steps
-(cut and retry when Newton fails, grow when it converges fast); nodal penalty contact with the
-rigid sphere and plane, the sphere being a rigid body with one dof (z) solved monolithically with
-the specimen (DESIGN.md section 5). scikit-fem is imported only when a run starts.
+:func:`cfm_core.prony.effective_factor`); generalized-alpha time integration for dynamic scenes
+(rho_inf = 1 is Newmark average acceleration; the default rho_inf = 0 damps the penalty-contact
+chatter, which makes the trapezoidal rule gain energy), a quasi-static mode (no inertia) for
+scenes with ``model.meta["quasi_static"]``; adaptive steps (cut and retry when Newton fails,
+grow when it converges fast); nodal penalty contact with the rigid sphere and plane, the sphere
+being a rigid body with one dof (z) solved monolithically with the specimen (DESIGN.md
+section 5). scikit-fem is imported only when a run starts.
 
 Options of :meth:`SkfemImplicitBackend.run` (all optional, see ``options.DEFAULTS``):
 ``quasi_static`` (None: from the model), ``volumetric`` ("mean-dilatation" | "full"),
-``beta``/``gamma`` (Newmark, default 1/4, 1/2), ``dt``, ``dt_min``, ``dt_max`` (s; default
-dt_max = the model's output interval), ``segment_steps`` (steps per moving segment of a
-prescribed motion, default 50), ``grow``, ``grow_iterations``, ``cut``, ``max_iterations``,
-``rtol``, ``atol`` (N), ``penalty`` (N/m per node; default ``penalty_factor`` (1e4) x kappa0 x h,
-kappa0 the small-strain bulk modulus, h the element size: penetration well below 1 % of h),
-``linear_solver`` ("auto" | "direct" | "cg"), ``separation_time`` (s, default 2e-4),
-``frame_interval`` (s), ``max_steps``, ``record_newton`` (residual sequences in info["newton"]).
+``rho_inf`` (generalized-alpha, default 0), ``dt``, ``dt_min``, ``dt_max`` (s; default dt_max =
+the model's output interval, so histories are recorded at least that often), ``segment_steps``
+(steps per moving segment of a prescribed motion, default 50), ``grow``, ``grow_iterations``,
+``cut``, ``max_iterations``, ``rtol``, ``atol`` (N), ``penalty`` (N/m per node; default
+``penalty_factor`` (1e4) x kappa0 x h, kappa0 the small-strain bulk modulus, h the element size:
+penetration well below 1 % of h), ``linear_solver`` ("auto" | "direct" | "cg"), ``direct_limit``,
+``separation_time`` (s, default 2e-4), ``frame_interval`` (s), ``max_steps``, ``record_newton``
+(residual sequences in info["newton"]).
+
+Result.info: elements, dofs, linear_solver, volumetric, integrator, element_size (m),
+newton_iterations, rejected_steps, linear_iterations (CG), setup_time (s); with contact: penalty
+(N/m), max_penetration_sphere / max_penetration_plane (m), penetration_ratio (-, over h), separated.
 """
 
 from __future__ import annotations

@@ -55,20 +55,20 @@ class ElementState:
 def deformation_gradient(disc: Discretization, u: np.ndarray) -> np.ndarray:
     """F (E, Q, 3, 3) from nodal displacements u (n, 3) in m."""
     ue = u[disc.conn]  # (E, 8, 3)
-    F = np.einsum("eai,eqaj->eqij", ue, disc.dN)
-    F[..., 0, 0] += 1.0
-    F[..., 1, 1] += 1.0
-    F[..., 2, 2] += 1.0
-    return F
+    E, Q = disc.w.shape
+    F = np.matmul(np.repeat(ue.transpose(0, 2, 1), Q, axis=0), disc.dN.reshape(E * Q, 8, 3))  # du_i/dX_J
+    F += np.eye(3)
+    return F.reshape(E, Q, 3, 3)
 
 
 def _b_matrix(F: np.ndarray, dN: np.ndarray) -> np.ndarray:
     """B (E, Q, 6, 24): delta E (Voigt, engineering shear) = B delta u_e."""
     # dE_IJ/du_ai = 1/2 (F_iI dN_aJ + F_iJ dN_aI); shear rows take twice that
-    t = np.einsum("eqiI,eqaJ->eqIJai", F, dN)  # F_iI dN_aJ
-    B = t[:, :, _VI, _VJ] + t[:, :, _VJ, _VI]  # (E, Q, 6, 8, 3)
-    B[:, :, :3] *= 0.5
     E, Q = F.shape[:2]
+    B = np.empty((E, Q, 6, 8, 3))
+    for v, (I, J) in enumerate(VOIGT):
+        B[:, :, v] = dN[..., J, None] * F[:, :, None, :, I] + dN[..., I, None] * F[:, :, None, :, J]
+    B[:, :, :3] *= 0.5
     return B.reshape(E, Q, 6, 24)
 
 
@@ -100,25 +100,31 @@ def evaluate(disc: Discretization, mat: Constitutive, u: np.ndarray, hist: Histo
     B = _b_matrix(F, disc.dN)
     Sv = S[:, :, _VI, _VJ]  # (E, Q, 6)
     w = disc.w
-    force = np.einsum("eq,eqva,eqv->ea", w, B, Sv)
+    Bt = B.reshape(E, Q * 6, 24).transpose(0, 2, 1)  # (E, 24, Q*6)
+    force = np.matmul(Bt, (Sv * w[:, :, None]).reshape(E, Q * 6, 1))[:, :, 0]
     K = None
     if tangent:
-        D = _voigt_tangent(CC).reshape(E, Q, 6, 6)
-        DB = np.matmul(D * w[:, :, None, None], B)  # (E, Q, 6, 24)
-        K = np.matmul(B.transpose(0, 1, 3, 2), DB).sum(axis=1)  # (E, 24, 24)
-        geo = np.einsum("eq,eqaJ,eqJL,eqbL->eab", w, disc.dN, S, disc.dN)  # (E, 8, 8)
-        K += np.einsum("eab,ik->eaibk", geo, np.eye(3)).reshape(E, 24, 24)
+        # numpy's matmul is fast on 3-D stacks of small matrices, slow on 4-D ones: flatten (E, Q)
+        D = _voigt_tangent(CC) * w.reshape(-1, 1, 1)  # (P, 6, 6)
+        DB = np.matmul(D, B.reshape(E * Q, 6, 24))
+        K = np.matmul(Bt, DB.reshape(E, Q * 6, 24))  # (E, 24, 24)
+        dNw = (disc.dN * w[:, :, None, None]).reshape(E * Q, 8, 3)
+        geo = np.matmul(np.matmul(dNw, S.reshape(E * Q, 3, 3)), disc.dN.reshape(E * Q, 8, 3).transpose(0, 2, 1))
+        geo = geo.reshape(E, Q, 8, 8).sum(axis=1)  # (E, 8, 8)
+        K4 = K.reshape(E, 8, 3, 8, 3)
+        for i in range(3):
+            K4[:, :, i, :, i] += geo
     vol = disc.volume
     theta = (w * J).sum(axis=1) / vol
     if not full:
         U, dU, d2U = mat.volumetric(theta, index_map=np.arange(E))
-        Finv = np.linalg.inv(F)
-        n = np.einsum("eqaJ,eqJi->eqai", disc.dN, Finv)  # spatial gradients (E, Q, 8, 3)
+        Finv = np.linalg.inv(Fp)
+        n = np.matmul(disc.dN.reshape(E * Q, 8, 3), Finv).reshape(E, Q, 24)  # spatial gradients n_a,i
         wJ = w * J
-        g = np.einsum("eq,eqai->eai", wJ, n).reshape(E, 24)
+        g = np.matmul(wJ[:, None, :], n)[:, 0, :]  # (E, 24)
         force = force + dU[:, None] * g
         if tangent:
-            nn = np.einsum("eq,eqai,eqbk->eaibk", wJ, n, n)
+            nn = np.matmul(n.transpose(0, 2, 1), n * wJ[:, :, None]).reshape(E, 8, 3, 8, 3)
             hv = (nn - nn.transpose(0, 1, 4, 3, 2)).reshape(E, 24, 24)
             K += (d2U / vol)[:, None, None] * g[:, :, None] * g[:, None, :] + dU[:, None, None] * hv
     return ElementState(force=force, stiffness=K, history=new, theta=theta)

@@ -29,15 +29,11 @@ class Pattern:
         r = uniq // n
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))]).astype(np.int32)
         self.map_el = inverse[: E * 576]
-        self.map_diag = inverse[E * 576:]
         self.nnz = uniq.size
-        self.row_of = r
 
-    def matrix(self, Ke: np.ndarray, diag: np.ndarray | None = None) -> sps.csr_matrix:
-        """CSR matrix from element matrices (E, 24, 24) and an optional diagonal (n,)."""
+    def matrix(self, Ke: np.ndarray) -> sps.csr_matrix:
+        """CSR matrix from element matrices (E, 24, 24) (the diagonal of every dof is present)."""
         data = np.bincount(self.map_el, weights=Ke.ravel(), minlength=self.nnz)
-        if diag is not None:
-            data += np.bincount(self.map_diag, weights=diag, minlength=self.nnz)
         return sps.csr_matrix((data, self.indices.copy(), self.indptr.copy()), shape=(self.n, self.n))
 
 
@@ -63,7 +59,6 @@ def constrain(K: sps.csr_matrix, constrained: np.ndarray) -> sps.csr_matrix:
 
 def _block_jacobi(K: sps.csr_matrix, n_nodes: int):
     """Preconditioner: inverse of the 3 x 3 diagonal block of each node (and 1/diag for the rest)."""
-    n = K.shape[0]
     m = 3 * n_nodes
     coo = K.tocoo()
     sel = (coo.row < m) & (coo.col < m) & (coo.row // 3 == coo.col // 3)

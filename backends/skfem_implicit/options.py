@@ -9,8 +9,9 @@ from cfm_core.errors import InputError
 DEFAULTS = {
     "quasi_static": None,        # None: model.meta["quasi_static"]; True: no inertia; False: Newmark
     "volumetric": "mean-dilatation",  # locking-free element; "full": U(J) at every Gauss point
-    "rho_inf": 0.5,              # generalized-alpha spectral radius at infinite frequency (-);
-                                 # 1: Newmark average acceleration (trapezoidal rule, no damping)
+    "rho_inf": 0.0,              # generalized-alpha spectral radius at infinite frequency (-);
+                                 # 1: Newmark average acceleration (trapezoidal rule, no damping),
+                                 # which chatters and gains energy with stiff penalty contact
     "dt": None,                  # first step (s); None: dt_max / 10 (dynamic) or segment / segment_steps
     "dt_min": None,              # smallest step (s) before giving up; None: 1e-5 x dt_max
     "dt_max": None,              # largest step (s); None: the model's output_interval

@@ -1,4 +1,11 @@
-"""One time step: predictor, Newton iterations with the consistent tangent, Newmark update.
+"""One time step: predictor, Newton iterations with the consistent tangent, generalized-alpha update.
+
+Residual and tangent at the iterate q for a step dt (Newmark relations with (beta, gamma) of the
+generalized-alpha method; M = 0 and alpha_m = alpha_f = 0 when quasi-static):
+
+    a(q) = (q - q_n - dt v_n) / (beta dt^2) - (1/(2 beta) - 1) a_n
+    R(q) = M [(1 - alpha_m) a(q) + alpha_m a_n] + (1 - alpha_f) f(q) + alpha_f f(q_n) - f_ext
+    K(q) = (1 - alpha_m) M / (beta dt^2) + (1 - alpha_f) df/dq,     f = f_int + dPhi_c/dq
 
 A step from state n to t + dt either converges (a new :class:`State`) or raises
 :class:`StepFailure` (Newton not converged in ``max_iterations``, divergence, J <= 0 at a Gauss
@@ -17,6 +24,8 @@ from .constitutive import History
 from .element import Inverted
 from .linear import LinearSolveError, constrain, solve
 from .system import System
+
+_EPS = float(np.finfo(np.float64).eps)
 
 
 @dataclass
@@ -79,6 +88,14 @@ class Stepper:
         self.dynamic = not system.quasi_static
         self.alpha_m, self.alpha_f, self.beta, self.gamma = generalized_alpha(o["rho_inf"])
 
+    def _worst_element(self, R: np.ndarray) -> int | None:
+        """An element holding the node with the largest residual (None: the impactor dof)."""
+        k = int(np.argmax(np.abs(R)))
+        if k >= 3 * self.sys.n_nodes:
+            return None
+        hits = np.flatnonzero((self.sys.disc.conn == k // 3).any(axis=1))
+        return int(hits[0]) if hits.size else None
+
     def prescribed(self, t: float) -> float:
         pr = self.sys.model.prescribed
         return pr.displacement(t) if pr is not None else 0.0
@@ -115,18 +132,24 @@ class Stepper:
             rn = float(np.linalg.norm(Rf))
             scale = max(float(np.linalg.norm(ev.f_int)), float(np.linalg.norm(inertia)),
                         float(np.linalg.norm(ev.f_c)), float(np.linalg.norm(sys.f_ext)))
+            # round-off floor: the inertia term evaluates (1 - alpha_m) c0 M q with q ~ |u|, which
+            # at small dt carries an absolute error ~ eps c0 M |q|
+            floor = 100.0 * _EPS * (1.0 - am) * c0 * float(np.linalg.norm(sys.mass * np.abs(q)))
+            tol = o["rtol"] * scale + self.atol + floor
             info.residuals.append(rn)
             if not np.isfinite(rn):
                 raise StepFailure("non-finite residual", "residual")
-            if rn <= o["rtol"] * scale + self.atol:
+            if rn <= tol:
                 info.iterations = it
                 break
             if r0 is None:
                 r0 = rn
             elif rn > 1e8 * max(r0, self.atol) or it == o["max_iterations"]:
+                e = self._worst_element(Rf)
                 raise StepFailure(f"Newton did not converge in {it} iterations (residual {rn:.3g} N, "
-                                  f"tolerance {o['rtol'] * scale + self.atol:.3g} N)", "Newton residual",
-                                  value=rn)
+                                  f"tolerance {tol:.3g} N; largest residual "
+                                  f"{'at the impactor' if e is None else f'in element {e}'})",
+                                  "Newton residual", element=e, value=rn)
             K = (1.0 - af) * ev.K
             if self.dynamic:
                 K = K + _diag((1.0 - am) * c0 * sys.mass)

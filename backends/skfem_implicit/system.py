@@ -1,14 +1,11 @@
 """The discrete system of one model: dofs, masses, constraints, residual and tangent.
 
 Unknowns q (m): nodal displacements (3 n, dof 3 node + axis) and, with a rigid sphere, its z
-displacement w as the last dof. For a step of size dt with Newmark (beta, gamma), the residual
-and tangent at q are
-
-    R(q) = M a(q) + f_int(q) + dPhi_c/dq - f_ext,   a(q) = (q - q_n - dt v_n) / (beta dt^2) - (1/(2 beta) - 1) a_n
-    K(q) = M / (beta dt^2) + K_int(q) + d2Phi_c/dq2
-
-(M = 0 in quasi-static runs). M is the lumped mass of the nodes and the impactor's mass (modelled
-part); f_ext is gravity on the impactor (|model.gravity| downwards, as the numba backend).
+displacement w as the last dof. :meth:`System.evaluate` gives f_int(q), the contact forces
+dPhi_c/dq and their tangent K_int + d2Phi_c/dq2; the time integrator (:mod:`.stepper`) adds the
+inertia M a(q). M is the lumped (row-sum) mass of the nodes and the impactor's mass (modelled
+part), zero in quasi-static runs; f_ext is gravity on the impactor (|model.gravity| downwards,
+as in the numba backend).
 """
 
 from __future__ import annotations
@@ -75,7 +72,7 @@ class System:
         self.f_ext = np.zeros(self.n)
         if self.has_w and not quasi_static:
             self.f_ext[self.w_dof] = -float(self.sphere.mass) * abs(float(model.gravity))
-        self._pattern_el = Pattern(self.disc.edofs, 3 * nn)
+        self._pattern = Pattern(self.disc.edofs, self.n)
         self.sphere_nodes = np.asarray(model.sphere_nodes, dtype=np.int64) if self.has_w else np.zeros(0, np.int64)
         self.plane = model.plane
         self.plane_nodes = np.asarray(model.plane_nodes, dtype=np.int64) if self.plane is not None else np.zeros(0, np.int64)
@@ -107,9 +104,7 @@ class System:
             for dofs, vals in cs.grad:
                 np.add.at(f_c, dofs, vals)
         if tangent:
-            K = self._pattern_el.matrix(ev.stiffness)
-            if self.has_w:
-                K = sps.bmat([[K, None], [None, sps.csr_matrix((1, 1))]], format="csr")
+            K = self._pattern.matrix(ev.stiffness)
             if cs is not None and cs.hess:
                 rows = np.concatenate([h[0] for h in cs.hess])
                 cols = np.concatenate([h[1] for h in cs.hess])

@@ -8,14 +8,17 @@ written over a batch with masks instead of branches; nothing is differentiated t
 smallest) from the trigonometric solution's polynomial fit plus one Halley step; its eigenvector
 as the longest cross product of two rows of A - m I (first longest on ties); the remaining pair
 from one exact Jacobi rotation in the orthogonal plane (exact for repeated eigenvalues); eigenvalues
-as Rayleigh quotients. Matrices isotropic to round-off with zero off-diagonals give Q = I; the
+as Rayleigh quotients. The starting basis of that plane is built branch-free (Duff et al. 2017)
+instead of numba's cross product with the least aligned axis: the same eigenpairs to round-off. Matrices isotropic to round-off with zero off-diagonals give Q = I; the
 others the hybrid cannot handle (isotropic with non-zero off-diagonals, a non-finite or zero cross
 product) are flagged and solved by ``eig3_jacobi`` (cyclic Jacobi, the numba fallback).
 
 ``torch.linalg.eigh`` would also do, but on the CPU it loops LAPACK over the batch (about 1-2 us
 per matrix: ~10 ms for 5000 elements, more than a whole numba step), and through autograd it gives
 NaN at repeated eigenvalues. Layout: A is (3, 3, N), eigenvalues (3, N), Q (3, 3, N) with
-Q[:, a, e] the eigenvector of eigenvalue a, so A = Q diag(m) Q^T per element.
+Q[:, a, e] the eigenvector of eigenvalue a, so A = Q diag(m) Q^T per element. The hybrid is written
+on (N,) component rows (about 190 tensor ops, 1.0 ms for 5000 elements in eager mode on one core,
+0.2 ms through ``torch.compile``); the stacked (3, 3, N) formulation was slower in both modes.
 """
 
 from __future__ import annotations
@@ -38,20 +41,28 @@ def eig3(A: torch.Tensor):
 
     Entries flagged in ``fallback`` are not valid: solve them with :func:`eig3_jacobi`.
     """
-    rel = precision_scale(A.dtype)
-    eye = torch.eye(3, dtype=A.dtype, device=A.device)
-    diag = torch.diagonal(A, dim1=0, dim2=1).T                 # (3, N) view
-    off = torch.stack([A[0, 1], A[0, 2], A[1, 2]])             # a01, a02, a12
-    q = (diag[0] + diag[1] + diag[2]) / 3.0
-    b = diag - q
-    p2 = ((b * b).sum(0) + 2.0 * (off * off).sum(0)) / 6.0
-    scale = diag.abs().sum(0) + off.abs().sum(0)
+    out, fallback = eig3_components(A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2])
+    return torch.stack(out[:3]), torch.stack(out[3:]).view(3, 3, -1), fallback
+
+
+def eig3_components(a00, a01, a02, a11, a12, a22):
+    """The hybrid on the six components (N,) of A: ([m0, m1, m2, q00, q01, ..., q22], fallback).
+
+    Written component by component (every op on an (N,) row, as numba's scalar code): in eager
+    mode the rows are short and contiguous, and ``torch.compile`` turns the whole function into
+    one loop over N.
+    """
+    rel = precision_scale(a00.dtype)
+    q = (a00 + a11 + a22) / 3.0
+    b00 = a00 - q
+    b11 = a11 - q
+    b22 = a22 - q
+    p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6.0
+    scale = a00.abs() + a11.abs() + a22.abs() + a01.abs() + a02.abs() + a12.abs()
     iso = p2 <= (1e-17 * rel * scale) ** 2                      # includes A = 0
-    offzero = (off == 0.0).all(0)
+    offzero = (a01 == 0.0) & (a02 == 0.0) & (a12 == 0.0)
     p = torch.sqrt(p2)
-    b00, b11, b22 = b[0], b[1], b[2]
-    a01, a02, a12 = off[0], off[1], off[2]
-    det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02))
+    det = b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02)
     r = (det / (2.0 * p2 * p)).clamp(-1.0, 1.0)
     s = r.abs()
     beta = BETA_FIT[6] * s + BETA_FIT[5]
@@ -64,24 +75,57 @@ def eig3(A: torch.Tensor):
     pb = p * beta
     m = torch.where(r >= 0.0, q + pb, q - pb)
     # eigenvector of m: the longest cross product of two rows of A - m I (first longest on ties)
-    R = A - eye[:, :, None] * m
-    X = torch.linalg.cross(R[[0, 0, 1]], R[[1, 2, 2]], dim=1)  # rows (0x1, 0x2, 1x2), (3, 3, N)
-    n3 = (X * X).sum(1)
-    k = torch.argmax(n3, dim=0, keepdim=True)
-    x = X.gather(0, k[:, None, :].expand(1, 3, -1))[0]
-    n0 = n3.gather(0, k)[0]
+    c00 = a00 - m
+    c11 = a11 - m
+    c22 = a22 - m
+    x0 = a01 * a12 - a02 * c11                                 # row0 x row1
+    x1 = a02 * a01 - c00 * a12
+    x2 = c00 * c11 - a01 * a01
+    n0 = x0 * x0 + x1 * x1 + x2 * x2
+    y0 = a01 * c22 - a02 * a12                                 # row0 x row2
+    y1 = a02 * a02 - c00 * c22
+    y2 = c00 * a12 - a01 * a02
+    n1 = y0 * y0 + y1 * y1 + y2 * y2
+    z0 = c11 * c22 - a12 * a12                                 # row1 x row2
+    z1 = a12 * a02 - a01 * c22
+    z2 = a01 * a12 - c11 * a02
+    n2 = z0 * z0 + z1 * z1 + z2 * z2
+    take_y = (n1 > n0) & (n1 >= n2)
+    take_z = ~take_y & (n2 > n0)
+    x0 = torch.where(take_y, y0, torch.where(take_z, z0, x0))
+    x1 = torch.where(take_y, y1, torch.where(take_z, z1, x1))
+    x2 = torch.where(take_y, y2, torch.where(take_z, z2, x2))
+    n0 = torch.where(take_y, n1, torch.where(take_z, n2, n0))
     bad = ~(n0 > 0.0) | ~torch.isfinite(n0)
-    v = x * torch.rsqrt(n0)
-    # u = x cross e_j / |.| with e_j the axis least aligned with x (first on ties); w = v x u
-    j = torch.argmin(x.abs(), dim=0)
-    ur = torch.linalg.cross(x, eye.index_select(1, j), dim=0)
-    u = ur * torch.rsqrt((ur * ur).sum(0))
-    w = torch.linalg.cross(v, u, dim=0)
-    V = torch.stack([v, u, w])                                 # (vector, component, N)
-    AV = (A[None] * V[:, None]).sum(2)                         # A v, A u, A w
-    ray = (V * AV).sum(1)
-    mv, buu, bww = ray[0], ray[1], ray[2]
-    buw = (u * AV[2]).sum(0)
+    inv = torch.rsqrt(n0)
+    v0 = x0 * inv
+    v1 = x1 * inv
+    v2 = x2 * inv
+    # (u, w): an orthonormal basis of the plane normal to v, branch-free (Duff et al. 2017,
+    # "Building an orthonormal basis, revisited"); the Jacobi rotation below makes the pair unique
+    sg = torch.where(v2 >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sg + v2)
+    b = v0 * v1 * a
+    u0 = 1.0 + sg * v0 * v0 * a
+    u1 = sg * b
+    u2 = -sg * v0
+    w0 = b
+    w1 = sg + v1 * v1 * a
+    w2 = -v1
+    # A v, A u, A w and the projections
+    av0 = a00 * v0 + a01 * v1 + a02 * v2
+    av1 = a01 * v0 + a11 * v1 + a12 * v2
+    av2 = a02 * v0 + a12 * v1 + a22 * v2
+    au0 = a00 * u0 + a01 * u1 + a02 * u2
+    au1 = a01 * u0 + a11 * u1 + a12 * u2
+    au2 = a02 * u0 + a12 * u1 + a22 * u2
+    aw0 = a00 * w0 + a01 * w1 + a02 * w2
+    aw1 = a01 * w0 + a11 * w1 + a12 * w2
+    aw2 = a02 * w0 + a12 * w1 + a22 * w2
+    mv = v0 * av0 + v1 * av1 + v2 * av2
+    buu = u0 * au0 + u1 * au1 + u2 * au2
+    bww = w0 * aw0 + w1 * aw1 + w2 * aw2
+    buw = u0 * aw0 + u1 * aw1 + u2 * aw2
     # Jacobi rotation of the (u, w) block: t = sign(theta) / (|theta| + sqrt(theta^2 + 1))
     dd = bww - buu
     t = 2.0 * buw / (dd.abs() + torch.sqrt(dd * dd + 4.0 * buw * buw))
@@ -90,14 +134,12 @@ def eig3(A: torch.Tensor):
     c = 1.0 / torch.sqrt(t * t + 1.0)
     sn = t * c
     tb = t * buw
-    u2 = c * u - sn * w
-    w2 = sn * u + c * w
-    m_all = torch.stack([mv, buu - tb, bww + tb])
-    Q = torch.stack([v, u2, w2], dim=1)
-    m_all = torch.where(iso, diag, m_all)
-    Q = torch.where(iso, eye[:, :, None], Q)
+    out = [torch.where(iso, a00, mv), torch.where(iso, a11, buu - tb), torch.where(iso, a22, bww + tb),
+           torch.where(iso, 1.0, v0), torch.where(iso, 0.0, c * u0 - sn * w0), torch.where(iso, 0.0, sn * u0 + c * w0),
+           torch.where(iso, 0.0, v1), torch.where(iso, 1.0, c * u1 - sn * w1), torch.where(iso, 0.0, sn * u1 + c * w1),
+           torch.where(iso, 0.0, v2), torch.where(iso, 0.0, c * u2 - sn * w2), torch.where(iso, 1.0, sn * u2 + c * w2)]
     fallback = (iso & ~offzero) | (~iso & bad)
-    return m_all, Q, fallback
+    return out, fallback
 
 
 def _rotation(app, aqq, apq):

@@ -25,7 +25,7 @@ DEFAULTS = {
     "separation_time": 2e-4,     # stop this long (s) after the impactor left the specimen
     "initial_velocity": None,    # (n, 3) nodal velocities at t = 0 (m/s)
     "frame_interval": None,      # store (t, displacement) every this many seconds
-    "threads": None,             # torch intra-op threads for this run (None: torch's setting)
+    "threads": None,             # torch intra-op threads (None: 1 below 20000 elements on the CPU, else torch's)
     "max_steps": 50_000_000,     # guard against runaway runs
     "warm_up": True,             # one element pass before the clock starts (and torch.compile)
     "compile": False,            # False, True or a torch.compile mode ("default", "reduce-overhead", ...)

@@ -1,0 +1,361 @@
+"""Run a :class:`cfm_core.model.Model` with torch: the explicit time loop (Python), vectorised steps.
+
+One step is the numba backend's (kernels/step.py): element pass at x^n with the Prony factors of
+dt_{n-1/2}; dt_{n+1/2} = min(safety min_e L_e / c_e, dt_max); central differences on the free
+dofs; prescribed motion; kinematic contact with sphere and plane; energies; record of step n.
+The element work is batched tensor ops on the run's device (``element``), the nodal sums an
+``index_add_``; the scalar bookkeeping (time, impactor, energy sums, stop rule) is host
+arithmetic in float64 with numba's formulas.
+
+Host synchronisations per step: one after the element pass (min step, failures, work: the step
+size is needed on the host), one per ``newton_block`` contact iterations (only while the sphere
+touches), and one at the end (contact results and energies: the history row). A step whose
+eigen-decomposition needs the Jacobi fallback (round-off-isotropic C in the first steps) costs a
+second element response. Forces, impulses and energies in the Result are of the full model.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from cfm_core.errors import InputError, NumericalError
+from cfm_core.results import Result
+
+from . import arrays as arr
+from . import material as mat
+from .options import check_options, resolve_device, resolve_dtype
+
+# Below this many elements the CPU run uses one torch thread unless told otherwise: the tensors are
+# then rows of ~1e4-1e5 numbers, where intra-op threads gain little when the cores are free and,
+# on a machine whose cores are shared, made a 5000-element drop test 40 times slower.
+PARALLEL_MIN = 20_000
+
+COLUMNS = ("t", "force", "impulse", "z", "v", "reaction", "kinetic", "internal", "hourglass", "contact",
+           "external", "internal_force_work", "dt", "penetration", "momentum_z")
+
+
+def run_model(model, progress=None, **options) -> Result:
+    """Run ``model``; see :class:`cfm_backends.torch_explicit.TorchExplicitBackend`."""
+    import torch
+
+    o = check_options(options)
+    device, dtype = resolve_device(o["device"]), resolve_dtype(o["dtype"])
+    old_threads = torch.get_num_threads()
+    threads = o["threads"]
+    if threads is None and device.type == "cpu" and model.n_elements < PARALLEL_MIN:
+        threads = 1
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    try:
+        with torch.inference_mode():
+            return _Run(model, o, device, dtype, progress).loop()
+    finally:
+        torch.set_num_threads(old_threads)
+
+
+class _Run:
+    def __init__(self, model, o, device, dtype, progress):
+        import torch
+
+        from . import element
+
+        self.model, self.o, self.device, self.dtype, self.progress = model, o, device, dtype, progress
+        t0 = time.perf_counter()
+        self.ghd = mat.grad_hess_diag(model.material)
+        self.p = mat.parameters(model.material)
+        self.gam, self.tau, self.ginf = mat.prony(model.material)
+        self.a, self.uv, k = arr.build(model, o, device, dtype)
+        self.state = arr.initial_state(k, self.a.ne, dtype, device)
+        self.vold = torch.zeros((3, self.a.n), dtype=dtype, device=device)
+        self.dvc = torch.zeros_like(self.vold)
+        self.stages = element.Stages.make(o["compile"])
+        eps = torch.finfo(dtype).eps / torch.finfo(torch.float64).eps
+        self.tol = 1e-16 * eps
+        self.block = o["newton_block"] or (1 if device.type == "cpu" else 4)
+        self.syncs = 0
+        if o["warm_up"]:
+            self._element_pass(0.0)        # pure: its result is dropped (compiles, warms caches)
+        self.compile_time = time.perf_counter() - t0
+
+    # ---- one element pass (pure), with the Jacobi fallback when flagged ----
+    def _factors(self, dtp: float):
+        import torch
+
+        decay, gain = mat.prony_factors(dtp, self.gam, self.tau)
+        return torch.tensor([decay, gain], dtype=self.dtype).reshape(2, len(decay)).to(self.device, non_blocking=True)
+
+    def _element_pass(self, dtp: float):
+        """(kinematics, response, host summary) of all elements at the current state (one sync)."""
+        from . import element
+        from .eigen import patch_fallback
+
+        a, o, st = self.a, self.o, self.stages
+        factors = self._factors(dtp)
+        kin, D = st.front(element.gather(self.uv, a.idx, a.ne), a.B, a.G, self.ghd, self.p)
+        args = (self.state, factors, self.ginf, a.BV, a.G, a.L, a.V0, a.hgc, float(self.model.density),
+                float(o["hourglass"]), 0 if o["hourglass_wave"] == "shear" else 1)
+        resp = st.response(kin, D, *args)
+        summary = resp.summary.tolist()
+        self.syncs += 1
+        if summary[4] > 0:   # some C need the Jacobi fallback: patch them, recompute the response
+            m, Q = patch_fallback(kin.C, kin.m, kin.Q, kin.fallback)
+            kin = kin._replace(m=m, Q=Q, fallback=kin.fallback & False)
+            resp = st.response(kin, element.derivatives(self.ghd, self.p, kin.m), *args)
+            summary = resp.summary.tolist()
+            self.syncs += 2
+        return kin, resp, summary
+
+    # ---- the time loop ----
+    def loop(self) -> Result:
+        import torch
+
+        from .contact import plane_contact, sphere_contact
+        from .element import scatter
+
+        model, o, a = self.model, self.o, self.a
+        end = float(model.end_time)
+        sym = float(model.symmetry_factor)
+        sph, pl, pr = model.sphere, model.plane, model.prescribed
+        M = float(sph.mass) if sph is not None else 0.0
+        grav = abs(float(model.gravity))
+        mu = float(model.friction)
+        u, v = self.uv[0:3], self.uv[3:6]
+        ptimes = np.asarray(pr.times, dtype=np.float64) if pr is not None else None
+        pvals = np.asarray(pr.values, dtype=np.float64) if pr is not None else None
+        t = dtp = 0.0
+        Z, V = (float(sph.center[2]), float(sph.velocity)) if sph is not None else (0.0, 0.0)
+        IE = WINT = WHG = WC = WEXT = IMP = DT0 = SEPT = 0.0
+        seen = False
+        steps = 0
+        dtmin, dtmax, maxpen = math.inf, 0.0, 0.0
+        rows = []
+        tick = end / 100.0
+        next_progress = tick
+        fi = o["frame_interval"]
+        frames = [(0.0, np.zeros((a.n, 3)))] if fi else []
+        next_frame = fi if fi else math.inf
+        reported = 0.0
+        stop = "end_time"
+        zero = torch.zeros((), dtype=self.dtype, device=self.device)
+        self.syncs = 0
+        start = time.perf_counter()
+        while True:
+            # 1. elements at x^n (Prony factors of the previous step)
+            kin, resp, (dmin, emin, first_bad, work, _) = self._element_pass(dtp)
+            if first_bad < a.ne:
+                raise self._element_error(int(first_bad), resp, kin, t)
+            IE += work
+            # 2. stable step
+            dtc = o["safety"] * dmin
+            if DT0 == 0.0 and math.isfinite(dtc):
+                DT0 = dtc
+            dt = min(dtc, o["dt_max"])
+            if not (dt > 0.0 and math.isfinite(dt)) or dtc < o["collapse"] * DT0:
+                raise self._collapse_error(t, int(emin), dtc, DT0)
+            dtn = 0.5 * (dtp + dt)
+            # 3. central differences
+            nodal = scatter(resp.fe, a.idx, a.n)
+            fint, fhg = nodal[0:3], nodal[3:6]
+            self.vold.copy_(v)
+            v.add_((fhg - fint) * (dtn / a.mass)).mul_(a.free)
+            u.add_(v, alpha=dt)
+            reaction = zero
+            if pr is not None:
+                d = int(pr.dof)
+                target = arr.interp(t + dt, ptimes, pvals)
+                old = u[d].index_select(0, a.pnodes)
+                v[d].index_copy_(0, a.pnodes, (target - old) / dt)
+                u[d].index_fill_(0, a.pnodes, target)
+                reaction = (fint[d] - fhg[d]).index_select(0, a.pnodes).sum()
+            Zn, Vo = Z, V
+            Vs = Vo - dtn * grav
+            Zs = Zn + dt * Vs
+            # 4. contact
+            self.dvc.zero_()
+            dZ = dV = pen = zero
+            if sph is not None:
+                out, checks = sphere_contact(u, v, self.dvc, a.sphere, float(sph.center[0]), float(sph.center[1]),
+                                             Zs, Vs, float(sph.radius), M, mu, dt, self.block, self.tol)
+                self.syncs += checks
+                if out is not None:
+                    dZ, dV, pen = out
+            if pl is not None:
+                plane_contact(u, v, self.dvc, a.plane, float(pl.z), mu, dt)
+            # 5. energies and the record of step n (one transfer)
+            en = _energies(a.mass, v, self.vold, fint, fhg, self.dvc, a.pmask, dtn)
+            rec = torch.cat([en, torch.stack([dZ, dV, pen, reaction]).to(en.dtype)]).tolist()
+            self.syncs += 1
+            ke, ai, bi, ah, bh, ac, bc, ax, bx, pz, dZ_, dV_, pen_, reac = rec
+            force = 0.0
+            Vf = Vo
+            if sph is not None:
+                Zs += dZ_
+                Vs += dV_
+                force = M * dV_ / dtn
+                Vf = Vo + dtp / (dtp + dt) * (Vs - Vo)
+                ke += 0.5 * M * Vo * Vs
+                fs = 0.5 * M * dV_
+                ac += fs * Vo
+                bc += fs * Vs
+                fg = -0.5 * dtn * M * grav
+                ax += fg * Vo
+                bx += fg * Vs
+                pz += M * Vs
+            rows.append((t, force * sym, (IMP + 0.5 * dtp * force) * sym, Zn, Vf, reac * sym, ke * sym, IE * sym,
+                         -(WHG + ah) * sym, -(WC + ac) * sym, (WEXT + ax) * sym, (WINT + ai) * sym, dt, pen_,
+                         pz * sym))
+            WINT += ai + bi
+            WHG += ah + bh
+            WC += ac + bc
+            WEXT += ax + bx
+            IMP += force * dtn
+            Z, V = Zs, Vs
+            t_n, t = t, t + dt
+            dtp = dt
+            steps += 1
+            dtmin, dtmax, maxpen = min(dtmin, dt), max(dtmax, dt), max(maxpen, pen_)
+            self.state = resp.state
+            if not math.isfinite(ke + pz + Zs):
+                raise NumericalError(f"non-finite kinematic state at t = {t_n:.6g} s in model '{model.name}'.",
+                                     time=t_n, quantity="state")
+            done = t_n >= end
+            if not done and sph is not None and model.stop_after_separation:
+                if force > 0.0:
+                    seen, SEPT = True, 0.0
+                elif seen and Vf > 0.0:
+                    SEPT += dt
+                    if SEPT >= o["separation_time"]:
+                        stop = "separated"
+                        done = True
+                else:
+                    SEPT = 0.0
+            if fi and t >= next_frame:
+                frames.append((t, u.T.to("cpu", torch.float64).numpy().copy()))
+                next_frame = (math.floor(t / fi) + 1) * fi
+            if t >= next_progress:
+                if self.progress is not None and min(t, end) > reported:
+                    reported = min(t, end)
+                    self.progress(reported)
+                next_progress = (math.floor(t / tick) + 1) * tick
+            if done:
+                break
+            if steps >= o["max_steps"]:
+                raise NumericalError(f"model '{model.name}': {steps} steps reached at t = {t:.6g} s before the end "
+                                     f"time {end:g} s (option max_steps).", time=t, quantity="steps")
+        wall = time.perf_counter() - start
+        h = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
+        return self._result(h, wall, steps, DT0, dtmin, dtmax, maxpen, frames, stop)
+
+    # ---- errors ----
+    def _element_error(self, e: int, resp, kin, t: float) -> NumericalError:
+        code = int(resp.bad[e])
+        J = float(kin.J[e])
+        m = [float(x) for x in kin.m[:, e].tolist()]
+        name = self.model.material.name
+        if code == 1:
+            return NumericalError(
+                f"element {e} inverted at t = {t:.6g} s (J = det F = {J:.4g} <= 0) in model '{self.model.name}': "
+                f"the mesh cannot follow this deformation; refine the mesh, lower the load or raise the "
+                f"hourglass coefficient.", time=t, element=e, quantity="J")
+        return nonfinite_error(name, self.dtype, f"element {e} at t = {t:.6g} s", m, J, t, e)
+
+    def _collapse_error(self, t: float, e: int, dtc: float, dt0: float) -> NumericalError:
+        name = self.model.material.name
+        if not math.isfinite(dtc):
+            return NumericalError(
+                f"no finite stable time step at t = {t:.6g} s in model '{self.model.name}': every element has zero "
+                f"stiffness (material '{name}'); give the option dt_max (s).", time=t, quantity="time step")
+        return NumericalError(
+            f"time-step collapse at t = {t:.6g} s: the stable step of element {e} fell to {dtc:.3g} s, below "
+            f"{self.o['collapse']:g} x the first step {dt0:.3g} s (element crushed or material stiffening "
+            f"without bound).", time=t, element=e, quantity="time step")
+
+    # ---- result ----
+    def _result(self, h, wall, steps, dt0, dtmin, dtmax, maxpen, frames, stop) -> Result:
+        import torch
+
+        model, o = self.model, self.o
+        ne = model.n_elements
+        sphere = model.sphere is not None
+        mass_full = model.mass_full if model.mass_full else (model.sphere.mass * model.symmetry_factor if sphere else None)
+        col = {name: h[:, i] for i, name in enumerate(COLUMNS)}
+        duration = float(col["t"][-1]) if len(h) else 0.0
+        pz = col["momentum_z"]
+        res = Result(
+            t=col["t"], backend="torch", steps=steps, wall_time=wall,
+            contact_force=col["force"] if sphere else None, impulse=col["impulse"] if sphere else None,
+            acceleration=col["force"] / mass_full if sphere else None,
+            impactor_z=col["z"] if sphere else None, impactor_v=col["v"] if sphere else None,
+            reaction_force=col["reaction"] if model.prescribed is not None else None,
+            energies={k: col[k] for k in ("kinetic", "internal", "hourglass", "contact", "external")},
+            dt_min=float(dtmin), dt_max=float(dtmax), frames=frames,
+            info={
+                "n_elements": ne, "n_nodes": model.n_nodes, "material": model.material.name,
+                "hourglass": o["hourglass"], "hourglass_wave": o["hourglass_wave"], "safety": o["safety"],
+                "device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
+                "threads": torch.get_num_threads(), "compile": o["compile"], "compile_time": self.compile_time,
+                "stop_reason": stop, "dt_first": dt0,
+                "steps_at_first_dt": int(math.ceil(duration / dt0)) if dt0 > 0 else None,
+                "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
+                "host_syncs_per_step": self.syncs / max(steps, 1),
+                "max_sphere_penetration": float(maxpen),
+                "internal_force_work": float(col["internal_force_work"][-1]) if len(h) else 0.0,
+                "momentum_z_drift": float(np.max(np.abs(pz - pz[0]))) if len(h) else 0.0,
+                "prony_terms": len(self.gam),
+            },
+        )
+        res.info["energy_error"] = res.energy_error()
+        res.info["hourglass_ratio"] = res.hourglass_ratio()
+        return res
+
+
+def _energies(mass, v, vold, fint, fhg, dvc, pmask, dtn: float):
+    """(10,) tensor: kinetic energy at t^n, A and B work halves of the internal, hourglass, contact and
+    external forces around t^n (see numba's ``energy_pass``), z momentum at n+1/2 (modelled part)."""
+    import torch
+
+    h = 0.5 * dtn
+    ke = 0.5 * (mass * (vold * v).sum(0)).sum()
+    forces = [-h * fint, h * fhg, (0.5 * mass) * dvc]
+    if pmask is not None:
+        forces.append(pmask * ((0.5 * mass) * (v - vold) - (forces[0] + forces[1] + forces[2])))
+    Fs = torch.stack(forces)
+    A = (Fs * vold).sum((1, 2))
+    B = (Fs * v).sum((1, 2))
+    AB = torch.stack([A, B], dim=1).reshape(-1)
+    if pmask is None:
+        AB = torch.cat([AB, torch.zeros(2, dtype=AB.dtype, device=AB.device)])
+    return torch.cat([ke[None], AB, (mass * v[2]).sum()[None]])
+
+
+def nonfinite_error(material: str, dtype, where: str, m, J: float, t: float, index: int) -> NumericalError:
+    """The NumericalError of an inf/NaN stress: overflow of the material's exponential; float32 hint."""
+    import torch
+
+    if dtype == torch.float32:
+        return NumericalError(
+            f"non-finite stress in {where}: the energy derivatives of material '{material}' overflow float32 at "
+            f"the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {J:.4g} (the fibre term "
+            f"exp(k2 (x - 1)^2) overflows float32 once its argument exceeds about 88.7, float64 only at 709): "
+            f"this scene needs float64; run it with dtype='float64' (CLI: --dtype float64).",
+            time=t, element=index, quantity="exp overflow in the material energy derivative (float32)")
+    return NumericalError(
+        f"non-finite stress in {where}: the energy derivatives of material '{material}' (psi_grad / "
+        f"psi_hess_diag) are inf or NaN at the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), "
+        f"J = {J:.4g}, typically an exp overflow (argument > 709) in a fibre term; lower the load, refine the "
+        f"mesh or check the parameters.", time=t, element=index,
+        quantity="exp overflow in the material energy derivative")
+
+
+def check_point_inputs(t, F):
+    """(t (n,), F (n, 3, 3)) float64 arrays; InputError on mismatched or decreasing times."""
+    t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+    F = np.ascontiguousarray(F, dtype=np.float64).reshape(-1, 3, 3)
+    if t.shape[0] != F.shape[0]:
+        raise InputError(f"point: {t.shape[0]} times but {F.shape[0]} deformation gradients.")
+    if t.size > 1 and not (np.diff(t) >= 0).all():
+        raise InputError("point: times must not decrease.")
+    return t, F

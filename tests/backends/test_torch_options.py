@@ -1,0 +1,84 @@
+"""torch backend: registration, lazy import, options, device and dtype errors."""
+
+import subprocess
+import sys
+
+import pytest
+
+from cfm_core.errors import InputError
+
+
+def test_package_import_does_not_import_torch():
+    code = ("import sys; import cfm_backends.torch_explicit as m; from cfm_core.registry import get_backend; "
+            "b = get_backend('torch'); assert b.name == 'torch'; print('torch' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_capabilities():
+    from cfm_backends.torch_explicit import TorchExplicitBackend as B
+
+    assert (B.name, B.kind, B.requires) == ("torch", "explicit", ("torch",))
+    assert B.devices == ("cpu", "cuda") and B.dtypes == ("float64", "float32")
+
+
+def test_registered_through_entry_point():
+    from cfm_core.registry import get_backend
+
+    assert type(get_backend("torch")).__name__ == "TorchExplicitBackend"
+
+
+def test_bad_options():
+    from cfm_backends.torch_explicit.options import check_options
+
+    with pytest.raises(InputError, match="unknown option"):
+        check_options({"thread": 2})
+    with pytest.raises(InputError, match="dtype"):
+        check_options({"dtype": "float16"})
+    with pytest.raises(InputError, match="device"):
+        check_options({"device": "tpu"})
+    with pytest.raises(InputError, match="safety"):
+        check_options({"safety": 1.5})
+    assert check_options({"dtype": "float32", "device": "cuda:1"})["dtype"] == "float32"
+
+
+def test_cuda_not_available_names_what_was_found(monkeypatch):
+    torch = pytest.importorskip("torch")
+    from cfm_backends.torch_explicit.options import resolve_device
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    with pytest.raises(InputError, match=r"torch.cuda.is_available\(\) = False.*device_count\(\) = 0"):
+        resolve_device("cuda")
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 1)
+    with pytest.raises(InputError, match=r"'cuda:3'.*device_count\(\) = 1"):
+        resolve_device("cuda:3")
+    assert str(resolve_device("cpu")) == "cpu"
+
+
+def test_run_and_point_on_missing_cuda_are_input_errors():
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is available here")
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+    from cfm_core.builder import build_model
+    from cfm_core.material import make_material
+    from cfm_core.scene import builtin_scene
+
+    model = build_model(builtin_scene("single-element"))
+    with pytest.raises(InputError, match="is_available"):
+        TorchExplicitBackend().run(model, device="cuda")
+    with pytest.raises(InputError, match="is_available"):
+        TorchExplicitBackend().point(make_material("cfm"), [0.0], [[[1, 0, 0], [0, 1, 0], [0, 0, 1]]], device="cuda")
+
+
+def test_cli_device_error_exit_status(tmp_path):
+    pytest.importorskip("torch")
+    import torch
+
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is available here")
+    out = subprocess.run([sys.executable, "-m", "cfm_core.cli", "drop-test", "--backend", "torch", "--device",
+                          "cuda", "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert out.returncode == 2, out.stderr
+    assert "torch.cuda.is_available() = False" in out.stderr

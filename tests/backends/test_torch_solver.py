@@ -1,0 +1,144 @@
+"""Explicit solver of the torch backend: agreement with numba, energy, errors, device hygiene."""
+
+import ast
+import pathlib
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from cfm_backends.torch_explicit import TorchExplicitBackend  # noqa: E402
+from cfm_core import postprocess  # noqa: E402
+from cfm_core.builder import build_model  # noqa: E402
+from cfm_core.errors import NumericalError  # noqa: E402
+from cfm_core.scene import builtin_scene  # noqa: E402
+
+PACKAGE = pathlib.Path(__file__).resolve().parents[2] / "backends" / "torch_explicit"
+
+
+@pytest.fixture(scope="module")
+def small_drop():
+    """10 x 10 mm specimen (quarter model), 2 mm elements, the paper's impactor: 36 hexahedra."""
+    return build_model(builtin_scene("drop-test").with_overrides(width=0.01, element_size=0.002))
+
+
+@pytest.fixture(scope="module")
+def torch_small(small_drop):
+    return TorchExplicitBackend().run(small_drop, frame_interval=2e-3)
+
+
+def filtered(result, model):
+    _, _, a = postprocess.acceleration_histories(result, model.mass_full)
+    return a
+
+
+def rel_l2(a, b):
+    """Relative L2 difference over the common 50 kHz samples (runs may stop one step apart)."""
+    n = min(a.size, b.size)
+    return postprocess.relative_l2(a[:n], b[:n])
+
+
+def test_agrees_with_numba_on_small_drop_test(small_drop, torch_small):
+    pytest.importorskip("numba")
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    ref = NumbaExplicitBackend().run(small_drop)
+    res = torch_small
+    assert res.steps == ref.steps and res.info["stop_reason"] == ref.info["stop_reason"]
+    assert rel_l2(filtered(res, small_drop), filtered(ref, small_drop)) < 1e-6
+    np.testing.assert_allclose(res.t, ref.t, rtol=1e-9, atol=0)
+    for key in ("kinetic", "internal", "hourglass", "contact", "external"):
+        scale = np.abs(ref.energies["kinetic"]).max()
+        assert np.abs(res.energies[key] - ref.energies[key]).max() < 1e-8 * scale, key
+
+
+def test_result_fields(small_drop, torch_small):
+    r = torch_small
+    assert r.backend == "torch" and r.steps == len(r.t) and r.wall_time > 0
+    for arr in (r.contact_force, r.impulse, r.acceleration, r.impactor_z, r.impactor_v):
+        assert arr.shape == r.t.shape and np.isfinite(arr).all()
+    assert r.reaction_force is None and 0 < r.dt_min <= r.dt_max
+    assert r.energy_error() < 1e-3 and r.hourglass_ratio() < 0.1
+    assert r.info["device"] == "cpu" and r.info["dtype"] == "float64"
+    assert r.info["host_syncs_per_step"] < 12
+    assert len(r.frames) >= 2 and r.frames[1][1].shape == (small_drop.n_nodes, 3)
+    # impulse = momentum change of the impactor (kinematic contact: exact to round-off)
+    M = small_drop.mass_full
+    assert abs(r.impulse[-1] - M * (r.impactor_v[-1] - r.impactor_v[0])) < 0.05 * M * abs(r.impactor_v[0])
+
+
+def test_newton_block_does_not_change_the_result(small_drop, torch_small):
+    other = TorchExplicitBackend().run(small_drop, newton_block=5, frame_interval=2e-3)
+    np.testing.assert_array_equal(other.contact_force, torch_small.contact_force)
+    assert other.info["host_syncs_per_step"] < torch_small.info["host_syncs_per_step"]
+
+
+def test_float32_runs_close_to_float64(small_drop, torch_small):
+    r32 = TorchExplicitBackend().run(small_drop, dtype="float32")
+    assert r32.info["dtype"] == "float32"
+    assert rel_l2(filtered(r32, small_drop), filtered(torch_small, small_drop)) < 1e-5
+
+
+def test_prescribed_motion_agrees_with_numba():
+    pytest.importorskip("numba")
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    model = build_model(builtin_scene("single-element").with_overrides(stretch=0.5, rate=200.0))
+    a = TorchExplicitBackend().run(model)
+    b = NumbaExplicitBackend().run(model)
+    assert a.steps == b.steps
+    assert np.abs(a.reaction_force - b.reaction_force).max() < 1e-9 * np.abs(b.reaction_force).max()
+    assert a.energy_error() < 1e-3
+
+
+def test_float32_overflow_names_element_time_and_float64():
+    scene = builtin_scene("single-element").with_overrides(stretch=0.6, parameters={"k1": 1e-42, "k2": 400.0})
+    model = build_model(scene)
+    ok = TorchExplicitBackend().run(model)            # float64: exp argument ~ 90 < 709, stress tiny
+    assert np.isfinite(ok.reaction_force).all()
+    with pytest.raises(NumericalError, match=r"float32.*float64") as info:
+        TorchExplicitBackend().run(model, dtype="float32")
+    err = info.value
+    assert err.element == 0 and 0.0 < err.time < ok.t[-1] and "element 0" in str(err)
+
+
+def test_element_inversion_is_reported():
+    model = build_model(builtin_scene("single-element").with_overrides(stretch=0.5))
+    v0 = np.zeros((model.n_nodes, 3))
+    v0[model.nodes[:, 0] > 0.5e-3, 0] = -2000.0        # push a face through the opposite one in one step
+    with pytest.raises(NumericalError, match="inverted") as info:
+        TorchExplicitBackend().run(model, initial_velocity=v0)
+    assert info.value.element == 0 and info.value.quantity == "J"
+
+
+def test_arrays_live_on_the_requested_device(small_drop):
+    from cfm_backends.torch_explicit import arrays
+    from cfm_backends.torch_explicit.options import check_options
+
+    o = check_options({})
+    a, uv, k = arrays.build(small_drop, o, torch.device("cpu"), torch.float32)
+    tensors = [v for v in vars(a).values() if isinstance(v, torch.Tensor)]
+    tensors += [t for v in (a.sphere, a.plane) for t in v]
+    assert tensors and all(t.device.type == "cpu" for t in tensors)
+    assert all(t.dtype in (torch.float32, torch.int64) for t in tensors) and uv.dtype == torch.float32
+
+
+def test_step_code_makes_no_numpy_round_trips():
+    """The per-step modules never call .numpy() / .item() / .cpu(); host transfers are the solver's
+    summary .tolist() calls and the contact Newton's (counted in info['host_syncs_per_step'])."""
+    for name in ("element.py", "contact.py", "eigen.py"):
+        tree = ast.parse((PACKAGE / name).read_text())
+        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
+            calls = {n.func.attr for n in ast.walk(fn) if isinstance(n, ast.Call) and isinstance(n.func, ast.Attribute)}
+            assert not calls & {"numpy", "item", "cpu"}, (name, fn.name)
+            if fn.name != "_newton_host":
+                assert "tolist" not in calls, (name, fn.name)
+
+
+@pytest.mark.slow
+def test_compiled_element_pass_agrees(small_drop, torch_small):
+    """torch.compile'd stages (tens of seconds of compilation the first time) give the same run."""
+    res = TorchExplicitBackend().run(small_drop, compile=True, frame_interval=2e-3)
+    assert res.steps == torch_small.steps
+    assert rel_l2(filtered(res, small_drop), filtered(torch_small, small_drop)) < 1e-10

@@ -1,0 +1,76 @@
+"""PNG figures of the verification report (matplotlib Agg canvas, atomic writes via cfm_core)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cfm_core.plotting import _COLOURS, _save
+
+_MARKERS = "osD^v<>p"
+
+
+def _fig(title, xlabel, ylabel, ncols=1, size=(6.4, 4.2)):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, dpi=130, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, ncols, squeeze=False)[0]
+    fig.suptitle(title)
+    for ax in axes:
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", color="0.9", linewidth=0.6)
+    return fig, axes
+
+
+def signals(path, title, curves, ylabel, scale=1.0, tscale=1e3) -> None:
+    """curves: [(label, t (s), y)]; y shown times ``scale``, t in ms."""
+    fig, (ax,) = _fig(title, "Time (ms)", ylabel)
+    for i, (label, t, y) in enumerate(curves):
+        ax.plot(tscale * np.asarray(t), scale * np.asarray(y), color=_COLOURS[i % len(_COLOURS)],
+                linewidth=2.0 if i == 0 else 1.2, linestyle="-" if i == 0 else "--", label=label)
+    ax.legend(fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def work_precision(path, study) -> bool:
+    """Log-log error against wall time, one line per backend, peak error and rel L2 side by side."""
+    runs = [r for r in study["runs"] if r.get("status") == "completed" and "peak_error" in r
+            and not r.get("is_reference")]
+    if not runs:
+        return False
+    fig, axes = _fig(f"Work-precision: {study['label']}", "Wall time (s)", "", ncols=2, size=(9.6, 4.2))
+    axes[0].set_ylabel("Relative peak error (-)")
+    axes[1].set_ylabel("Relative L2 error (-)")
+    for i, name in enumerate(sorted({r["backend"] for r in runs})):
+        mine = sorted([r for r in runs if r["backend"] == name], key=lambda r: r["wall"])
+        w = np.array([max(r["wall"], 1e-6) for r in mine])
+        for ax, key in zip(axes, ("peak_error", "rel_l2")):
+            e = np.array([max(r[key], 1e-16) for r in mine])
+            ax.loglog(w, e, marker=_MARKERS[i % len(_MARKERS)], color=_COLOURS[i % len(_COLOURS)], label=name)
+            for r, x, y in zip(mine, w, e):
+                h = "" if r["element_size"] is None else f"{1e3 * r['element_size']:g} mm, "
+                step = ", ".join(f"{k}={v:g}" for k, v in r["options"].items())
+                ax.annotate(h + step, (x, y), xytext=(4, 3), textcoords="offset points", fontsize=6)
+    for ax in axes:
+        ax.axhline(0.01, color="0.5", linestyle=":", linewidth=1.0)
+        ax.legend(fontsize=8, frameon=False)
+    _save(fig, path)
+    return True
+
+
+def drucker_map(path, name, smap) -> None:
+    """Relative smallest eigenvalue (Drucker criterion) along each path against nominal strain."""
+    fig, axes = _fig(f"Material stability: {name} (instantaneous, Table defaults)", "Nominal strain (-)", "",
+                     ncols=2, size=(9.6, 4.0))
+    e = np.array(smap["e"])
+    for ax, crit in zip(axes, ("Drucker", "dS/dE")):
+        ax.set_ylabel(f"min eigenvalue / max |eigenvalue| ({crit})")
+        for i, (path_name, res) in enumerate(smap["paths"].items()):
+            r = np.array([np.nan if x is None else x for x in res[crit]["min_eig_rel"]], dtype=float)
+            ax.plot(e, r, color=_COLOURS[i % len(_COLOURS)], label=path_name)
+        ax.axhline(0.0, color="k", linewidth=0.8)
+        ax.set_yscale("symlog", linthresh=1e-6)
+        ax.legend(fontsize=8, frameon=False)
+    _save(fig, path)
