@@ -6,22 +6,9 @@ import time
 import pytest
 
 pytest.importorskip("numba")
-try:
-    import cfm_backends.numba_explicit  # noqa: F401
-except ImportError:  # package not installed: map the backends/ folder to cfm_backends
-    import importlib.util
-    import pathlib
-    import sys
-
-    _root = pathlib.Path(__file__).resolve().parents[2] / "backends"
-    _spec = importlib.util.spec_from_file_location("cfm_backends", _root / "__init__.py",
-                                                   submodule_search_locations=[str(_root)])
-    sys.modules["cfm_backends"] = importlib.util.module_from_spec(_spec)
-    _spec.loader.exec_module(sys.modules["cfm_backends"])
-
-from cfm_backends.numba_explicit import codegen  # noqa: E402
-from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn  # noqa: E402
-from cfm_core.errors import InputError  # noqa: E402
+from cfm_backends.numba_explicit import codegen
+from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn
+from cfm_core.errors import InputError
 
 
 def test_module_source_layout():

@@ -4,21 +4,8 @@ import numpy as np
 import pytest
 
 pytest.importorskip("numba")
-try:
-    import cfm_backends.numba_explicit  # noqa: F401
-except ImportError:  # package not installed: map the backends/ folder to cfm_backends
-    import importlib.util
-    import pathlib
-    import sys
-
-    _root = pathlib.Path(__file__).resolve().parents[2] / "backends"
-    _spec = importlib.util.spec_from_file_location("cfm_backends", _root / "__init__.py",
-                                                   submodule_search_locations=[str(_root)])
-    sys.modules["cfm_backends"] = importlib.util.module_from_spec(_spec)
-    _spec.loader.exec_module(sys.modules["cfm_backends"])
-
-from cfm_backends.numba_explicit import NumbaExplicitBackend  # noqa: E402
-from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn, drop_test_model  # noqa: E402
+from cfm_backends.numba_explicit import NumbaExplicitBackend
+from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn, drop_test_model
 
 MAT = NeoHookeanStandIn(mu=50.0e3, kappa=1.0e6)
 SMALL = dict(width=12e-3, thickness=4e-3, h=2e-3, mass=0.05, velocity=1.0, end_time=20e-3)

@@ -4,20 +4,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("numba")
-try:
-    import cfm_backends.numba_explicit  # noqa: F401
-except ImportError:  # package not installed: map the backends/ folder to cfm_backends
-    import importlib.util
-    import pathlib
-    import sys
-
-    _root = pathlib.Path(__file__).resolve().parents[2] / "backends"
-    _spec = importlib.util.spec_from_file_location("cfm_backends", _root / "__init__.py",
-                                                   submodule_search_locations=[str(_root)])
-    sys.modules["cfm_backends"] = importlib.util.module_from_spec(_spec)
-    _spec.loader.exec_module(sys.modules["cfm_backends"])
-
-from cfm_backends.numba_explicit.kernels.eigen import eig3, eig3_jacobi  # noqa: E402
+from cfm_backends.numba_explicit.kernels.eigen import eig3, eig3_jacobi
 
 
 def _decompose(A, solver=eig3):
