@@ -115,10 +115,19 @@ def cfc_filter(x, sample_rate: float, cfc: float = 600.0, pad: str = "zero") -> 
     n = pad_length(float(cfc), float(sample_rate))
     xp = np.pad(x, n, mode="constant" if pad == "zero" else "edge")
 
-    from scipy.signal import lfilter  # (C1) as a direct-form recursion
-
-    b = [a0, a1, a2]
-    a = [1.0, -b1, -b2]
-    y = lfilter(b, a, xp)
-    y = lfilter(b, a, y[::-1])[::-1]
+    y = _recursion(xp, a0, a1, a2, b1, b2)
+    y = _recursion(y[::-1], a0, a1, a2, b1, b2)[::-1]
     return np.ascontiguousarray(y[n:n + x.size])
+
+
+def _recursion(x: np.ndarray, a0, a1, a2, b1, b2) -> np.ndarray:
+    """One pass of (C1), starting from rest (a plain loop: histories are a few thousand samples,
+    and importing scipy.signal for it would cost about a second per run)."""
+    y = [0.0] * len(x)
+    xs = x.tolist()
+    x1 = x2 = y1 = y2 = 0.0
+    for i, xi in enumerate(xs):
+        yi = a0 * xi + a1 * x1 + a2 * x2 + b1 * y1 + b2 * y2
+        y[i] = yi
+        x2, x1, y2, y1 = x1, xi, y1, yi
+    return np.array(y)
