@@ -49,7 +49,8 @@ def check_model(model):
     nodes = np.ascontiguousarray(model.nodes, dtype=np.float64)
     hexes = np.ascontiguousarray(model.hexes, dtype=np.int64)
     if nodes.ndim != 2 or nodes.shape[1] != 3 or hexes.ndim != 2 or hexes.shape[1] != 8:
-        raise InputError(f"model '{model.name}': nodes must be (n, 3) and hexes (e, 8); got {nodes.shape}, {hexes.shape}.")
+        raise InputError(f"model '{model.name}': nodes must be (n, 3) and hexes (e, 8); "
+                         f"got {nodes.shape}, {hexes.shape}.")
     n = nodes.shape[0]
     if hexes.shape[0] == 0 or hexes.min() < 0 or hexes.max() >= n:
         raise InputError(f"model '{model.name}': hexes must index nodes 0..{n - 1} (and there must be at least one).")

@@ -9,8 +9,9 @@ smallest) from the trigonometric solution's polynomial fit plus one Halley step;
 as the longest cross product of two rows of A - m I (first longest on ties); the remaining pair
 from one exact Jacobi rotation in the orthogonal plane (exact for repeated eigenvalues); eigenvalues
 as Rayleigh quotients. The starting basis of that plane is built branch-free (Duff et al. 2017)
-instead of numba's cross product with the least aligned axis: the same eigenpairs to round-off. Matrices isotropic to round-off with zero off-diagonals give Q = I; the
-others the hybrid cannot handle (isotropic with non-zero off-diagonals, a non-finite or zero cross
+instead of numba's cross product with the least aligned axis: the same eigenpairs to round-off.
+Matrices isotropic to round-off with zero off-diagonals give Q = I; the others the hybrid cannot
+handle (isotropic with non-zero off-diagonals, a non-finite or zero cross
 product) are flagged and solved by ``eig3_jacobi`` (cyclic Jacobi, the numba fallback).
 
 ``torch.linalg.eigh`` would also do, but on the CPU it loops LAPACK over the batch (about 1-2 us

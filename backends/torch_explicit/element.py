@@ -48,7 +48,8 @@ class ElementState(NamedTuple):
 
 
 class Response(NamedTuple):
-    fe: torch.Tensor       # (6, 8, N) internal (0:3) and hourglass (3:6) element nodal forces (N)
+    fint: torch.Tensor     # (3, 8, N) internal element nodal forces (N)
+    fhg: torch.Tensor      # (3, 8, N) hourglass element nodal forces (N)
     dte: torch.Tensor      # (N,) L / c (s), inf for failed elements
     bad: torch.Tensor      # (N,) int8: 0 ok, 1 inverted (J <= 0), 2 non-finite stress
     work: torch.Tensor     # () stress work increment (J, modelled part)
@@ -69,13 +70,25 @@ def deformation(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor):
         F.addcmul_(g[0:3, a, None], B[None, a])
         q.addcmul_(G[a, :, None], g[None, 3:6, a])
     F = F + torch.eye(3, dtype=F.dtype, device=F.device)[:, :, None]
+    J, C = det_and_cauchy_green(F)
+    return F, q, J, C
+
+
+def det_and_cauchy_green(F: torch.Tensor):
+    """(J = det F (N,), C = F^T F (3, 3, N)) of deformation gradients F (3, 3, N)."""
     f00, f01, f02 = F[0, 0], F[0, 1], F[0, 2]
     f10, f11, f12 = F[1, 0], F[1, 1], F[1, 2]
     f20, f21, f22 = F[2, 0], F[2, 1], F[2, 2]
     J = f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20) + f02 * (f10 * f21 - f11 * f20)
     C = F[0, :, None] * F[0, None, :]
     C.addcmul_(F[1, :, None], F[1, None, :]).addcmul_(F[2, :, None], F[2, None, :])
-    return F, q, J, C
+    return J, C
+
+
+def matmul3(A: torch.Tensor, B: torch.Tensor) -> torch.Tensor:
+    """A B per element for A, B (3, 3, N) (e.g. P = F S)."""
+    out = A[:, 0, None] * B[None, 0]
+    return out.addcmul_(A[:, 1, None], B[None, 1]).addcmul_(A[:, 2, None], B[None, 2])
 
 
 def derivatives(ghd, p, m: torch.Tensor) -> torch.Tensor:
@@ -91,24 +104,26 @@ def front(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor, ghd, p) -> tuple[Ki
 
 
 class Stages(NamedTuple):
-    """The element-pass stages as the solver calls them: plain functions, or partly compiled.
+    """The element-pass stages as the solver calls them: plain functions, or compiled ones.
 
-    With ``torch.compile`` only :func:`front` is compiled (deformation, eigen-decomposition and the
-    material derivatives: pointwise work, one loop over N instead of ~550 tensor ops). The gather
-    (indirect loads) and :func:`response` (broadcasts over (3, 8, N)) ran slower compiled than
-    eager with torch 2.13 on the CPU (inductor recomputed the material derivatives inside every
-    consumer loop when everything was one graph).
+    With ``torch.compile`` each of :func:`front` (deformation, eigen-decomposition, material
+    derivatives), :func:`stress` and :func:`forces` is compiled on its own. The gather (indirect
+    loads) ran slower compiled than eager with torch 2.13 on the CPU, and with everything in one
+    graph inductor recomputed the material derivatives inside every consumer loop; separate graphs
+    make it write each stage's results once.
     """
 
     front: object
-    response: object
+    stress: object
+    forces: object
 
     @classmethod
     def make(cls, compile_mode=False) -> "Stages":
         if not compile_mode:
-            return cls(front, response)
+            return cls(front, stress, forces)
         mode = None if compile_mode is True else compile_mode
-        return cls(torch.compile(front, mode=mode, dynamic=False), response)
+        c = lambda f: torch.compile(f, mode=mode, dynamic=False)  # noqa: E731
+        return cls(c(front), c(stress), c(forces))
 
 
 def kinematics(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor) -> Kinematics:
@@ -147,14 +162,14 @@ def prony_update(S0, S_vol, H, S0_old, factors, ginf: float):
     return S, Hn
 
 
-def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf: float, BV, G, L, V0, hgc,
-             rho: float, hg: float, hgwave: int) -> Response:
-    """Stresses, element forces, stable steps, failures and stress work of all elements.
+def stress(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf: float, L, V0, hgc,
+           rho: float, hgwave: int):
+    """Stresses, stable steps, failures, stress work and the new state of all elements.
 
     D (12, N): the material derivatives at kin.m (:func:`derivatives`); factors (2, k): Prony decay
-    and gain of the step since the previous pass; BV = V0 B (8, 3, N);
-    hgc = -Q_hg rho V0^(2/3) / 4 (N,); hgwave 0: hourglass wave speed from the isochoric modulus,
-    1: from the full one.
+    and gain of the step since the previous pass; hgc = -Q_hg rho V0^(2/3) / 4 (N,); hgwave 0:
+    hourglass wave speed from the isochoric modulus, 1: from the full one.
+    Returns (P = F S (3, 3, N), c_hg q (4, 3, N), dte, bad, work, new state, summary).
     """
     F, q, J, C, m, Q = kin.F, kin.q, kin.J, kin.C, kin.m, kin.Q
     ne = F.shape[-1]
@@ -171,36 +186,49 @@ def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, gin
     bad = torch.where(inverted, 1, torch.where(nonfinite, 2, 0)).to(torch.int8)
     dte = torch.where(mt_max > 0.0, L / torch.sqrt(mt_max / rho), torch.inf)
     dte = torch.where(failed, torch.inf, dte)
-    # nodal forces: V0 P B_a with P = F S, and the viscous hourglass forces
-    P = F[:, 0, None] * S[None, 0]
-    P.addcmul_(F[:, 1, None], S[None, 1]).addcmul_(F[:, 2, None], S[None, 2])
-    fe = torch.empty((6, 8, ne), dtype=F.dtype, device=F.device)
-    fint, fhg = fe[0:3], fe[3:6]
-    torch.mul(P[:, 0, None], BV[None, :, 0], out=fint)
-    fint.addcmul_(P[:, 1, None], BV[None, :, 1]).addcmul_(P[:, 2, None], BV[None, :, 2])
-    if hg > 0.0:
-        mod = (mi if hgwave == 0 else mt).amax(0)
-        chg = torch.where(mod > 0.0, hgc * torch.sqrt(mod / rho), 0.0)
-        Gc = G * chg
-        torch.mul(q[0, :, None], Gc[None, :, 0], out=fhg)
-        for s in range(1, 4):
-            fhg.addcmul_(q[s, :, None], Gc[None, :, s])
-    else:
-        fhg.zero_()
+    # first Piola-Kirchhoff stress and the hourglass mode forces per unit hourglass vector
+    P = matmul3(F, S)
+    mod = (mi if hgwave == 0 else mt).amax(0)
+    qc = q * torch.where(mod > 0.0, hgc * torch.sqrt(mod / rho), 0.0)
     # stress work (trapezoid in time) and the new state
     E = 0.5 * (C - torch.eye(3, dtype=C.dtype, device=C.device)[:, :, None])
     w = ((state.S + S) * (E - state.E)).sum((0, 1))
     work = 0.5 * (V0 * w).sum()
     dmin, emin = torch.min(dte, 0)
-    arange = torch.arange(ne, device=F.device)
-    first_bad = torch.where(failed, arange, ne).amin()
+    first_bad = torch.where(failed, torch.arange(ne, device=F.device), ne).amin()
     f64 = torch.float64
     summary = torch.stack([dmin.to(f64), emin.to(f64), first_bad.to(f64), work.to(f64),
                            kin.fallback.sum().to(f64)])
-    return Response(fe, dte, bad, work, ElementState(Hn, S0, S, E), summary)
+    return P, qc, dte, bad, work, ElementState(Hn, S0, S, E), summary
 
 
-def scatter(fe: torch.Tensor, idx: torch.Tensor, n: int) -> torch.Tensor:
-    """Nodal sums (6, n) of the element nodal forces fe (6, 8, N) (index_add_ over idx = conn^T)."""
-    out = torch.zeros((6, n), dtype=fe.dtype, device=fe.device)
-    return out.index_add_(1, idx, fe.reshape(6, -1))
+def forces(P: torch.Tensor, qc: torch.Tensor, BV: torch.Tensor, G: torch.Tensor):
+    """Element nodal forces (3, 8, N) each: internal V0 P B_a and hourglass sum_alpha c_hg q_alpha G_a,alpha."""
+    fint = P[:, 0, None] * BV[None, :, 0]
+    fint.addcmul_(P[:, 1, None], BV[None, :, 1]).addcmul_(P[:, 2, None], BV[None, :, 2])
+    fhg = qc[0, :, None] * G[None, :, 0]
+    for s in range(1, 4):
+        fhg.addcmul_(qc[s, :, None], G[None, :, s])
+    return fint, fhg
+
+
+def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf: float, BV, G, L, V0, hgc,
+             rho: float, hgwave: int, stages=None) -> Response:
+    """Stresses, element forces, stable steps, failures and stress work of all elements.
+
+    BV = V0 B (8, 3, N), G (8, 4, N); the other arguments as for :func:`stress`; ``stages`` (a
+    :class:`Stages`) when its stress and forces functions are to be used (compiled ones).
+    """
+    st_fn, f_fn = (stress, forces) if stages is None else (stages.stress, stages.forces)
+    P, qc, dte, bad, work, new, summary = st_fn(kin, D, state, factors, ginf, L, V0, hgc, rho, hgwave)
+    fint, fhg = f_fn(P, qc, BV, G)
+    return Response(fint, fhg, dte, bad, work, new, summary)
+
+
+def scatter(fint: torch.Tensor, fhg: torch.Tensor, idx: torch.Tensor, n: int) -> torch.Tensor:
+    """Nodal sums (6, n): internal (0:3) and hourglass (3:6) forces from the element forces (3, 8, N)
+    each, by ``index_add_`` over idx = conn^T flattened."""
+    out = torch.zeros((6, n), dtype=fint.dtype, device=fint.device)
+    out[0:3].index_add_(1, idx, fint.reshape(3, -1))
+    out[3:6].index_add_(1, idx, fhg.reshape(3, -1))
+    return out

@@ -106,8 +106,9 @@ def resolve_device(device):
     index = int(name.partition(":")[2] or 0)
     if not available or index >= count:
         built = getattr(torch.version, "cuda", None)
+        build = f"with CUDA {built}" if built else "without CUDA (CPU-only build)"
         found = (f"torch.cuda.is_available() = {available}, torch.cuda.device_count() = {count}, "
-                 f"torch {torch.__version__} built {'with CUDA ' + built if built else 'without CUDA (CPU-only build)'}")
+                 f"torch {torch.__version__} built {build}")
         raise InputError(f"torch backend: device = '{name}' was requested but no such CUDA device is usable here "
                          f"({found}); run with device='cpu' (CLI: --device cpu), or install a CUDA build of "
                          f"torch on a machine with an NVIDIA GPU and driver.")

@@ -23,7 +23,7 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
     import torch
 
     from .eigen import eig3_full
-    from .element import derivatives, principal_stresses, prony_update
+    from .element import det_and_cauchy_green, derivatives, matmul3, principal_stresses, prony_update
 
     t, F = check_point_inputs(t, F)
     dev, dt = resolve_device(device), resolve_dtype(dtype)
@@ -35,11 +35,8 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
     gam, tau, ginf = mat.prony(material)
     k = len(gam)
     with torch.inference_mode():
-        Ft = torch.as_tensor(F.transpose(1, 2, 0).copy(), dtype=dt, device=dev)       # (3, 3, n)
-        f = Ft
-        J = (f[0, 0] * (f[1, 1] * f[2, 2] - f[1, 2] * f[2, 1]) - f[0, 1] * (f[1, 0] * f[2, 2] - f[1, 2] * f[2, 0])
-             + f[0, 2] * (f[1, 0] * f[2, 1] - f[1, 1] * f[2, 0]))
-        C = (f[0, :, None] * f[0, None, :]).addcmul(f[1, :, None], f[1, None, :]).addcmul(f[2, :, None], f[2, None, :])
+        f = torch.as_tensor(F.transpose(1, 2, 0).copy(), dtype=dt, device=dev)       # (3, 3, n)
+        J, C = det_and_cauchy_green(f)
         inverted = ~(J > 0.0) | ~torch.isfinite(J)
         Cs = torch.where(inverted, torch.eye(3, dtype=dt, device=dev)[:, :, None], C)
         m, Q = eig3_full(Cs)
@@ -56,9 +53,7 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
             Si, H = prony_update(s0, S_vol[:, :, i:i + 1], H, S0_old, fac[i], ginf)
             S[:, :, i:i + 1] = Si
             S0_old = s0
-        P = (f[:, 0, None] * S[None, 0]).addcmul(f[:, 1, None], S[None, 1]).addcmul(f[:, 2, None], S[None, 2])
-        sig = (P[:, None, 0] * f[None, :, 0]).addcmul(P[:, None, 1], f[None, :, 1]).addcmul(P[:, None, 2], f[None, :, 2])
-        sig = sig * (1.0 / J)
+        sig = matmul3(matmul3(f, S), f.transpose(0, 1)) * (1.0 / J)     # J^-1 F S F^T
         out = torch.stack([sig[0, 0], sig[1, 1], sig[2, 2], sig[0, 1], sig[1, 2], sig[0, 2]], dim=1)
         nonfinite = ~torch.isfinite(D.sum(0)) | ~torch.isfinite(out.sum(1))
         failed = inverted | nonfinite
