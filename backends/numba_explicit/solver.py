@@ -55,25 +55,26 @@ class Prepared:
     nodes: np.ndarray
 
 
-def check_options(options: dict) -> dict:
-    """Options merged over DEFAULTS; unknown names and bad values raise InputError."""
-    unknown = set(options) - set(DEFAULTS)
+def check_options(options: dict, defaults: dict = DEFAULTS, backend: str = "numba") -> dict:
+    """Options merged over ``defaults``; unknown names and bad values of the explicit-solver
+    options shared by the numba and torch backends raise InputError naming ``backend``."""
+    unknown = set(options) - set(defaults)
     if unknown:
-        raise InputError(f"numba backend: unknown option(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(DEFAULTS)}.")
-    o = {**DEFAULTS, **options}
+        raise InputError(f"{backend} backend: unknown option(s) {', '.join(sorted(unknown))}; "
+                         f"allowed: {', '.join(defaults)}.")
+    o = {**defaults, **options}
     if not (o["hourglass"] >= 0.0):
-        raise InputError(f"numba backend: hourglass = {o['hourglass']!r} (-) must be >= 0 (typical 0.05-0.15).")
+        raise InputError(f"{backend} backend: hourglass = {o['hourglass']!r} (-) must be >= 0 (typical 0.05-0.15).")
     if o["hourglass_wave"] not in ("shear", "longitudinal"):
-        raise InputError(f"numba backend: hourglass_wave = {o['hourglass_wave']!r}; use 'shear' or 'longitudinal'.")
+        raise InputError(f"{backend} backend: hourglass_wave = {o['hourglass_wave']!r}; use 'shear' or 'longitudinal'.")
     if not (0.0 < o["safety"] <= 1.0):
-        raise InputError(f"numba backend: safety = {o['safety']!r} (-) must be in (0, 1].")
+        raise InputError(f"{backend} backend: safety = {o['safety']!r} (-) must be in (0, 1].")
     if not (o["dt_max"] > 0.0):
-        raise InputError(f"numba backend: dt_max = {o['dt_max']!r} s must be > 0.")
+        raise InputError(f"{backend} backend: dt_max = {o['dt_max']!r} s must be > 0.")
     if not (0.0 <= o["collapse"] < 1.0):
-        raise InputError(f"numba backend: collapse = {o['collapse']!r} (-) must be in [0, 1).")
+        raise InputError(f"{backend} backend: collapse = {o['collapse']!r} (-) must be in [0, 1).")
     if o["frame_interval"] is not None and not (o["frame_interval"] > 0.0):
-        raise InputError(f"numba backend: frame_interval = {o['frame_interval']!r} s must be > 0 or None.")
+        raise InputError(f"{backend} backend: frame_interval = {o['frame_interval']!r} s must be > 0 or None.")
     return o
 
 

@@ -35,23 +35,9 @@ DEFAULTS = {
 
 def check_options(options: dict) -> dict:
     """Options merged over DEFAULTS; unknown names and bad values raise InputError."""
-    unknown = set(options) - set(DEFAULTS)
-    if unknown:
-        raise InputError(f"torch backend: unknown option(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(DEFAULTS)}.")
-    o = {**DEFAULTS, **options}
-    if not (o["hourglass"] >= 0.0):
-        raise InputError(f"torch backend: hourglass = {o['hourglass']!r} (-) must be >= 0 (typical 0.05-0.15).")
-    if o["hourglass_wave"] not in ("shear", "longitudinal"):
-        raise InputError(f"torch backend: hourglass_wave = {o['hourglass_wave']!r}; use 'shear' or 'longitudinal'.")
-    if not (0.0 < o["safety"] <= 1.0):
-        raise InputError(f"torch backend: safety = {o['safety']!r} (-) must be in (0, 1].")
-    if not (o["dt_max"] > 0.0):
-        raise InputError(f"torch backend: dt_max = {o['dt_max']!r} s must be > 0.")
-    if not (0.0 <= o["collapse"] < 1.0):
-        raise InputError(f"torch backend: collapse = {o['collapse']!r} (-) must be in [0, 1).")
-    if o["frame_interval"] is not None and not (o["frame_interval"] > 0.0):
-        raise InputError(f"torch backend: frame_interval = {o['frame_interval']!r} s must be > 0 or None.")
+    from cfm_backends.numba_explicit.solver import check_options as check_explicit
+
+    o = check_explicit(options, DEFAULTS, "torch")
     if o["threads"] is not None and not (isinstance(o["threads"], int) and o["threads"] >= 1):
         raise InputError(f"torch backend: threads = {o['threads']!r} must be a positive integer or None.")
     if o["newton_block"] is not None and not (isinstance(o["newton_block"], int) and o["newton_block"] >= 1):
