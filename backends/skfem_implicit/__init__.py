@@ -20,13 +20,15 @@ the model's output interval, so histories are recorded at least that often), ``s
 (steps per moving segment of a prescribed motion, default 50), ``grow``, ``grow_iterations``,
 ``cut``, ``max_iterations``, ``rtol``, ``atol`` (N), ``penalty`` (N/m per node; default
 ``penalty_factor`` (1e4) x kappa0 x h, kappa0 the small-strain bulk modulus, h the element size:
-penetration well below 1 % of h), ``linear_solver`` ("auto" | "direct" | "cg"), ``direct_limit``,
+penetration well below 1 % of h), ``penalty_gap`` (default 1e-3 x h: the penalty force rises
+quadratically over this first gap, so it is C^1 and Newton converges through contact changes),
+``linear_solver`` ("auto" | "direct" | "cg"), ``direct_limit``,
 ``separation_time`` (s, default 2e-4), ``frame_interval`` (s), ``max_steps``, ``record_newton``
 (residual sequences in info["newton"]).
 
 Result.info: elements, dofs, linear_solver, volumetric, integrator, element_size (m),
 newton_iterations, rejected_steps, linear_iterations (CG), setup_time (s); with contact: penalty
-(N/m), max_penetration_sphere / max_penetration_plane (m), penetration_ratio (-, over h), separated.
+(N/m), penalty_gap (m), max_penetration_sphere / max_penetration_plane (m), penetration_ratio (-, over h), separated.
 """
 
 from __future__ import annotations

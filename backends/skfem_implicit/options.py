@@ -24,6 +24,7 @@ DEFAULTS = {
     "atol": None,                # absolute residual tolerance (N); None: 1e-10 kappa0 h^2
     "penalty": None,             # contact penalty (N/m per node); None: penalty_factor kappa0 h
     "penalty_factor": 1e4,       # (-), see penalty
+    "penalty_gap": 1e-3,         # (-) x h: the penalty force is C^1, quadratic over this first gap
     "linear_solver": "auto",     # "direct" (SuperLU), "cg" (block-Jacobi CG) or "auto"
     "direct_limit": 6000,        # "auto": direct below this many dofs (or for quasi-static runs)
     "separation_time": 2e-4,     # s after the impactor left the specimen before stopping
@@ -58,6 +59,9 @@ def check_options(options: dict) -> dict:
         _positive(o, key, allow_none=True)
     _positive(o, "penalty", allow_none=True, unit="N/m")
     _positive(o, "atol", allow_none=True, unit="N")
+    if isinstance(o["penalty_gap"], bool) or not isinstance(o["penalty_gap"], (int, float)) or not 0.0 <= o["penalty_gap"] < 0.1:
+        raise InputError(f"skfem backend: penalty_gap = {o['penalty_gap']!r} (-, fraction of the element size) "
+                         f"must be in [0, 0.1); 0 gives the plain (C^0) penalty law.")
     for key in ("penalty_factor", "rtol", "separation_time"):
         _positive(o, key, unit="" if key != "separation_time" else "s")
     r = o["rho_inf"]

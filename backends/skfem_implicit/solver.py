@@ -78,6 +78,7 @@ def run_model(model, progress=None, **options) -> Result:
     sys_ = System(model, o["volumetric"], quasi)
     h = sys_.disc.size
     sys_.penalty = float(o["penalty"]) if o["penalty"] is not None else o["penalty_factor"] * sys_.kappa0 * h
+    sys_.penalty_gap = float(o["penalty_gap"]) * h
     atol = float(o["atol"]) if o["atol"] is not None else 1e-10 * sys_.kappa0 * h * h
     solver = o["linear_solver"]
     if solver == "auto":
@@ -155,7 +156,7 @@ def run_model(model, progress=None, **options) -> Result:
             "integrator": "quasi-static" if quasi else f"generalized-alpha(rho_inf={o['rho_inf']:g})",
             "element_size": h, **stats}
     if sys_.has_w or model.plane is not None:
-        info.update(penalty=sys_.penalty, max_penetration_sphere=rec.pen_s, max_penetration_plane=rec.pen_p,
+        info.update(penalty=sys_.penalty, penalty_gap=sys_.penalty_gap, max_penetration_sphere=rec.pen_s, max_penetration_plane=rec.pen_p,
                     penetration_ratio=max(rec.pen_s, rec.pen_p) / h, separated=separated)
     if o["record_newton"]:
         info["newton"] = newton_log

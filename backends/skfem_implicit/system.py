@@ -79,6 +79,7 @@ class System:
         _, _, d2U = self.mat.volumetric(np.ones(1))
         self.kappa0 = float(d2U[0])  # small-strain bulk modulus of the material (Pa)
         self.penalty = 0.0
+        self.penalty_gap = 0.0
 
     # ------------------------------------------------------------------ evaluation
     def displacement(self, q: np.ndarray) -> np.ndarray:
@@ -100,7 +101,8 @@ class System:
         if self.has_w or (self.plane is not None and self.plane_nodes.size):
             w = float(q[self.w_dof]) if self.has_w else 0.0
             cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
-                                  self.plane_nodes, self.penalty, self.w_dof, tangent=tangent)
+                                  self.plane_nodes, self.penalty, self.w_dof, tangent=tangent,
+                                  g0=self.penalty_gap)
             for dofs, vals in cs.grad:
                 np.add.at(f_c, dofs, vals)
         if tangent:
