@@ -156,6 +156,14 @@ def material_point(f00, f01, f02, f10, f11, f12, f20, f21, f22, p, decay, gain, 
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def first_piola(f00, f01, f02, f10, f11, f12, f20, f21, f22, s00, s11, s22, s01, s12, s02):
+    """P = F S (row-major 9 values, Pa) for F and a symmetric S given by its 6 components."""
+    return (f00 * s00 + f01 * s01 + f02 * s02, f00 * s01 + f01 * s11 + f02 * s12, f00 * s02 + f01 * s12 + f02 * s22,
+            f10 * s00 + f11 * s01 + f12 * s02, f10 * s01 + f11 * s11 + f12 * s12, f10 * s02 + f11 * s12 + f12 * s22,
+            f20 * s00 + f21 * s01 + f22 * s02, f20 * s01 + f21 * s11 + f22 * s12, f20 * s02 + f21 * s12 + f22 * s22)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def point_history(t, F, p, gam, tau, ginf, out):
     """Cauchy stress sigma = J^-1 F S F^T (Pa) along a history F (n, 3, 3) at times t (n,) (s).
 
@@ -187,15 +195,8 @@ def point_history(t, F, p, gam, tau, ginf, out):
         if st != ST_OK:
             return st, n, J, m0, m1, m2
         # P = F S, sigma = P F^T / J
-        p00 = f00 * s00 + f01 * s01 + f02 * s02
-        p01 = f00 * s01 + f01 * s11 + f02 * s12
-        p02 = f00 * s02 + f01 * s12 + f02 * s22
-        p10 = f10 * s00 + f11 * s01 + f12 * s02
-        p11 = f10 * s01 + f11 * s11 + f12 * s12
-        p12 = f10 * s02 + f11 * s12 + f12 * s22
-        p20 = f20 * s00 + f21 * s01 + f22 * s02
-        p21 = f20 * s01 + f21 * s11 + f22 * s12
-        p22 = f20 * s02 + f21 * s12 + f22 * s22
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = first_piola(f00, f01, f02, f10, f11, f12, f20, f21, f22,
+                                                                  s00, s11, s22, s01, s12, s02)
         ij = 1.0 / J
         out[n, 0] = (p00 * f00 + p01 * f01 + p02 * f02) * ij
         out[n, 1] = (p10 * f10 + p11 * f11 + p12 * f12) * ij

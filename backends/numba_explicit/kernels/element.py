@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .constitutive import ST_NONFINITE, ST_OK, material_point
+from .constitutive import ST_NONFINITE, ST_OK, first_piola, material_point
 from .layout import FASTMATH
 # <<< standalone
 
@@ -127,15 +127,8 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             if mod > 0.0:
                 chg = -hg * hgfac[e] * math.sqrt(mod / rho)
         # first Piola-Kirchhoff P = F S; nodal forces V0 P B_a and -c_hg sum_alpha q_alpha G_a,alpha
-        p00 = f00 * s00 + f01 * s01 + f02 * s02
-        p01 = f00 * s01 + f01 * s11 + f02 * s12
-        p02 = f00 * s02 + f01 * s12 + f02 * s22
-        p10 = f10 * s00 + f11 * s01 + f12 * s02
-        p11 = f10 * s01 + f11 * s11 + f12 * s12
-        p12 = f10 * s02 + f11 * s12 + f12 * s22
-        p20 = f20 * s00 + f21 * s01 + f22 * s02
-        p21 = f20 * s01 + f21 * s11 + f22 * s12
-        p22 = f20 * s02 + f21 * s12 + f22 * s22
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = first_piola(f00, f01, f02, f10, f11, f12, f20, f21, f22,
+                                                                  s00, s11, s22, s01, s12, s02)
         vol = V0[e]
         for a in range(8):
             b0 = B[e, a, 0] * vol
