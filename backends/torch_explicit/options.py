@@ -7,26 +7,23 @@ torch itself is imported only by :func:`resolve_device` / :func:`resolve_dtype` 
 
 from __future__ import annotations
 
-import math
 
 from cfm_core.errors import InputError
 
 DEVICES = ("cpu", "cuda")
 DTYPES = ("float64", "float32")
 
+def _explicit_defaults() -> dict:
+    from cfm_backends.numba_explicit.solver import DEFAULTS as explicit
+
+    return explicit
+
+
 DEFAULTS = {
+    **_explicit_defaults(),      # hourglass, safety, dt_max, collapse, ...: the numba backend's, shared
     "device": "cpu",             # "cpu", "cuda" or "cuda:N"
     "dtype": "float64",          # "float64" or "float32" (state, stresses, forces)
-    "hourglass": 0.1,            # Q_hg (-), viscous hourglass coefficient
-    "hourglass_wave": "shear",   # "shear": isochoric wave speed; "longitudinal": full one
-    "safety": 0.9,               # dt = safety * min_e L_e / c_e
-    "dt_max": math.inf,          # upper bound of the step (s)
-    "collapse": 1e-4,            # time-step collapse below this fraction of the first step
-    "separation_time": 2e-4,     # stop this long (s) after the impactor left the specimen
-    "initial_velocity": None,    # (n, 3) nodal velocities at t = 0 (m/s)
-    "frame_interval": None,      # store (t, displacement) every this many seconds
     "threads": None,             # torch intra-op threads (None: 1 below 20000 elements on the CPU, else torch's)
-    "max_steps": 50_000_000,     # guard against runaway runs
     "warm_up": True,             # one element pass before the clock starts (and torch.compile)
     "compile": False,            # False, True or a torch.compile mode ("default", "reduce-overhead", ...)
     "newton_block": None,        # contact Newton iterations between host checks (None: 1 cpu, 4 cuda)
