@@ -11,6 +11,8 @@ from typing import Callable
 
 import numpy as np
 
+from .errors import InputError
+
 
 class Backend:
     """Base class of solver backends.
@@ -27,6 +29,7 @@ class Backend:
     devices: tuple[str, ...] = ("cpu",)
     dtypes: tuple[str, ...] = ("float64",)
     requires: tuple[str, ...] = ()
+    quasi_static: bool = False  # can run scenes without inertia (model.meta["quasi_static"])
 
     def available(self) -> tuple[bool, str]:
         """(True, "") when usable here, else (False, reason). Checks imports without importing."""
@@ -36,6 +39,22 @@ class Backend:
             if importlib.util.find_spec(mod) is None:
                 return False, f"python package '{mod}' is not installed (pip install 'cfm-materials[{self.name}]')"
         return True, ""
+
+    def check_model(self, model) -> None:
+        """InputError when this backend cannot run ``model`` (called by ``run`` before any work).
+
+        Explicit backends need inertia: a quasi-static scene (``model.meta["quasi_static"]``, or
+        density 0) has no stable time step, and its hold times (up to tens of seconds at
+        relaxation times of 10 s) would take billions of explicit steps.
+        """
+        inertia_free = bool(model.meta.get("quasi_static")) or not model.density > 0.0
+        if inertia_free and not self.quasi_static:
+            kinds = "an implicit backend such as 'skfem'"
+            raise InputError(
+                f"backend '{self.name}' ({self.kind}) cannot run the {model.meta.get('scene_type', 'given')} "
+                f"scene '{model.name}': it is quasi-static (no inertia, density = {model.density:g} kg/m^3), "
+                f"and an explicit solver needs mass for its stable step. Run it with {kinds} "
+                f"(cfm run --scene ... --backend skfem).")
 
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
         """Cauchy stress (n, 6) in Pa, order s11, s22, s33, s12, s23, s13, along a history.

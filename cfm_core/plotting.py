@@ -87,3 +87,26 @@ def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = 
     if curves:
         ax.legend(loc="upper left", fontsize=8, framealpha=0.95, edgecolor="0.8", ncols=min(len(curves), 4))
     _save(fig, path)
+
+
+def plot_reaction(path, t, force, title: str) -> None:
+    """Save a PNG of a reaction-force history: t (s), force (N), plotted in ms and N.
+
+    When the history spans more than three decades of time after its first sample (a relaxation
+    hold of seconds after a load of milliseconds), the time axis is logarithmic.
+    """
+    t = _finite_array("t", t, ndim=1)
+    force = _finite_array("reaction_force", force, ndim=1)
+    fig, ax = _figure(title)
+    ax.set_ylabel("Reaction force (N)")
+    ms = 1e3 * t
+    positive = ms > 0.0
+    if positive.sum() > 1 and ms[-1] > 1e3 * ms[positive][0]:
+        ax.set_xscale("log")
+        ms, force = ms[positive], force[positive]
+    k = int(np.argmax(np.abs(force)))
+    ax.plot(ms, force, color=_COLOURS[0], linewidth=2.0,
+            label=f"largest |F| = {abs(force[k]):.4g} N at {ms[k]:.3g} ms; final {force[-1]:.4g} N")
+    ax.plot(ms[k], force[k], "o", color=_COLOURS[0], markersize=4)
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    _save(fig, path)

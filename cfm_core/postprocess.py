@@ -211,7 +211,8 @@ SUMMARY_UNITS = {
     "loading_time": "s", "unloading_time": "s", "t5_start": "s", "t5_end": "s", "steps": "-",
     "elements": "-", "wall_time": "s", "energy_error": "-", "hourglass_ratio": "-", "dt_min": "s",
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
-    "element_size": "m", "velocity": "m/s",
+    "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
+    "final_over_peak": "-", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
 }
 
 
@@ -249,12 +250,18 @@ def summarize(result, model_info: dict) -> dict:
         raise InputError("model_info needs 'impactor_mass' (kg, full impactor mass, e.g. 0.220).")
     rate = float(model_info.get("sample_rate", 50_000.0))
     cfc = float(model_info.get("cfc", 600.0))
-    for name, e in result.energies.items():
-        _finite(f"result.energies[{name!r}]", e)
     t, a_raw, a_cfc = acceleration_histories(result, model_info["impactor_mass"], rate, cfc)
     out = drop_test_metrics(t, a_cfc, a_raw)
-    out.update(steps=int(result.steps), wall_time=float(result.wall_time), backend=str(result.backend),
-               sample_rate=rate, cfc=cfc)
+    out.update(sample_rate=rate, cfc=cfc)
+    return _finish_summary(result, out, model_info)
+
+
+def _finish_summary(result, out: dict, model_info: dict) -> dict:
+    """Add the run's figures (steps, wall time, energies, step sizes, backend) and model_info to
+    ``out``; JSON-able values with their units (the one place both summaries share)."""
+    for name, e in result.energies.items():
+        _finite(f"result.energies[{name!r}]", e)
+    out.update(steps=int(result.steps), wall_time=float(result.wall_time), backend=str(result.backend))
     elements = model_info.get("elements", result.info.get("elements"))
     if elements is not None:
         out["elements"] = int(elements)
@@ -273,3 +280,36 @@ def summarize(result, model_info: dict) -> dict:
     units.update(out.get("units") or {})  # units given in model_info win
     out["units"] = units
     return out
+
+
+def reaction_histories(result, model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Histories of a prescribed-motion scene (single element, relaxation), at the result's times.
+
+    Returns t (s), stretch (-) = 1 + u(t) / size of the prescribed face, reaction force (N, the
+    z force on the prescribed face, negative in compression) and nominal stress (Pa) = force /
+    size^2 (the undeformed face area). NumericalError on a non-finite history.
+    """
+    if result.reaction_force is None or model.prescribed is None:
+        raise InputError(f"scene '{model.name}' has no prescribed motion, so no reaction force; "
+                         f"reaction histories are for single-element and relaxation scenes.")
+    t = _finite("result.t", result.t)
+    force = _finite("result.reaction_force", result.reaction_force)
+    size = float(model.meta["size"])
+    u = np.interp(t, model.prescribed.times, model.prescribed.values)
+    return t, 1.0 + u / size, force, force / size**2
+
+
+def reaction_metrics(t, force) -> dict:
+    """Figures of a reaction-force history t (s), force (N): the largest |force| (N, signed) and
+    when (s), the final force (N), and final / largest (-), the relaxed fraction of a hold."""
+    k = int(np.argmax(np.abs(force)))
+    peak = float(force[k])
+    return {"peak_force": peak, "t_peak_force": float(t[k]), "final_force": float(force[-1]),
+            "final_over_peak": float(force[-1] / peak) if peak != 0.0 else 0.0}
+
+
+def summarize_reaction(result, model, model_info: dict | None = None) -> dict:
+    """Summary of a prescribed-motion run for summary.json: :func:`reaction_metrics`, the run's
+    figures as in :func:`summarize` and model_info (copied; a ``units`` dict is merged)."""
+    t, _, force, _ = reaction_histories(result, model)
+    return _finish_summary(result, reaction_metrics(t, force), dict(model_info or {}))

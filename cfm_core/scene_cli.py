@@ -63,6 +63,7 @@ def add_parser(sub) -> None:
     p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--out", required=True, help="output directory")
+    add_run_parser(sub)
 
 
 def scene_from_args(args):
@@ -85,29 +86,38 @@ def scene_from_args(args):
     return scene.with_overrides(**over) if over else scene
 
 
-def _cmd_drop_test(args) -> int:
-    from . import plotting, simulate, writers
-
-    scene = scene_from_args(args)
+def _out_dir(args) -> Path:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out} exists and is not a directory.")
-    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({args.backend})",
-                        enabled=not args.quiet)
+    return out
+
+
+def _backend_options(args) -> dict:
     options = {}
-    if args.vtu:
+    if getattr(args, "vtu", False):
         options["frame_interval"] = 2e-4
     if args.device is not None:
         options["device"] = args.device
     if args.dtype is not None:
         options["dtype"] = args.dtype
+    return options
+
+
+def _drop_test(args, scene, backend: str) -> int:
+    """Run a drop-test scene and write acceleration.csv, summary.json (last) and the plot."""
+    from . import plotting, simulate, writers
+
+    out = _out_dir(args)
+    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})",
+                        enabled=not args.quiet)
     try:
-        outcome = simulate.drop_test(scene, args.backend, progress=progress, **options)
+        outcome = simulate.drop_test(scene, backend, progress=progress, **_backend_options(args))
     finally:
         progress.close()
     (out / "summary.json").unlink(missing_ok=True)  # an earlier success must not survive a failure
     out.mkdir(parents=True, exist_ok=True)
-    if args.vtu:
+    if getattr(args, "vtu", False):
         writers.write_vtu_series(out, outcome.model.nodes, outcome.model.hexes, outcome.result.frames)
     if not args.no_plot:
         s = outcome.summary
@@ -123,4 +133,77 @@ def _cmd_drop_test(args) -> int:
     return 0
 
 
-COMMANDS = {"drop-test": _cmd_drop_test}
+def _cmd_drop_test(args) -> int:
+    return _drop_test(args, scene_from_args(args), args.backend)
+
+
+def add_run_parser(sub) -> None:
+    from .cli import add_material_options
+
+    p = sub.add_parser("run", help="run any scene (drop-test, single-element, relaxation) on a backend",
+                       description="Run a scene file or a built-in scene (SI units). Drop tests write "
+                                   "acceleration.csv (t s, a_raw and a_cfc600 m/s^2); single-element and "
+                                   "relaxation scenes write reaction.csv (t s, stretch -, reaction_force N, "
+                                   "nominal_stress Pa); both write summary.json (last) and a PNG plot into --out.")
+    p.add_argument("--scene", required=True,
+                   help="scene TOML file, or a built-in scene name (drop-test, single-element, relaxation)")
+    p.add_argument("--backend", default=None,
+                   help="backend name (default: skfem for the quasi-static relaxation scene, numba otherwise)")
+    p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N)")
+    p.add_argument("--dtype", choices=["float64", "float32"], help="floating-point type (torch; default float64)")
+    add_material_options(p, default_material=None)
+    p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--out", required=True, help="output directory")
+
+
+def _scene_for_run(args):
+    from .cli import parse_params
+    from .scene import builtin_scene, builtin_scenes, load_scene
+
+    name = args.scene
+    if not Path(name).exists() and name in builtin_scenes():
+        scene = builtin_scene(name)
+    elif not Path(name).exists():
+        raise InputError(f"--scene {name!r}: no such file, and not a built-in scene "
+                         f"(built-in: {', '.join(builtin_scenes())}).")
+    else:
+        scene = load_scene(name)
+    over = {k: v for k, v in (("material", args.material), ("moduli", args.moduli)) if v is not None}
+    if args.elastic:
+        over["elastic"] = True
+    params = parse_params(args.param)
+    if params:
+        over["parameters"] = params
+    return scene.with_overrides(**over) if over else scene
+
+
+def _cmd_run(args) -> int:
+    from . import plotting, simulate, writers
+
+    scene = _scene_for_run(args)
+    backend = args.backend or simulate.default_backend(scene)
+    if scene.type == "drop-test":
+        args.vtu = False
+        return _drop_test(args, scene, backend)
+    out = _out_dir(args)
+    progress = Progress(scene.end_time, f"{scene.type} ({backend})", enabled=not args.quiet)
+    try:
+        outcome = simulate.reaction_test(scene, backend, progress=progress, **_backend_options(args))
+    finally:
+        progress.close()
+    (out / "summary.json").unlink(missing_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
+    s = outcome.summary
+    if not args.no_plot:
+        title = (f"{scene.type}, stretch {s['stretch']:g}, {s['material']} ({s['moduli']}), {s['backend']}")
+        plotting.plot_reaction(out / "reaction.png", outcome.t, outcome.force, title)
+    writers.write_reaction(out, outcome.t, outcome.stretch, outcome.force, outcome.nominal, s)
+    print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "
+          f"{s['final_force']:.4g} N ({100 * s['final_over_peak']:.2f} % of it); {s['steps']} steps, "
+          f"{s['wall_time']:.2f} s solver")
+    print(f"wrote {out}/reaction.csv, summary.json" + ("" if args.no_plot else ", reaction.png"))
+    return 0
+
+
+COMMANDS = {"drop-test": _cmd_drop_test, "run": _cmd_run}

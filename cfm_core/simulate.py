@@ -30,6 +30,27 @@ class DropTestOutcome:
     summary: dict
 
 
+@dataclass
+class ReactionOutcome:
+    """A finished prescribed-motion run (single element, relaxation): the model, the raw result,
+    t (s), stretch (-), reaction force (N, negative in compression), nominal stress (Pa) and
+    the summary."""
+
+    model: object
+    result: object
+    t: np.ndarray
+    stretch: np.ndarray
+    force: np.ndarray
+    nominal: np.ndarray
+    summary: dict
+
+
+def default_backend(scene) -> str:
+    """The backend a scene runs on when none is named: 'skfem' for quasi-static scenes
+    (relaxation: no inertia, holds of seconds), 'numba' otherwise."""
+    return "skfem" if scene.type == "relaxation" else "numba"
+
+
 def backend_for(name: str):
     """An available backend instance, or InputError naming why it cannot run here."""
     backend = get_backend(name)
@@ -67,3 +88,22 @@ def drop_test(scene, backend: str = "numba", progress=None, **options) -> DropTe
             info[key] = result.info[key]
     summary = postprocess.summarize(result, info)
     return DropTestOutcome(model, result, t, a_raw, a_cfc, summary)
+
+
+def reaction_test(scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:
+    """Run a single-element or relaxation scene; reaction-force histories and their summary."""
+    if scene.type not in ("single-element", "relaxation"):
+        raise InputError(f"scene type is '{scene.type}'; reaction_test needs a 'single-element' or "
+                         f"'relaxation' scene (drop tests: drop_test).")
+    backend = backend or default_backend(scene)
+    model = build_model(scene)
+    result = run_model(model, backend, progress, **options)
+    t, stretch, force, nominal = postprocess.reaction_histories(result, model)
+    meta = model.meta
+    info = {k: meta[k] for k in ("scene_type", "size", "stretch", "load_time", "hold", "rate", "lateral")
+            if k in meta}
+    info.update(material=model.material.name, moduli=model.material.moduli, elastic=model.material.elastic,
+                parameters=dict(model.material.values), elements=model.n_elements)
+    info["units"] = {"parameters": "SI (Pa, s, -)"}
+    summary = postprocess.summarize_reaction(result, model, info)
+    return ReactionOutcome(model, result, t, stretch, force, nominal, summary)

@@ -21,6 +21,7 @@ from .errors import InputError, NumericalError
 
 #: Units of the acceleration.csv columns, merged into summary.json["units"].
 DROP_TEST_COLUMN_UNITS = {"t": "s", "a_raw": "m/s^2", "a_cfc600": "m/s^2"}
+REACTION_COLUMN_UNITS = {"t": "s", "stretch": "-", "reaction_force": "N", "nominal_stress": "Pa"}
 
 
 def atomic_write(path, write: Callable[[str], None]) -> Path:
@@ -119,26 +120,39 @@ def write_json(path, data) -> Path:
     return atomic_write(path, write)
 
 
-def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
-    """Write ``acceleration.csv`` (header ``t,a_raw,a_cfc600``) then ``summary.json`` in ``out_dir``.
+def write_history(out_dir, filename: str, column_units: dict, columns: list, summary: dict) -> Path:
+    """Write ``filename`` (CSV, header = the keys of column_units) then ``summary.json`` in out_dir.
 
-    t (s), a_raw and a_cfc (m/s^2) are equal-length 1-D arrays; summary is a JSON-able dict. The
-    column units are added to summary["units"]. A stale summary.json is removed first and the new
-    one is written last, so its presence means the run's output is complete. Returns out_dir.
+    columns: equal-length 1-D arrays in the order of column_units ({name: SI unit}); summary is a
+    JSON-able dict, to which the column units are added under "units". Both are checked before
+    the disk is touched; a stale summary.json is removed first and the new one is written last,
+    so its presence means the run's output is complete. Returns out_dir.
     """
     out = Path(out_dir)
-    arrays = [_finite_array(n, a, ndim=1) for n, a in (("t", t), ("a_raw", a_raw), ("a_cfc600", a_cfc))]
+    arrays = [_finite_array(n, a, ndim=1) for n, a in zip(column_units, columns)]
     summary = dict(summary)
-    summary["units"] = {**DROP_TEST_COLUMN_UNITS, **dict(summary.get("units") or {})}
+    summary["units"] = {**column_units, **dict(summary.get("units") or {})}
     try:  # check the summary before touching the disk
         json.dumps(summary, allow_nan=False, default=_json_default)
     except ValueError as exc:
         raise NumericalError(f"refusing to write summary.json: {exc} (NaN or inf in the summary).") from None
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").unlink(missing_ok=True)
-    write_csv(out / "acceleration.csv", list(DROP_TEST_COLUMN_UNITS), arrays)
+    write_csv(out / filename, list(column_units), arrays)
     write_json(out / "summary.json", summary)
     return out
+
+
+def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
+    """``acceleration.csv`` (``t,a_raw,a_cfc600``: s, m/s^2, m/s^2) and summary.json; see
+    :func:`write_history`."""
+    return write_history(out_dir, "acceleration.csv", DROP_TEST_COLUMN_UNITS, [t, a_raw, a_cfc], summary)
+
+
+def write_reaction(out_dir, t, stretch, force, nominal, summary: dict) -> Path:
+    """``reaction.csv`` (``t,stretch,reaction_force,nominal_stress``: s, -, N, Pa) of a
+    prescribed-motion scene and summary.json; see :func:`write_history`."""
+    return write_history(out_dir, "reaction.csv", REACTION_COLUMN_UNITS, [t, stretch, force, nominal], summary)
 
 
 def write_vtu_series(out_dir, nodes, hexes, frames) -> Path:

@@ -67,6 +67,7 @@ class NumbaExplicitBackend(Backend):
         """
         from .solver import run_model
 
+        self.check_model(model)
         return run_model(model, progress, **options)
 
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:

@@ -46,6 +46,7 @@ class SkfemImplicitBackend(Backend):
 
     name = "skfem"
     kind = "implicit"
+    quasi_static = True
     description = ("implicit total Lagrangian hex8 (2x2x2 Gauss, mean dilatation), Newton with the "
                    "consistent tangent, Newmark or quasi-static, adaptive steps, penalty contact; scikit-fem")
     needs_tangent = True
@@ -62,6 +63,7 @@ class SkfemImplicitBackend(Backend):
         """
         from .solver import run_model
 
+        self.check_model(model)
         return run_model(model, progress, **options)
 
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:

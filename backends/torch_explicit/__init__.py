@@ -55,6 +55,7 @@ class TorchExplicitBackend(Backend):
         """
         from .solver import run_model
 
+        self.check_model(model)
         return run_model(model, progress, **options)
 
     def point(self, material, t: np.ndarray, F: np.ndarray, *, device: str = "cpu",

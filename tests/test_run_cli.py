@@ -1,0 +1,96 @@
+"""``cfm run``: any scene on any backend; reaction-force outputs; explicit backends refuse
+quasi-static scenes with a clear message."""
+
+import json
+
+import numpy as np
+import pytest
+
+from cfm_core.builder import build_model
+from cfm_core.cli import main
+from cfm_core.errors import InputError
+from cfm_core.point import uniaxial
+from cfm_core.registry import get_backend
+from cfm_core.scene import builtin_scene, scene_to_toml
+
+
+def _read(path):
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    return header, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+
+
+@pytest.mark.parametrize("backend", ["numba", "torch"])
+def test_explicit_backends_refuse_quasi_static_scene(backend, tmp_path, capsys):
+    pytest.importorskip(backend)
+    m = build_model(builtin_scene("relaxation"))
+    with pytest.raises(InputError, match=rf"backend '{backend}' \(explicit\) cannot run the relaxation scene.*skfem"):
+        get_backend(backend).run(m)
+    out = tmp_path / "rx"
+    assert main(["run", "--scene", "relaxation", "--backend", backend, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "quasi-static" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_run_relaxation_writes_reaction_history(tmp_path):
+    """Default backend for the relaxation scene is skfem; reaction.csv against the uniaxial driver."""
+    pytest.importorskip("skfem")
+    sc = builtin_scene("relaxation").with_overrides(hold=2.0, output_rate=20.0)
+    path = tmp_path / "rx.toml"
+    path.write_text(scene_to_toml(sc))
+    out = tmp_path / "out"
+    assert main(["run", "--scene", str(path), "--out", str(out), "--quiet"]) == 0
+    header, data = _read(out / "reaction.csv")
+    assert header == ["t", "stretch", "reaction_force", "nominal_stress"]
+    t, lam, force, nominal = data.T
+    s = json.loads((out / "summary.json").read_text())
+    assert s["backend"] == "skfem" and s["units"]["reaction_force"] == "N" and s["units"]["t"] == "s"
+    assert (out / "reaction.png").stat().st_size > 1000
+    rx = sc.relaxation
+    np.testing.assert_allclose(nominal, force / rx.size**2, rtol=1e-12)
+    np.testing.assert_allclose(lam[t >= rx.load_time], rx.stretch, rtol=1e-12)
+    # independent truth: the uniaxial material-point driver with the same ramp, then the hold
+    tu, _, P, _ = uniaxial(build_model(sc).material, abs(rx.stretch - 1) / rx.load_time, rx.stretch,
+                           steps=50, hold=rx.hold)
+    for tc in (rx.load_time, rx.load_time + rx.hold):
+        ref = float(np.interp(tc, tu, P)) * rx.size**2
+        assert abs(np.interp(tc, t, force) - ref) < 1e-3 * abs(P).max() * rx.size**2
+    assert s["peak_force"] == pytest.approx(force[np.argmax(np.abs(force))])
+    assert 0.0 < s["final_over_peak"] < 1.0  # the held force relaxes
+
+
+def test_single_element_numba_against_skfem(tmp_path):
+    """Same single-element scene on the explicit and the implicit backend: reaction force within
+    1 % of its largest value (the explicit element rings about the quasi-static path)."""
+    pytest.importorskip("skfem")
+    pytest.importorskip("numba")
+    hist = {}
+    for backend in ("numba", "skfem"):
+        out = tmp_path / backend
+        assert main(["run", "--scene", "single-element", "--backend", backend, "--out", str(out),
+                     "--quiet", "--no-plot"]) == 0
+        hist[backend] = _read(out / "reaction.csv")[1]
+        assert not (out / "reaction.png").exists()
+    n, s = hist["numba"], hist["skfem"]
+    fs = np.interp(n[:, 0], s[:, 0], s[:, 2])
+    err = np.abs(n[:, 2] - fs).max() / np.abs(fs).max()
+    print(f"single element, numba vs skfem reaction force: max difference {err:.2e} of the peak")
+    assert err < 1e-2
+
+
+def test_run_bad_scene_name(tmp_path, capsys):
+    assert main(["run", "--scene", "no-such-scene", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "no-such-scene" in err and "relaxation" in err and "Traceback" not in err
+
+
+def test_run_drop_test_scene_matches_drop_test_command(tmp_path):
+    pytest.importorskip("numba")
+    over = dict(thickness=0.005, element_size=0.0025, width=0.02)
+    path = tmp_path / "d.toml"
+    path.write_text(scene_to_toml(builtin_scene("drop-test").with_overrides(**over)))
+    a, b = tmp_path / "run", tmp_path / "drop"
+    assert main(["run", "--scene", str(path), "--out", str(a), "--quiet", "--no-plot"]) == 0
+    assert main(["drop-test", "--scene", str(path), "--out", str(b), "--quiet", "--no-plot"]) == 0
+    np.testing.assert_array_equal(_read(a / "acceleration.csv")[1], _read(b / "acceleration.csv")[1])
