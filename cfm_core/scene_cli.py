@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import compare
 from .errors import InputError
 
 
@@ -64,6 +65,7 @@ def add_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--out", required=True, help="output directory")
     add_run_parser(sub)
+    compare.add_parser(sub)
 
 
 def scene_from_args(args):
@@ -206,4 +208,4 @@ def _cmd_run(args) -> int:
     return 0
 
 
-COMMANDS = {"drop-test": _cmd_drop_test, "run": _cmd_run}
+COMMANDS = {"drop-test": _cmd_drop_test, "run": _cmd_run, "compare": compare.cmd_compare}

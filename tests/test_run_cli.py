@@ -60,7 +60,7 @@ def test_run_relaxation_writes_reaction_history(tmp_path):
     assert 0.0 < s["final_over_peak"] < 1.0  # the held force relaxes
 
 
-def test_single_element_numba_against_skfem(tmp_path):
+def test_single_element_numba_against_skfem(tmp_path, capsys):
     """Same single-element scene on the explicit and the implicit backend: reaction force within
     1 % of its largest value (the explicit element rings about the quasi-static path)."""
     pytest.importorskip("skfem")
@@ -77,6 +77,23 @@ def test_single_element_numba_against_skfem(tmp_path):
     err = np.abs(n[:, 2] - fs).max() / np.abs(fs).max()
     print(f"single element, numba vs skfem reaction force: max difference {err:.2e} of the peak")
     assert err < 1e-2
+    # cfm compare reads both directories back and reports the same comparison
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "skfem"), str(tmp_path / "numba"), "--json", str(tmp_path / "c.json"),
+                 "--plot", str(tmp_path / "c.png")]) == 0
+    row = json.loads((tmp_path / "c.json").read_text())["rows"][0]
+    grid = np.linspace(max(n[0, 0], s[0, 0]), min(n[-1, 0], s[-1, 0]), 2001)
+    l2 = np.linalg.norm(np.interp(grid, *n[:, [0, 2]].T) - np.interp(grid, *s[:, [0, 2]].T)) / np.linalg.norm(
+        np.interp(grid, *s[:, [0, 2]].T))
+    assert row["rel_l2"] == pytest.approx(l2, rel=0.05) and row["run"] == "numba (numba)"
+    assert "rel L2" in capsys.readouterr().out and (tmp_path / "c.png").stat().st_size > 1000
+
+
+def test_compare_bad_input(tmp_path, capsys):
+    (tmp_path / "half").mkdir()
+    (tmp_path / "half" / "acceleration.csv").write_text("t,a_raw,a_cfc600\n0,0,0\n")
+    assert main(["compare", str(tmp_path / "half"), str(tmp_path / "half")]) == 2
+    assert "no summary.json" in capsys.readouterr().err
 
 
 def test_run_bad_scene_name(tmp_path, capsys):
