@@ -11,6 +11,7 @@ difference (s). Tolerances are per pair of backend kinds (:data:`TOLERANCES`).
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -93,11 +94,67 @@ def point_agreement(point_rows, material_names=("cfm",)) -> list[dict]:
     return rows
 
 
-def scene_agreement(label: str, scene, run_rows, cache) -> tuple[list[dict], dict]:
-    """Every pair of backends on one scene. Returns (rows, runs {backend: run dict})."""
-    runs = {b["name"]: cache.run(scene, b["name"]) for b in run_rows}
+class Budget:
+    """Solver time (s) each backend may spend on the scene checks of one suite, with a cost estimate.
+
+    A drop test's cost scales with its elements times its duration (thickness / velocity, the
+    step being set by the element size): a run is estimated from the backend's previous drop test
+    as ``total x (elements / previous elements) x (thickness / previous thickness) x (previous
+    velocity / velocity)``. The first run of a backend is never skipped (nothing to estimate from).
+    """
+
+    def __init__(self, seconds: float = math.inf):
+        self.seconds = float(seconds)
+        self.spent: dict[str, float] = {}
+        self.last: dict[str, tuple] = {}
+
+    @staticmethod
+    def _size(scene):
+        if scene.type != "drop-test":
+            return None
+        from cfm_core.builder import build_model  # meshing only: cheap next to a run
+
+        return (build_model(scene).n_elements, scene.specimen.thickness, scene.impactor.velocity)
+
+    def estimate(self, backend: str, scene) -> float:
+        size, last = self._size(scene), self.last.get(backend)
+        if size is None or last is None:
+            return 0.0
+        (n0, h0, v0), total = last
+        n, h, v = size
+        return total * (n / n0) * (h / h0) * (v0 / v)
+
+    def allows(self, backend: str, scene) -> tuple[bool, str]:
+        guess, spent = self.estimate(backend, scene), self.spent.get(backend, 0.0)
+        if spent + guess <= self.seconds:
+            return True, ""
+        return False, (f"skipped: estimated {guess:.0f} s would exceed the budget of {self.seconds:g} s of "
+                       f"scene runs per backend ({spent:.0f} s spent; raise it with cfm verify --budget)")
+
+    def record(self, backend: str, scene, run: dict) -> None:
+        self.spent[backend] = self.spent.get(backend, 0.0) + float(run["total"])
+        size = self._size(scene)
+        if size is not None and run["ok"]:
+            self.last[backend] = (size, float(run["total"]))
+
+
+def scene_agreement(label: str, scene, run_rows, cache, budget: Budget | None = None) -> tuple[list[dict], dict]:
+    """Every pair of backends on one scene. Returns (rows, runs {backend: run dict}).
+
+    With a :class:`Budget`, a backend whose run would exceed it is listed as skipped (a row with
+    verdict n/a naming the estimate), not run and not failed.
+    """
+    budget = budget or Budget()
+    runs, rows = {}, []
+    for b in run_rows:
+        ok, why = budget.allows(b["name"], scene)
+        if not ok:
+            rows.append({**_row(label, label, b["name"], b["name"], "explicit-implicit"), "pair": "run",
+                         "passed": None, "error": why})
+            continue
+        runs[b["name"]] = cache.run(scene, b["name"])
+        budget.record(b["name"], scene, runs[b["name"]])
     kinds = {b["name"]: b["kind"] for b in run_rows}
-    rows = []
     for name, r in runs.items():
         if not r["ok"]:
             rows.append({**_row(label, label, name, name, "explicit-implicit"), "pair": "run",
