@@ -73,7 +73,7 @@ def discretize(nodes: np.ndarray, hexes: np.ndarray, density: float, intorder: i
         raise InputError(f"element {e} has a non-positive Jacobian at a Gauss point: it is inverted, "
                          f"degenerate or its nodes are not in VTK hexahedron order.")
     dN = np.stack([basis.basis[a][0].grad.transpose(1, 2, 0) for a in range(8)], axis=2)
-    N = np.stack([basis.basis[a][0].value for a in range(8)], axis=2)  # (E, Q, 8)
+    N = np.stack([np.asarray(basis.basis[a][0]) for a in range(8)], axis=2)  # (E, Q, 8)
     volume = w.sum(axis=1)
     mass = np.zeros(nodes.shape[0])
     np.add.at(mass, conn, float(density) * np.einsum("eq,eqa->ea", w, N))
