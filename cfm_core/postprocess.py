@@ -212,7 +212,8 @@ SUMMARY_UNITS = {
     "elements": "-", "wall_time": "s", "energy_error": "-", "hourglass_ratio": "-", "dt_min": "s",
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
     "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
-    "final_over_peak": "-", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
+    "final_over_peak": "-", "compile_time": "s", "hourglass_coefficient": "-", "newton_iterations": "-",
+    "rejected_steps": "-", "penetration_ratio": "- (largest penetration / element size)", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
 }
 
 

@@ -83,7 +83,7 @@ def drop_test(scene, backend: str = "numba", progress=None, **options) -> DropTe
         "units": {"thickness": "m", "element_size": "m", "velocity": "m/s", "elements_modelled": "-",
                   "parameters": "SI (Pa, s, -)"},
     }
-    for key in ("compile_time", "hourglass_coefficient"):
+    for key in ("compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio"):
         if key in result.info:
             info[key] = result.info[key]
     summary = postprocess.summarize(result, info)
