@@ -111,3 +111,18 @@ def test_run_drop_test_scene_matches_drop_test_command(tmp_path):
     assert main(["run", "--scene", str(path), "--out", str(a), "--quiet", "--no-plot"]) == 0
     assert main(["drop-test", "--scene", str(path), "--out", str(b), "--quiet", "--no-plot"]) == 0
     np.testing.assert_array_equal(_read(a / "acceleration.csv")[1], _read(b / "acceleration.csv")[1])
+
+
+def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path):
+    """`cfm drop-test --backend skfem` writes the files every backend writes (8-element specimen)."""
+    pytest.importorskip("skfem")
+    path = tmp_path / "tiny.toml"
+    path.write_text(scene_to_toml(builtin_scene("drop-test").with_overrides(width=0.01, thickness=0.005,
+                                                                           element_size=0.0025)))
+    out = tmp_path / "skfem"
+    assert main(["drop-test", "--scene", str(path), "--backend", "skfem", "--out", str(out), "--quiet"]) == 0
+    header, data = _read(out / "acceleration.csv")
+    s = json.loads((out / "summary.json").read_text())
+    assert header == ["t", "a_raw", "a_cfc600"] and np.isfinite(data).all()
+    assert s["backend"] == "skfem" and s["newton_iterations"] >= s["steps"] and s["peak_g"] > 0
+    assert s["units"]["newton_iterations"] == "-" and (out / "acceleration.png").exists()
