@@ -107,6 +107,7 @@ class Budget:
         self.seconds = float(seconds)
         self.spent: dict[str, float] = {}
         self.last: dict[str, tuple] = {}
+        self._counted: set[int] = set()
 
     @staticmethod
     def _size(scene):
@@ -132,6 +133,9 @@ class Budget:
                        f"scene runs per backend ({spent:.0f} s spent; raise it with cfm verify --budget)")
 
     def record(self, backend: str, scene, run: dict) -> None:
+        if id(run) in self._counted:  # a cached run shared by two checks costs once
+            return
+        self._counted.add(id(run))
         self.spent[backend] = self.spent.get(backend, 0.0) + float(run["total"])
         size = self._size(scene)
         if size is not None and run["ok"]:

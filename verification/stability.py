@@ -57,7 +57,12 @@ def _scene_verdict(run, kind) -> tuple[str, bool]:
     return f"FAILURE ({run['status']}): {run['message']}", False
 
 
-def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3) -> list[dict]:
+def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3, budget=None) -> list[dict]:
+    """Every scene case on every backend that can run scenes; with an :class:`.agreement.Budget`
+    (shared with the agreement runs), a run estimated to exceed it is listed as skipped (n/a)."""
+    from .agreement import Budget
+
+    budget = budget or Budget()
     rows = []
     by_name = {b["name"]: b for b in inventory}
     runners = [b for b in inventory if b["status"] == "available" and b["can_run"]]
@@ -66,11 +71,16 @@ def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3) -> list[
                                                                       "reason": "", "can_run": False}]
         for b in targets:
             row = {"case": name, "kind": "scene", "backend": b["name"], "options": options}
-            if b["status"] != "available" or not b.get("can_run"):
+            usable = b["status"] == "available" and b.get("can_run")
+            allowed, why = budget.allows(b["name"], scene) if usable else (False, "")
+            if not usable:
                 row.update(verdict=f"not run: backend '{b['name']}' is {b['status']}"
                            f"{': ' + b['reason'] if b['reason'] else ''}", passed=None)
+            elif not allowed:
+                row.update(verdict=why, passed=None)
             else:
                 run = cache.run(scene, b["name"], **options)
+                budget.record(b["name"], scene, run)
                 row["verdict"], row["passed"] = _scene_verdict(run, b["kind"])
                 row.update(wall=run["total"], energy_error=run["energy_error"] if run["ok"] else None,
                            peak_g=(run["summary"] or {}).get("peak_g"))

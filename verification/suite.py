@@ -48,8 +48,8 @@ def _scenes(mode: str):
 def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=print, budget: float | None = None) -> dict:
     """Run the suite and write the report; returns the report dict (``report["passed"]``).
 
-    budget (s): solver time per backend for the scene agreement runs and, separately, for the
-    work-precision runs (default: the mode's, 20 s quick, 3600 s full); runs estimated to exceed
+    budget (s): solver time per backend for the scene runs (agreement and stability cases) and,
+    separately, for the work-precision runs (default: the mode's, 20 s quick, 3600 s full); runs estimated to exceed
     it are listed as skipped with the estimate."""
     from cfm_core.errors import InputError
 
@@ -96,7 +96,8 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     wp = timed("work-precision", lambda: [workprecision.study(label, sc, MODES[mode]["wp_sizes"], inv, cache,
                                                               wp_budget) for label, sc in wp_scenes])
     stab = timed("stability", lambda: stability.run_point_cases(inv) + stability.run_scene_cases(base, inv, cache,
-                                                                                          MODES[mode]["thin_element"]))
+                                                                                          MODES[mode]["thin_element"],
+                                                                                          scene_budget))
     from cfm_core import registry
 
     drucker = timed("Drucker stability map", lambda: _drucker_all(registry, stability_map))
