@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -70,16 +69,18 @@ def add_parser(sub) -> None:
 
 def scene_from_args(args):
     """The scene of ``cfm drop-test`` with the command-line overrides applied."""
-    from .cli import parse_params
     from .scene import builtin_scene, load_scene
 
     scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
-    over = {}
-    for key, value in (("thickness", args.thickness), ("element_size", args.element_size),
-                       ("velocity", args.velocity), ("friction", args.friction), ("symmetry", args.symmetry),
-                       ("material", args.material), ("moduli", args.moduli)):
-        if value is not None:
-            over[key] = value
+    return _apply_overrides(scene, args, ("thickness", "element_size", "velocity", "friction", "symmetry"))
+
+
+def _apply_overrides(scene, args, keys=()):
+    """The scene with the command line's material options and the given scene keys applied
+    (options left at None change nothing)."""
+    from .cli import parse_params
+
+    over = {k: getattr(args, k) for k in (*keys, "material", "moduli") if getattr(args, k) is not None}
     if args.elastic:
         over["elastic"] = True
     params = parse_params(args.param)
@@ -160,7 +161,6 @@ def add_run_parser(sub) -> None:
 
 
 def _scene_for_run(args):
-    from .cli import parse_params
     from .scene import builtin_scene, builtin_scenes, load_scene
 
     name = args.scene
@@ -171,13 +171,7 @@ def _scene_for_run(args):
                          f"(built-in: {', '.join(builtin_scenes())}).")
     else:
         scene = load_scene(name)
-    over = {k: v for k, v in (("material", args.material), ("moduli", args.moduli)) if v is not None}
-    if args.elastic:
-        over["elastic"] = True
-    params = parse_params(args.param)
-    if params:
-        over["parameters"] = params
-    return scene.with_overrides(**over) if over else scene
+    return _apply_overrides(scene, args)
 
 
 def _cmd_run(args) -> int:

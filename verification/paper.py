@@ -13,7 +13,6 @@ part; unloading shorter than loading.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 G0 = 9.80665
