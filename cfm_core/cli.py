@@ -116,15 +116,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
     p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
     p.add_argument("--out", required=True, help="output CSV (t,s11,s22,s33,s12,s23,s13 in s and Pa; or t,stretch,nominal_stress,lateral_stretch)")
-    from . import scene_cli
+    from . import scene_cli, study_cli
 
     scene_cli.add_parser(sub)
+    study_cli.add_parser(sub)
     v = sub.add_parser("verify", help="cross-backend verification suite: agreement, work-precision, stability, "
                                       "paper comparison; writes report.md, report.json and PNGs; exit 1 if a check fails")
     mode = v.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true", help="small scenes, CI-sized (default)")
     mode.add_argument("--full", action="store_true", help="full-size drop tests at 5-8 mm, meshes down to 0.5 mm")
     v.add_argument("--backends", default=None, metavar="NAME,...", help="only these backends (default: all installed)")
+    v.add_argument("--budget", type=float, default=None, metavar="SECONDS",
+                   help="solver time per backend for the scene runs and for the work-precision runs, s "
+                        "(default 600/20 quick, 3600/3600 full); runs estimated to exceed it are listed as skipped")
     v.add_argument("--out", required=True, help="output directory for report.md, report.json and figures")
     return parser
 
@@ -141,9 +145,9 @@ COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cm
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from . import scene_cli
+    from . import scene_cli, study_cli
 
-    handler = COMMANDS.get(args.command) or scene_cli.COMMANDS[args.command]
+    handler = COMMANDS.get(args.command) or {**scene_cli.COMMANDS, **study_cli.COMMANDS}[args.command]
     try:
         return handler(args)
     except InputError as exc:
