@@ -49,12 +49,11 @@ class Backend:
         """
         inertia_free = bool(model.meta.get("quasi_static")) or not model.density > 0.0
         if inertia_free and not self.quasi_static:
-            kinds = "an implicit backend such as 'skfem'"
             raise InputError(
                 f"backend '{self.name}' ({self.kind}) cannot run the {model.meta.get('scene_type', 'given')} "
                 f"scene '{model.name}': it is quasi-static (no inertia, density = {model.density:g} kg/m^3), "
-                f"and an explicit solver needs mass for its stable step. Run it with {kinds} "
-                f"(cfm run --scene ... --backend skfem).")
+                f"and an explicit solver needs mass for its stable step. Run it with an implicit backend such as "
+                f"'skfem' (cfm run --scene ... --backend skfem).")
 
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
         """Cauchy stress (n, 6) in Pa, order s11, s22, s33, s12, s23, s13, along a history.

@@ -309,8 +309,8 @@ def reaction_metrics(t, force) -> dict:
             "final_over_peak": float(force[-1] / peak) if peak != 0.0 else 0.0}
 
 
-def summarize_reaction(result, model, model_info: dict | None = None) -> dict:
-    """Summary of a prescribed-motion run for summary.json: :func:`reaction_metrics`, the run's
-    figures as in :func:`summarize` and model_info (copied; a ``units`` dict is merged)."""
-    t, _, force, _ = reaction_histories(result, model)
+def summarize_reaction(result, t, force, model_info: dict | None = None) -> dict:
+    """Summary of a prescribed-motion run for summary.json: :func:`reaction_metrics` of t (s) and
+    force (N) from :func:`reaction_histories`, the run's figures as in :func:`summarize` and
+    model_info (copied; a ``units`` dict is merged)."""
     return _finish_summary(result, reaction_metrics(t, force), dict(model_info or {}))

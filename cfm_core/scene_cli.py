@@ -180,7 +180,6 @@ def _cmd_run(args) -> int:
     scene = _scene_for_run(args)
     backend = args.backend or simulate.default_backend(scene)
     if scene.type == "drop-test":
-        args.vtu = False
         return _drop_test(args, scene, backend)
     out = _out_dir(args)
     progress = Progress(scene.end_time, f"{scene.type} ({backend})", enabled=not args.quiet)

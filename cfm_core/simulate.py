@@ -105,5 +105,5 @@ def reaction_test(scene, backend: str | None = None, progress=None, **options) -
     info.update(material=model.material.name, moduli=model.material.moduli, elastic=model.material.elastic,
                 parameters=dict(model.material.values), elements=model.n_elements)
     info["units"] = {"parameters": "SI (Pa, s, -)"}
-    summary = postprocess.summarize_reaction(result, model, info)
+    summary = postprocess.summarize_reaction(result, t, force, info)
     return ReactionOutcome(model, result, t, stretch, force, nominal, summary)

@@ -11,6 +11,7 @@ difference (s). Tolerances are per pair of backend kinds (:data:`TOLERANCES`).
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 import numpy as np
@@ -108,14 +109,20 @@ class Budget:
         self.spent: dict[str, float] = {}
         self.last: dict[str, tuple] = {}
         self._counted: set[int] = set()
+        self._sizes: dict[str, tuple] = {}
 
-    @staticmethod
-    def _size(scene):
+    def _size(self, scene):
+        """(elements, thickness m, velocity m/s) of a drop-test scene, None otherwise; meshed once
+        per scene (allows and record ask for the same scene)."""
         if scene.type != "drop-test":
             return None
-        from cfm_core.builder import build_model  # meshing only: cheap next to a run
+        from cfm_core.builder import build_model
+        from cfm_core.scene import scene_to_dict
 
-        return (build_model(scene).n_elements, scene.specimen.thickness, scene.impactor.velocity)
+        key = json.dumps(scene_to_dict(scene), sort_keys=True, default=str)
+        if key not in self._sizes:
+            self._sizes[key] = (build_model(scene).n_elements, scene.specimen.thickness, scene.impactor.velocity)
+        return self._sizes[key]
 
     def estimate(self, backend: str, scene) -> float:
         size, last = self._size(scene), self.last.get(backend)
