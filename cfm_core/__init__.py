@@ -1,22 +1,34 @@
 """cfm_core: backend-neutral core of the circular fiber model (CFM) framework.
 
-Materials are defined once (energy terms of the isochoric principal stretches, a volumetric term
-of J, an optional Prony series); backends (numba, torch, scikit-fem) obtain energy, stress and
-tangent from that single definition. SI units everywhere: m, s, kg, Pa.
+``import cfm_core as cfm`` gives the whole user API; the subpackages follow the flow of a run
+(docs/architecture.md):
+
+- :mod:`cfm_core.material`: energy terms, material specs, Prony series, generated code;
+- :mod:`cfm_core.scene`: TOML scenes, meshes and the model builder;
+- :mod:`cfm_core.simulation`: backends, their registry, results, the material-point driver;
+- :mod:`cfm_core.post`: histories, the SAE J211 filter, metrics, summaries, files and plots;
+- :mod:`cfm_core.runs`: a scene run end to end (drop test, reaction test);
+- :mod:`cfm_core.studies`: sweeps and calibrations;
+- :mod:`cfm_core.cli`: the ``cfm`` command.
+
+SI units everywhere: m, s, kg, Pa.
 """
 
+from . import plugins
 from .errors import InputError, NumericalError
-from .material import Material, MaterialSpec, make_material
-from .parameters import Parameter, nonnegative, positive
-from .prony import PronySeries
-from .registry import (get_backend, get_material, get_term, refresh, register_backend, register_material,
-                       register_term)
-from .terms import Term, isochoric, volumetric
+from .material import (Material, MaterialSpec, Parameter, PronySeries, Term, get_material, get_term, isochoric,
+                       make_material, nonnegative, positive, register_material, register_term, sym, volumetric)
+from .plugins import refresh
+from .runs import DropTestOutcome, ReactionOutcome, drop_test, reaction_test, run_model
+from .scene import Model, Scene, build_model, builtin_scene, builtin_scenes, load_scene
+from .simulation import Backend, Result, get_backend, register_backend
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
-    "InputError", "NumericalError", "Material", "MaterialSpec", "make_material", "Parameter", "positive",
-    "nonnegative", "PronySeries", "get_backend", "get_material", "get_term", "refresh", "register_backend",
-    "register_material", "register_term", "Term", "isochoric", "volumetric",
+    "plugins", "InputError", "NumericalError", "Material", "MaterialSpec", "Parameter", "PronySeries", "Term",
+    "get_material", "get_term", "isochoric", "make_material", "nonnegative", "positive", "register_material",
+    "register_term", "sym", "volumetric", "refresh", "DropTestOutcome", "ReactionOutcome", "drop_test",
+    "reaction_test", "run_model", "Model", "Scene", "build_model", "builtin_scene", "builtin_scenes", "load_scene",
+    "Backend", "Result", "get_backend", "register_backend",
 ]

@@ -11,10 +11,10 @@ Defaults: Table 1 of the paper in SI units (c = 10 Pa, k1 = 1320 Pa, k2 = 1.66, 
 (g, tau) = (0.45, 1 ms), (0.435, 0.1 s), (0.094, 10 s)).
 """
 
-from cfm_core.parameters import positive
-from cfm_core.prony import PronySeries
-from cfm_core.sym import exp, where
-from cfm_core.terms import isochoric
+from cfm_core.material.parameters import positive
+from cfm_core.material.prony import PronySeries
+from cfm_core.material.sym import exp, where
+from cfm_core.material.terms import isochoric
 
 from .volumetric import ogden_volumetric
 

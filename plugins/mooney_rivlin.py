@@ -1,7 +1,7 @@
 """Mooney-Rivlin on isochoric invariants: the ten-line plugin example of the README."""
 
-from cfm_core.parameters import positive
-from cfm_core.terms import isochoric
+from cfm_core.material.parameters import positive
+from cfm_core.material.terms import isochoric
 
 from .volumetric import ogden_volumetric
 

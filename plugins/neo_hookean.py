@@ -1,7 +1,7 @@
 """Compressible Neo-Hookean material (isochoric/volumetric split)."""
 
-from cfm_core.parameters import positive
-from cfm_core.terms import isochoric
+from cfm_core.material.parameters import positive
+from cfm_core.material.terms import isochoric
 
 from .volumetric import quadratic_volumetric
 

@@ -5,8 +5,8 @@ The built-in ``ogden`` has three terms; ``ogden_terms(n)`` builds any other coun
 a tiny value to switch a term off. Defaults are illustrative (initial shear modulus sum mu_p ~ 1 kPa).
 """
 
-from cfm_core.parameters import Parameter, positive
-from cfm_core.terms import isochoric
+from cfm_core.material.parameters import Parameter, positive
+from cfm_core.material.terms import isochoric
 
 from .volumetric import ogden_volumetric
 

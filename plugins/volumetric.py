@@ -1,8 +1,8 @@
 """Volumetric terms U(J) (energy per reference volume, Pa)."""
 
-from cfm_core.parameters import positive
-from cfm_core.sym import log
-from cfm_core.terms import volumetric
+from cfm_core.material.parameters import positive
+from cfm_core.material.sym import log
+from cfm_core.material.terms import volumetric
 
 KAPPA = positive("kappa", "Pa", 666.1e3, "bulk modulus (paper Table 1: 666.1 kPa)")
 

@@ -9,11 +9,11 @@ import pytest
 pytest.importorskip("numba")
 
 from cfm_core import make_material
-from cfm_core import point as pt
-from cfm_core.builder import build_model
-from cfm_core.cli import main
-from cfm_core.scene import builtin_scene
-from cfm_core.simulate import run_model
+from cfm_core.simulation import point as pt
+from cfm_core.scene.builder import build_model
+from cfm_core.cli.main import main
+from cfm_core.scene.scene import builtin_scene
+from cfm_core.runs.pipeline import run_model
 
 
 @pytest.mark.parametrize("elastic", [True, False])
@@ -101,7 +101,7 @@ def test_peak_converges_with_mesh_refinement():
     peaks = []
     for h in (2e-3, 1e-3, 0.5e-3):
         scene = builtin_scene("drop-test").with_overrides(element_size=h)
-        from cfm_core.simulate import drop_test
+        from cfm_core.runs.pipeline import drop_test
 
         peaks.append(drop_test(scene, "numba").summary["peak_g"])
     d1, d2 = abs(peaks[1] - peaks[0]), abs(peaks[2] - peaks[1])

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cfm_core import registry
+from cfm_core import plugins
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
@@ -28,9 +28,9 @@ def test_readme_material_example_runs(capsys):
         printed = capsys.readouterr().out
         assert "[[[" in printed
         from cfm_core import make_material
-        from cfm_core import reference as ref
+        from cfm_core.material import reference as ref
 
         sigma = ref.cauchy(make_material("my-mr", {"c10": 250.0}), np.diag([0.8, 1.1, 1.1]))[0]
         assert sigma[0, 0] < 0 and np.isfinite(sigma).all()
     finally:
-        registry.unregister("materials", "my-mr")
+        plugins.unregister("materials", "my-mr")

@@ -6,12 +6,12 @@ import json
 import numpy as np
 import pytest
 
-from cfm_core.builder import build_model
-from cfm_core.cli import main
+from cfm_core.scene.builder import build_model
+from cfm_core.cli.main import main
 from cfm_core.errors import InputError
-from cfm_core.point import uniaxial
-from cfm_core.registry import get_backend
-from cfm_core.scene import builtin_scene, scene_to_toml
+from cfm_core.simulation.point import uniaxial
+from cfm_core.simulation.registry import get_backend
+from cfm_core.scene.scene import builtin_scene, scene_to_toml
 
 
 def _read(path):

@@ -1,9 +1,9 @@
 """Agreement checks: every backend against the reference and against every other backend.
 
-Material point: each backend's ``point`` against :func:`cfm_core.reference.stress_history` along the
+Material point: each backend's ``point`` against :func:`cfm_core.material.reference.stress_history` along the
 histories of :mod:`.histories`, elastic and viscoelastic. Scenes (single element, drop tests): every
 pair of backends that can run the scene, plus the single element against the numpy quasi-static
-uniaxial-stress solution (:func:`cfm_core.point.uniaxial`). Metrics (:func:`cfm_core.postprocess.
+uniaxial-stress solution (:func:`cfm_core.simulation.point.uniaxial`). Metrics (:func:`cfm_core.post.
 compare_histories`): relative L2 error over the event, peak difference (relative), time-of-peak
 difference (s). Tolerances are per pair of backend kinds (:data:`TOLERANCES`).
 """
@@ -42,7 +42,7 @@ def pair_kind(kind_a: str, kind_b: str) -> str:
 
 
 def _metrics(t1, y1, t2, y2) -> dict:
-    from cfm_core.postprocess import compare_histories
+    from cfm_core.post import compare_histories
 
     return compare_histories(t1, y1, t2, y2)
 
@@ -61,9 +61,9 @@ def _row(check, case, a, b, kind, m=None, error="") -> dict:
 def point_agreement(point_rows, material_names=("cfm",)) -> list[dict]:
     """Each point-capable backend against the reference, for every history, elastic and viscoelastic."""
     from cfm_core.errors import InputError, NumericalError
-    from cfm_core.kinematics import to_voigt
-    from cfm_core.material import make_material
-    from cfm_core.reference import stress_history
+    from cfm_core.material.kinematics import to_voigt
+    from cfm_core.material.registry import make_material
+    from cfm_core.material.reference import stress_history
 
     rows = []
     for mat_name in material_names:
@@ -116,8 +116,8 @@ class Budget:
         per scene (allows and record ask for the same scene)."""
         if scene.type != "drop-test":
             return None
-        from cfm_core.builder import build_model
-        from cfm_core.scene import scene_to_dict
+        from cfm_core.scene.builder import build_model
+        from cfm_core.scene.scene import scene_to_dict
 
         key = json.dumps(scene_to_dict(scene), sort_keys=True, default=str)
         if key not in self._sizes:
@@ -183,8 +183,8 @@ def scene_agreement(label: str, scene, run_rows, cache, budget: Budget | None = 
 
 def _quasistatic_rows(label, scene, runs) -> list[dict]:
     """Single element against the numpy uniaxial-stress solution: force = nominal stress x face area."""
-    from cfm_core.builder import build_model
-    from cfm_core.point import uniaxial
+    from cfm_core.scene.builder import build_model
+    from cfm_core.simulation.point import uniaxial
 
     model = build_model(scene)
     meta = model.meta

@@ -3,7 +3,7 @@
 Two criteria, both on the instantaneous elastic response (g = 1, what an impact sees):
 
 - "dS/dE": the 6x6 Mandel form of the material tangent CC = dS/dE
-  (:func:`cfm_core.reference.tangent`) must be positive definite (convexity of psi in E);
+  (:func:`cfm_core.material.reference.tangent`) must be positive definite (convexity of psi in E);
 - "U''(J)": convexity of the volumetric energy in J (d^2 psi / d J^2 > 0 along F = J^(1/3) I); the
   Ogden term (beta = 9) loses it for J > 10^(1/9) = 1.29;
 - "Drucker": Abaqus's criterion d tau : d eps > 0 for every increment of logarithmic strain eps,
@@ -50,7 +50,7 @@ def _elastic(material):
 
 def mandel_tangent(material, F) -> np.ndarray:
     """(n, 6, 6) Mandel matrix of dS/dE (Pa): eigenvalues are those of the 4th-order tangent."""
-    from cfm_core.reference import tangent
+    from cfm_core.material.reference import tangent
 
     C = tangent(material, F)
     M = np.empty((C.shape[0], 6, 6))
@@ -67,7 +67,7 @@ def min_eig_dSdE(material, F) -> np.ndarray:
 
 
 def _kirchhoff_principal(material, lam) -> np.ndarray:
-    from cfm_core.reference import pk2
+    from cfm_core.material.reference import pk2
 
     F = np.zeros((lam.shape[0], 3, 3))
     for a in range(3):
@@ -119,7 +119,7 @@ def _robust(fn, *arrays) -> np.ndarray:
 
 def volumetric_curvature(material, J, h: float = 1e-4) -> np.ndarray:
     """d^2 psi / d J^2 along F = J^(1/3) I by central differences, relative to its value at J = 1 (-)."""
-    from cfm_core.reference import energy
+    from cfm_core.material.reference import energy
 
     J = np.asarray(J, dtype=float)
 
@@ -176,7 +176,7 @@ def drucker_warnings(material, F_history, emit: bool = True, criteria=WARN_CRITE
     material is unstable by ``criteria`` (default: Abaqus's Drucker criterion and convexity of the
     volumetric energy in J; "dS/dE" may be added); one message per contiguous range of indices
     and criterion. Empty list: stable all along. Uses the instantaneous elastic response."""
-    from cfm_core.kinematics import as_batch, principal
+    from cfm_core.material.kinematics import as_batch, principal
 
     material = _elastic(material)
     F = as_batch(F_history)

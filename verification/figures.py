@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cfm_core.plotting import _COLOURS, _save
+from cfm_core.post.plots import _COLOURS, _save
 
 _MARKERS = "osD^v<>p"
 

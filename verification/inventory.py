@@ -1,7 +1,7 @@
 """Which backends the suite can use: every registered backend, with the reason when it cannot run.
 
 A backend that fails to import or whose ``available()`` is False is *listed* with the reason, never
-silently skipped. Backends the design names (DESIGN.md section 1) but nobody has registered yet are
+silently skipped. Backends the design names (docs/conventions.md section 1) but nobody has registered yet are
 listed too, as "not registered".
 """
 
@@ -16,8 +16,8 @@ EXPECTED = ("numpy", "numba", "torch", "skfem")
 def discover(selected=None) -> list[dict]:
     """One dict per backend: name, kind, status ("available" | "unavailable" | "broken" |
     "not registered" | "not selected"), reason, can_point, can_run, instance (or None)."""
-    from cfm_core import registry
-    from cfm_core.backend import Backend
+    from cfm_core import plugins as registry
+    from cfm_core.simulation.backend import Backend
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)

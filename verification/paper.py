@@ -23,8 +23,8 @@ EXPERIMENT_PEAKS_G = {0.005: 80.7, 0.008: 52.5}  # g, the extremes stated in the
 def run_all(backend: str = "numba", thicknesses=THICKNESSES, conventions=("long-term", "instantaneous"),
             element_size: float = 1e-3, progress=print):
     """Run every (thickness, convention) drop test; returns a list of dict rows and histories."""
-    from cfm_core.scene import builtin_scene
-    from cfm_core.simulate import drop_test
+    from cfm_core.scene.scene import builtin_scene
+    from cfm_core.runs.pipeline import drop_test
 
     rows, curves = [], []
     for moduli in conventions:
@@ -64,8 +64,8 @@ def main(argv=None) -> int:
     parser.add_argument("--backend", default="numba")
     parser.add_argument("--element-size", type=float, default=1e-3, help="m")
     args = parser.parse_args(argv)
-    from cfm_core.plotting import plot_overlay
-    from cfm_core.writers import atomic_write, write_json
+    from cfm_core.post.plots import plot_overlay
+    from cfm_core.post.writers import atomic_write, write_json
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -24,7 +24,7 @@ def _row(h, s) -> dict:
 
 
 def simulate(backend: str, cache, thicknesses=THICKNESSES, element_size=1e-3) -> tuple[list, list, str]:
-    from cfm_core.scene import builtin_scene
+    from cfm_core.scene.scene import builtin_scene
 
     rows, curves = [], []
     for h in thicknesses:

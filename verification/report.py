@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cfm_core.postprocess import G0
-from cfm_core.writers import atomic_write, write_json
+from cfm_core.post import G0
+from cfm_core.post.writers import atomic_write, write_json
 
 from . import figures
 

@@ -1,7 +1,7 @@
 """Run one scene on one backend and reduce it to a signal: the single place the suite calls solvers.
 
 Signals: drop test -> impactor acceleration (m/s^2), 50 kHz box average filtered with SAE J211
-CFC 600 (:func:`cfm_core.simulate.drop_test`); single element -> reaction force (N) at the output
+CFC 600 (:func:`cfm_core.runs.drop_test`); single element -> reaction force (N) at the output
 times. Runs are cached per (scene, backend, options) within one suite, so agreement, work-precision
 and paper comparison share them. Errors are caught and returned, never raised: InputError and
 NumericalError are "clear diagnostics"; anything else is a raw exception (a failure).
@@ -26,7 +26,7 @@ class RunCache:
         self._runs: dict[str, dict] = {}
 
     def run(self, scene, backend: str, **options) -> dict:
-        from cfm_core.scene import scene_to_dict
+        from cfm_core.scene.scene import scene_to_dict
 
         key = json.dumps([scene_to_dict(scene), backend, options], sort_keys=True, default=str)
         if key not in self._runs:
@@ -50,8 +50,8 @@ def run_scene(scene, backend: str, **options) -> dict:
     """Run and reduce; returns a dict: ok, status ("completed" | "diagnostic" | "exception" |
     "non-finite"), message, t (s), y (signal), unit, wall (s, solver only, else total), total (s),
     steps, energy_error (-), summary (drop test), result (the Result or None)."""
-    from cfm_core.builder import build_model
-    from cfm_core.simulate import drop_test, run_model
+    from cfm_core.scene.builder import build_model
+    from cfm_core.runs.pipeline import drop_test, run_model
 
     out = {"backend": backend, "options": options, "scene": scene.type, "ok": False, "status": "", "message": "",
            "t": None, "y": None, "unit": "", "wall": math.nan, "total": math.nan, "steps": 0,

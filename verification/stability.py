@@ -90,9 +90,9 @@ def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3, budget=N
 
 def run_point_cases(inventory, material_name: str = "cfm") -> list[dict]:
     from cfm_core.errors import InputError, NumericalError
-    from cfm_core.kinematics import to_voigt
-    from cfm_core.material import make_material
-    from cfm_core.reference import stress_history
+    from cfm_core.material.kinematics import to_voigt
+    from cfm_core.material.registry import make_material
+    from cfm_core.material.reference import stress_history
 
     mat = make_material(material_name)
     rows = []

@@ -27,7 +27,7 @@ MODES = {
 
 
 def _scenes(mode: str):
-    from cfm_core.scene import builtin_scene
+    from cfm_core.scene.scene import builtin_scene
 
     cfg = MODES[mode]
     single = builtin_scene("single-element")
@@ -98,7 +98,7 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     stab = timed("stability", lambda: stability.run_point_cases(inv) + stability.run_scene_cases(base, inv, cache,
                                                                                           MODES[mode]["thin_element"],
                                                                                           scene_budget))
-    from cfm_core import registry
+    from cfm_core import plugins as registry
 
     drucker = timed("Drucker stability map", lambda: _drucker_all(registry, stability_map))
     ref_backend = next((n for n in workprecision.REFERENCE_ORDER if any(b["name"] == n for b in runners)),
@@ -125,7 +125,7 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
 def _drucker_all(registry, stability_map) -> dict:
     import warnings
 
-    from cfm_core.material import make_material
+    from cfm_core.material.registry import make_material
 
     out = {}
     with warnings.catch_warnings():

@@ -60,9 +60,9 @@ def richardson(sizes, peaks) -> dict | None:
 
 def study(label, base, element_sizes, inventory, cache, budget: float = math.inf) -> dict:
     """All runs of one scene; ``budget`` (s) per backend: runs beyond it are listed as skipped."""
-    from cfm_core.builder import build_model
-    from cfm_core.point import uniaxial
-    from cfm_core.postprocess import compare_histories
+    from cfm_core.scene.builder import build_model
+    from cfm_core.simulation.point import uniaxial
+    from cfm_core.post import compare_histories
 
     runners = [b for b in inventory if b["status"] == "available" and b["can_run"]]
     sizes = sorted(element_sizes, reverse=True) if base.type == "drop-test" else [None]
@@ -95,7 +95,7 @@ def study(label, base, element_sizes, inventory, cache, budget: float = math.inf
         m = model.meta
         t, _, P, _ = uniaxial(model.material, m["rate"], m["stretch"], steps=400, hold=m["hold"])
         ref = {"t": t, "y": P * m["size"] ** 2}
-        ref_text = "numpy quasi-static uniaxial-stress solution (cfm_core.point.uniaxial), force = P x face area"
+        ref_text = "numpy quasi-static uniaxial-stress solution (cfm_core.simulation.point.uniaxial), force = P x face area"
     else:
         for name in REFERENCE_ORDER + tuple(sorted({r["backend"] for r in ok})):
             mine = [r for r in ok if r["backend"] == name]

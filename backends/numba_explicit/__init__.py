@@ -4,7 +4,7 @@ Total Lagrangian hex8 elements with one-point integration (Flanagan-Belytschko m
 and viscous hourglass control, lumped mass, central differences with the stable step
 dt = 0.9 min_e L_e / c_e recomputed every step from the current tangent (L_e from the
 Flanagan-Belytschko eigenvalue bound, edge / sqrt(3) for a cube; c_e from max_a d^2 Psi / d lambda_a^2), kinematic (momentum-exchange) contact with a rigid
-sphere and a rigid plane, so the contact never limits the step (DESIGN.md section 5). The
+sphere and a rigid plane, so the contact never limits the step (docs/conventions.md section 5). The
 material's generated scalar code and the kernels (``kernels/``) are compiled together by numba
 and cached on disk (``codegen``). numba is imported only when a run or a point evaluation starts.
 
@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cfm_core.backend import Backend
+from cfm_core.simulation.backend import Backend
 from cfm_core.errors import InputError, NumericalError
 
 __all__ = ["NumbaExplicitBackend"]
@@ -60,7 +60,7 @@ class NumbaExplicitBackend(Backend):
     requires = ("numba",)
 
     def run(self, model, *, progress=None, **options):
-        """Run a :class:`cfm_core.model.Model`; return a :class:`cfm_core.results.Result`.
+        """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
         See the module docstring for the options. Raises NumericalError (element inversion,
         non-finite stress, time-step collapse) naming the element and the time (s).

@@ -1,4 +1,4 @@
-"""Run a :class:`cfm_core.model.Model` with the numba kernels: set-up, time loop, Result.
+"""Run a :class:`cfm_core.scene.Model` with the numba kernels: set-up, time loop, Result.
 
 Python prepares the arrays (geometry, masses, constraints), then calls the compiled time loop
 ``advance`` in chunks (about 1 % of the end time each, or up to the next frame), reports
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.results import Result
+from cfm_core.simulation.result import Result
 
 from . import codegen, geometry
 from .kernels import layout as K
@@ -211,7 +211,7 @@ def warm_up(mod, material) -> float:
     """Compile (or load from the cache) every kernel on a 1-element model; seconds spent."""
     if id(mod) in _WARM:
         return 0.0
-    from cfm_core.model import Model, RigidPlane, RigidSphere
+    from cfm_core.scene.model import Model, RigidPlane, RigidSphere
 
     nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
                       [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=np.float64) * 1e-3

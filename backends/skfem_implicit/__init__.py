@@ -3,14 +3,14 @@
 Total Lagrangian hex8 elements assembled with scikit-fem's hexahedral basis (2 x 2 x 2 Gauss
 points), locking free through the mean-dilatation (Q1/P0, equivalently F-bar) treatment of the
 volumetric term; Newton's method with the consistent tangent taken from the material's single
-definition (generated psi_grad / psi_hess and :func:`cfm_core.kinematics.tangent_from_principal`,
+definition (generated psi_grad / psi_hess and :func:`cfm_core.material.kinematics.tangent_from_principal`,
 exact at repeated principal stretches; Prony history at the Gauss points with the tangent factor
-:func:`cfm_core.prony.effective_factor`); generalized-alpha time integration for dynamic scenes
+:func:`cfm_core.material.prony.effective_factor`); generalized-alpha time integration for dynamic scenes
 (rho_inf = 1 is Newmark average acceleration; the default rho_inf = 0 damps the penalty-contact
 chatter, which makes the trapezoidal rule gain energy), a quasi-static mode (no inertia) for
 scenes with ``model.meta["quasi_static"]``; adaptive steps (cut and retry when Newton fails,
 grow when it converges fast); nodal penalty contact with the rigid sphere and plane, the sphere
-being a rigid body with one dof (z) solved monolithically with the specimen (DESIGN.md
+being a rigid body with one dof (z) solved monolithically with the specimen (docs/conventions.md
 section 5). scikit-fem is imported only when a run starts.
 
 Options of :meth:`SkfemImplicitBackend.run` (all optional, see ``options.DEFAULTS``):
@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cfm_core.backend import Backend
+from cfm_core.simulation.backend import Backend
 from cfm_core.errors import InputError
 
 __all__ = ["SkfemImplicitBackend"]
@@ -55,7 +55,7 @@ class SkfemImplicitBackend(Backend):
     requires = ("skfem",)
 
     def run(self, model, *, progress=None, **options):
-        """Run a :class:`cfm_core.model.Model`; return a :class:`cfm_core.results.Result`.
+        """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
         See the module docstring for the options. Raises InputError (unsupported model or bad
         option) or NumericalError (step failure at the smallest step, naming element, time (s)

@@ -1,12 +1,12 @@
 """Constitutive update at integration points, shared by the solver and the material-point driver.
 
 Everything comes from the single material definition: the generated numpy kernels give
-psi_grad and psi_hess in the eigenvalues m_a of C; :mod:`cfm_core.kinematics` builds stress and
-the consistent tangent from them (exact at repeated eigenvalues); :mod:`cfm_core.prony` advances
+psi_grad and psi_hess in the eigenvalues m_a of C; :mod:`cfm_core.material.kinematics` builds stress and
+the consistent tangent from them (exact at repeated eigenvalues); :mod:`cfm_core.material.prony` advances
 the viscoelastic history. For P points with deformation gradients F (P, 3, 3):
 
     S0_iso = 2 sum_a psi_iso,a M_a                           (instantaneous isochoric PK2, Pa)
-    H_i   <- exp(-dt/tau_i) H_i + gain_i (S0_iso - S0_old)   (Prony recurrence, DESIGN.md 2)
+    H_i   <- exp(-dt/tau_i) H_i + gain_i (S0_iso - S0_old)   (Prony recurrence, docs/conventions.md 2)
     S      = gamma_inf S0_iso + sum_i H_i  [+ S_vol]          (PK2, Pa)
     CC     = f_eff CC0_iso  [+ CC_vol],  f_eff = gamma_inf + sum_i gain_i  (= 2 dS/dC, Pa)
 
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cfm_core import kinematics as kin
-from cfm_core import prony
+from cfm_core.material import kinematics as kin
+from cfm_core.material import prony
 from cfm_core.errors import NumericalError
 
 
@@ -117,7 +117,7 @@ def point_history(material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Cauchy stress (n, 6) in Pa (11, 22, 33, 12, 23, 13) along F (n, 3, 3) at times t (n,) in s.
 
     The solver's update applied to one material point with the local volumetric term; relaxed
-    before t[0] (a deformation at t[0] is a jump, as in :func:`cfm_core.reference.stress_history`).
+    before t[0] (a deformation at t[0] is a jump, as in :func:`cfm_core.material.reference.stress_history`).
     """
     F = kin.as_batch(F)
     t = np.asarray(t, dtype=np.float64).reshape(-1)

@@ -1,4 +1,4 @@
-"""Run a :class:`cfm_core.model.Model` implicitly: adaptive time stepping, histories, Result.
+"""Run a :class:`cfm_core.scene.Model` implicitly: adaptive time stepping, histories, Result.
 
 Steps are cut (x ``cut``) and retried when Newton fails and grow (x ``grow``) after a fast
 convergence, never beyond ``dt_max`` (default: the model's output interval, so histories are
@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.results import Result
+from cfm_core.simulation.result import Result
 
 from .constitutive import History
 from .options import check_options

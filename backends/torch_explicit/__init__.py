@@ -1,12 +1,12 @@
 """Explicit dynamics with torch on the CPU or a CUDA GPU: the ``torch`` backend.
 
-The numba backend's algorithm (DESIGN.md section 5: total Lagrangian hex8, one-point
+The numba backend's algorithm (docs/conventions.md section 5: total Lagrangian hex8, one-point
 integration, viscous hourglass control, lumped mass, central differences with the stable step
 recomputed every step from the current tangent, kinematic contact with a rigid sphere and a rigid
 plane, Prony recurrence, energy accounting, stop rule), vectorised over elements: a gather of the
 nodal displacements and velocities, per-element kinematics, eigen-decomposition and stress in
 batched tensor ops, and ``index_add_`` of the nodal forces. The time loop is Python. The material
-comes from its single symbolic definition (generated torch code, ``cfm_core.codegen``). torch is
+comes from its single symbolic definition (generated torch code, ``cfm_core.material.codegen``). torch is
 imported only when a run or a point evaluation starts.
 
 Options of :meth:`TorchExplicitBackend.run` (all optional): ``device`` ("cpu" default, "cuda",
@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cfm_core.backend import Backend
+from cfm_core.simulation.backend import Backend
 
 __all__ = ["TorchExplicitBackend"]
 
@@ -47,7 +47,7 @@ class TorchExplicitBackend(Backend):
     requires = ("torch",)
 
     def run(self, model, *, progress=None, **options):
-        """Run a :class:`cfm_core.model.Model`; return a :class:`cfm_core.results.Result`.
+        """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
         See the module docstring for the options. Raises InputError (bad options, CUDA requested
         but not available) or NumericalError (element inversion, non-finite stress, float32

@@ -1,4 +1,4 @@
-"""Run a :class:`cfm_core.model.Model` with torch: the explicit time loop (Python), vectorised steps.
+"""Run a :class:`cfm_core.scene.Model` with torch: the explicit time loop (Python), vectorised steps.
 
 One step is the numba backend's (kernels/step.py): element pass at x^n with the Prony factors of
 dt_{n-1/2}; dt_{n+1/2} = min(safety min_e L_e / c_e, dt_max); central differences on the free
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.results import Result
+from cfm_core.simulation.result import Result
 
 from . import arrays as arr
 from . import material as mat

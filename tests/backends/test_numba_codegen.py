@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import codegen
-from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn
+from fixtures.hand_derived import NeoHookeanStandIn
 from cfm_core.errors import InputError
 
 

@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend
-from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn, drop_test_model
+from fixtures.hand_derived import NeoHookeanStandIn, drop_test_model
 
 MAT = NeoHookeanStandIn(mu=50.0e3, kappa=1.0e6)
 SMALL = dict(width=12e-3, thickness=4e-3, h=2e-3, mass=0.05, velocity=1.0, end_time=20e-3)

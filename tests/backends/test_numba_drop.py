@@ -4,12 +4,12 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend
-from cfm_backends.numba_explicit.fixtures import drop_test_model
+from fixtures.hand_derived import drop_test_model
 
 
 def test_cfm_drop_test_coarse():
     """The paper's drop test, 8 mm, 2 mm elements: a plausible, balanced, hourglass-free impact."""
-    from cfm_core.material import make_material
+    from cfm_core.material.registry import make_material
 
     mat = make_material("cfm", {}, "long-term", False)
     r = NumbaExplicitBackend().run(drop_test_model(mat, thickness=8e-3, h=2e-3))

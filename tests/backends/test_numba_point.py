@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend
-from cfm_backends.numba_explicit.fixtures import NEO_HOOKEAN_SOURCE, NeoHookeanStandIn
+from fixtures.hand_derived import NEO_HOOKEAN_SOURCE, NeoHookeanStandIn
 from cfm_core.errors import NumericalError
 
 MU, KAPPA = 2.0e3, 60.0e3
@@ -111,7 +111,7 @@ def test_exp_overflow_is_reported():
 
 def test_cfm_against_core_reference():
     reference = pytest.importorskip("cfm_core.reference")
-    from cfm_core.material import make_material
+    from cfm_core.material.registry import make_material
 
     mat = make_material("cfm", {}, "long-term", False)
     t = np.linspace(0.0, 5e-3, 41)
@@ -128,7 +128,7 @@ def test_combined_derivatives_match_the_material_functions():
     """The kernels call psi_grad_hess_diag (generated with shared subexpressions): it must equal
     the material's own psi_grad and psi_hess_diag."""
     from cfm_backends.numba_explicit import codegen
-    from cfm_core.material import make_material
+    from cfm_core.material.registry import make_material
 
     rng = np.random.default_rng(3)
     for mat in (make_material("cfm", {}, "long-term", False), NeoHookeanStandIn(MU, KAPPA)):

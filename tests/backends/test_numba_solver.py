@@ -5,9 +5,9 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend, codegen, solver
-from cfm_backends.numba_explicit.fixtures import NeoHookeanStandIn, block_mesh
+from fixtures.hand_derived import NeoHookeanStandIn, block_mesh
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.model import Model, Prescribed
+from cfm_core.scene.model import Model, Prescribed
 
 MAT = NeoHookeanStandIn(mu=5.0e3, kappa=100.0e3)
 

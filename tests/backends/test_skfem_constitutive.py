@@ -5,11 +5,11 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core import kinematics as kin
-from cfm_core import prony
-from cfm_core import reference as ref
-from cfm_core.material import make_material
-from cfm_core.registry import get_backend
+from cfm_core.material import kinematics as kin
+from cfm_core.material import prony
+from cfm_core.material import reference as ref
+from cfm_core.material.registry import make_material
+from cfm_core.simulation.registry import get_backend
 from cfm_backends.skfem_implicit.constitutive import Constitutive, History
 
 

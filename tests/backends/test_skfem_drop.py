@@ -10,10 +10,10 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core import postprocess
-from cfm_core.builder import build_model
-from cfm_core.registry import get_backend
-from cfm_core.scene import builtin_scene
+from cfm_core import post as postprocess
+from cfm_core.scene.builder import build_model
+from cfm_core.simulation.registry import get_backend
+from cfm_core.scene.scene import builtin_scene
 
 SMALL = dict(width=0.02, element_size=0.002, thickness=0.008)
 OPTIONS = dict(dt_max=5e-5)  # 2.5x the output interval: keeps this test short (default: 2e-5)

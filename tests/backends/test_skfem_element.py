@@ -5,10 +5,10 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core.material import make_material
-from cfm_core.mesh import structured_hex_mesh
-from cfm_core.model import Model, Prescribed
-from cfm_core.registry import get_backend
+from cfm_core.material.registry import make_material
+from cfm_core.scene.mesh import structured_hex_mesh
+from cfm_core.scene.model import Model, Prescribed
+from cfm_core.simulation.registry import get_backend
 from cfm_backends.skfem_implicit import element
 from cfm_backends.skfem_implicit.constitutive import Constitutive, History
 from cfm_backends.skfem_implicit.discretization import discretize
@@ -43,7 +43,7 @@ def _fd_tangent(disc, mat, u, hist, dt, vol):
 def test_tangent_matches_finite_differences(vol, state):
     """Exact at repeated principal stretches too (undeformed and uniaxial states), with Prony.
 
-    At the undeformed state the CFM fibre switch (x = 1) makes second derivatives jump (DESIGN.md
+    At the undeformed state the CFM fibre switch (x = 1) makes second derivatives jump (docs/conventions.md
     section 2), so central differences there are checked on the smooth Neo-Hookean material.
     """
     mat = Constitutive(make_material("neo-hookean" if state == "undeformed" else "cfm"))

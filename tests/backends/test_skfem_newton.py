@@ -7,9 +7,9 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core.builder import build_model
-from cfm_core.registry import get_backend
-from cfm_core.scene import builtin_scene
+from cfm_core.scene.builder import build_model
+from cfm_core.simulation.registry import get_backend
+from cfm_core.scene.scene import builtin_scene
 
 
 def _orders(res, floor):

@@ -8,12 +8,13 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core import reference as ref
-from cfm_core.builder import build_model
+from cfm_core.material import reference as ref
+from cfm_core.scene.builder import build_model
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.point import uniaxial
-from cfm_core.registry import get_backend, names
-from cfm_core.scene import builtin_scene
+from cfm_core.simulation.point import uniaxial
+from cfm_core.simulation.registry import get_backend
+from cfm_core.plugins import names
+from cfm_core.scene.scene import builtin_scene
 
 
 def test_registered_with_capabilities():
@@ -24,7 +25,7 @@ def test_registered_with_capabilities():
 
 
 def test_import_does_not_import_skfem():
-    code = ("import sys, cfm_backends.skfem_implicit as m; from cfm_core.registry import get_backend; "
+    code = ("import sys, cfm_backends.skfem_implicit as m; from cfm_core.simulation.registry import get_backend; "
             "get_backend('skfem'); assert 'skfem' not in sys.modules, 'skfem imported'")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -114,7 +115,7 @@ def test_newton_failure_is_a_numerical_error():
 
 
 def test_inversion_is_a_numerical_error():
-    from cfm_core.model import Model, Prescribed
+    from cfm_core.scene.model import Model, Prescribed
 
     m0 = build_model(builtin_scene("single-element"))
     m = Model(name="crush", nodes=m0.nodes, hexes=m0.hexes, density=0.0, material=m0.material,

@@ -9,7 +9,7 @@ from cfm_core.errors import InputError
 
 
 def test_package_import_does_not_import_torch():
-    code = ("import sys; import cfm_backends.torch_explicit as m; from cfm_core.registry import get_backend; "
+    code = ("import sys; import cfm_backends.torch_explicit as m; from cfm_core.simulation.registry import get_backend; "
             "b = get_backend('torch'); assert b.name == 'torch'; print('torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
@@ -23,7 +23,7 @@ def test_capabilities():
 
 
 def test_registered_through_entry_point():
-    from cfm_core.registry import get_backend
+    from cfm_core.simulation.registry import get_backend
 
     assert type(get_backend("torch")).__name__ == "TorchExplicitBackend"
 
@@ -61,9 +61,9 @@ def test_run_and_point_on_missing_cuda_are_input_errors():
     if torch.cuda.is_available():
         pytest.skip("a CUDA device is available here")
     from cfm_backends.torch_explicit import TorchExplicitBackend
-    from cfm_core.builder import build_model
-    from cfm_core.material import make_material
-    from cfm_core.scene import builtin_scene
+    from cfm_core.scene.builder import build_model
+    from cfm_core.material.registry import make_material
+    from cfm_core.scene.scene import builtin_scene
 
     model = build_model(builtin_scene("single-element"))
     with pytest.raises(InputError, match="is_available"):
@@ -78,7 +78,7 @@ def test_cli_device_error_exit_status(tmp_path):
 
     if torch.cuda.is_available():
         pytest.skip("a CUDA device is available here")
-    out = subprocess.run([sys.executable, "-m", "cfm_core.cli", "drop-test", "--backend", "torch", "--device",
+    out = subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "drop-test", "--backend", "torch", "--device",
                           "cuda", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "torch.cuda.is_available() = False" in out.stderr

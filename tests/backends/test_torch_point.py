@@ -6,10 +6,10 @@ import pytest
 pytest.importorskip("torch")
 
 from cfm_backends.torch_explicit import TorchExplicitBackend  # noqa: E402
-from cfm_core import kinematics as kin  # noqa: E402
-from cfm_core import reference  # noqa: E402
+from cfm_core.material import kinematics as kin  # noqa: E402
+from cfm_core.material import reference  # noqa: E402
 from cfm_core.errors import NumericalError  # noqa: E402
-from cfm_core.material import make_material  # noqa: E402
+from cfm_core.material.registry import make_material  # noqa: E402
 
 
 def history(n=121, end=0.02):
@@ -69,7 +69,7 @@ def test_inverted_point():
 
 
 def test_cli_point_with_torch(tmp_path):
-    from cfm_core.cli import main
+    from cfm_core.cli.main import main
 
     t, F = history(11)
     path = tmp_path / "F.csv"

@@ -9,10 +9,10 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from cfm_backends.torch_explicit import TorchExplicitBackend  # noqa: E402
-from cfm_core import postprocess  # noqa: E402
-from cfm_core.builder import build_model  # noqa: E402
+from cfm_core import post as postprocess  # noqa: E402
+from cfm_core.scene.builder import build_model  # noqa: E402
 from cfm_core.errors import NumericalError  # noqa: E402
-from cfm_core.scene import builtin_scene  # noqa: E402
+from cfm_core.scene.scene import builtin_scene  # noqa: E402
 
 PACKAGE = pathlib.Path(__file__).resolve().parents[2] / "backends" / "torch_explicit"
 

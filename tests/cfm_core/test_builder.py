@@ -1,4 +1,4 @@
-"""Tests of cfm_core.builder: scene -> Model geometry, node sets, symmetry, prescribed motion.
+"""Tests of cfm_core.scene.builder: scene -> Model geometry, node sets, symmetry, prescribed motion.
 
 Geometry tests pass a stand-in material (build_model(scene, material=...)) so that they do not
 depend on the material registry; two tests at the end use the real cfm_core.material.
@@ -8,10 +8,10 @@ import meshio
 import numpy as np
 import pytest
 
-from cfm_core.builder import build_model
-from cfm_core.mesh import element_volumes, hex_jacobians, structured_hex_mesh
-from cfm_core.model import Model, RigidPlane
-from cfm_core.scene import builtin_scene
+from cfm_core.scene.builder import build_model
+from cfm_core.scene.mesh import element_volumes, hex_jacobians, structured_hex_mesh
+from cfm_core.scene.model import Model, RigidPlane
+from cfm_core.scene.scene import builtin_scene
 
 MAT = object()  # stand-in: the builder only stores it
 
@@ -137,9 +137,10 @@ def test_single_element_hold_and_tension():
 
 
 def test_builder_calls_make_material(monkeypatch):
-    material = pytest.importorskip("cfm_core.material")
+    from cfm_core.scene import builder
+
     calls = []
-    monkeypatch.setattr(material, "make_material", lambda *a: calls.append(a) or "bound")
+    monkeypatch.setattr(builder, "make_material", lambda *a: calls.append(a) or "bound")
     scene = builtin_scene("drop-test").with_overrides(material="neo-hookean", elastic=True,
                                                       moduli="instantaneous", parameters={"c": 5.0})
     assert build_model(scene).material == "bound"
@@ -147,7 +148,5 @@ def test_builder_calls_make_material(monkeypatch):
 
 
 def test_builder_with_registered_cfm():
-    pytest.importorskip("cfm_core.material")
-    pytest.importorskip("cfm_core.registry")
     m = build_model(builtin_scene("single-element"))
     assert m.material is not None and m.n_elements == 1

@@ -5,12 +5,15 @@ import json
 import numpy as np
 import pytest
 
-from cfm_core import calibrate, simulate
-from cfm_core.cli import main
-from cfm_core.dask_runner import open_runner
+from cfm_core.studies import calibrate
+from cfm_core.studies import measured as measured_data
+
+from cfm_core.runs import pipeline as simulate
+from cfm_core.cli.main import main
+from cfm_core.studies.dask_runner import open_runner
 from cfm_core.errors import InputError
-from cfm_core.scene import builtin_scene, load_scene, scene_to_toml
-from cfm_core.writers import write_csv
+from cfm_core.scene.scene import builtin_scene, load_scene, scene_to_toml
+from cfm_core.post.writers import write_csv
 
 pytest.importorskip("numba")
 
@@ -42,7 +45,7 @@ def _perturbed(names):
 
 
 def test_twin_experiment_recovers_k1_k2_g1_within_2_percent(scene, measured):
-    curves = calibrate.read_curves(measured, scene, scene_given=False)
+    curves = measured_data.read_curves(measured, scene, scene_given=False)
     names = ["k1", "k2", "g1"]
     result = calibrate.fit(scene, curves, names, _perturbed(names))
     for n in names:
@@ -86,7 +89,7 @@ def test_cli_fit_writes_parameters_plots_and_a_runnable_scene(scene, measured, t
 
 def test_dask_fit_equals_serial_fit(scene, measured):
     pytest.importorskip("distributed")
-    curves = calibrate.read_curves(measured, scene, scene_given=False)
+    curves = measured_data.read_curves(measured, scene, scene_given=False)
     start = _perturbed(["k1", "k2"])
     serial = calibrate.fit(scene, curves, ["k1", "k2"], start, max_evaluations=3)
     with open_runner(None, workers=2) as runner:
@@ -114,11 +117,11 @@ def test_bad_data_files_name_the_file_and_line(scene, tmp_path):
     }
     for name, (text, message) in cases.items():
         with pytest.raises(InputError, match=message) as err:
-            calibrate.read_curve(f"{_write(tmp_path / name, text)}:0.005", None)
+            measured_data.read_curve(f"{_write(tmp_path / name, text)}:0.005", None)
         assert name in str(err.value)
     with pytest.raises(InputError, match="cannot be read"):
-        calibrate.read_curve(f"{tmp_path / 'missing.csv'}:0.005", None)
-    curve = calibrate.read_curve(_write(tmp_path / "ok.csv", "# drop 1\nt,a\n" + rows), 0.006)
+        measured_data.read_curve(f"{tmp_path / 'missing.csv'}:0.005", None)
+    curve = measured_data.read_curve(_write(tmp_path / "ok.csv", "# drop 1\nt,a\n" + rows), 0.006)
     assert curve.thickness == 0.006 and curve.t[1] == pytest.approx(2e-5) and curve.peak > 0
 
 
@@ -131,12 +134,12 @@ def test_bad_data_files_name_the_file_and_line(scene, tmp_path):
 def test_missing_or_inconsistent_thickness_is_a_clear_error(measured, suffix, message):
     path = measured[0].rpartition(":")[0]
     with pytest.raises(InputError, match=message):
-        calibrate.read_curve(path + suffix, None)
+        measured_data.read_curve(path + suffix, None)
 
 
 def test_thickness_inconsistent_with_the_scene_is_a_clear_error(scene, measured):
     path = measured[0].rpartition(":")[0]
-    curves = calibrate.read_curves([f"{path}:0.002"], scene, scene_given=False)  # 2 mm < 2.5 mm elements
+    curves = measured_data.read_curves([f"{path}:0.002"], scene, scene_given=False)  # 2 mm < 2.5 mm elements
     with pytest.raises(InputError, match=r":0.002: this thickness does not fit the scene: \[specimen\] element_size"):
         calibrate.fit(scene, curves, ["k1"])
 
@@ -148,7 +151,7 @@ def test_fit_names_and_inputs_are_checked(scene, measured, tmp_path, capsys):
     with pytest.raises(InputError, match="names k1 twice"):
         calibrate.fit_names("k1,k1", scene)
     with pytest.raises(InputError, match="given twice"):
-        calibrate.read_curves([measured[0], measured[0]], scene, scene_given=False)
+        measured_data.read_curves([measured[0], measured[0]], scene, scene_given=False)
     base = ["calibrate", "--data", *measured, "--serial", "--out", str(tmp_path / "x")]
     assert main(base + ["--fit", "k3"]) == 2
     assert "no parameter of that name" in capsys.readouterr().err

@@ -8,7 +8,7 @@ import pytest
 from scipy import signal
 
 from cfm_core.errors import InputError
-from cfm_core.filters import cfc_coefficients, cfc_filter, pad_length
+from cfm_core.post.filters import cfc_coefficients, cfc_filter, pad_length
 
 
 def standard_coefficients(cfc, fs):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cfm_core import make_material
-from cfm_core import reference as ref
+from cfm_core.material import reference as ref
 
 MATERIALS = [("cfm", {}), ("cfm", {"k2": 20.0}), ("neo-hookean", {}), ("ogden", {}), ("mooney-rivlin", {})]
 

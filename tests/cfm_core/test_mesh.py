@@ -1,12 +1,11 @@
-"""Tests of cfm_core.mesh: structured hexahedra, volumes, Jacobians, node sets, meshio reading."""
+"""Tests of cfm_core.scene.mesh: structured hexahedra, volumes, Jacobians, node sets, meshio reading."""
 
 import meshio
 import numpy as np
 import pytest
 
 from cfm_core.errors import InputError
-from cfm_core.mesh import (check_hex_jacobians, element_volumes, hex_jacobians, mean_edge_length,
-                           nodes_on_plane, read_hex_mesh, structured_hex_mesh)
+from cfm_core.scene.mesh import check_hex_jacobians, element_volumes, hex_jacobians, mean_edge_length, nodes_on_plane, read_hex_mesh, structured_hex_mesh
 
 
 def _write(path, nodes, cells):

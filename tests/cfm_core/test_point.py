@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from cfm_core import make_material
-from cfm_core import point as pt
-from cfm_core.cli import main
+from cfm_core.simulation import point as pt
+from cfm_core.cli.main import main
 
 HEADER = "t,F11,F12,F13,F21,F22,F23,F31,F32,F33"
 
@@ -88,7 +88,7 @@ def test_uniaxial_mode_zero_lateral_stress_and_energy_consistency(tmp_path):
     assert data[-1, 0] == pytest.approx(0.005)
     # independent check: P11 = d W(diag(l, lt, lt)) / d l at fixed lt (lateral stress is zero)
     mat = make_material("cfm", elastic=True)
-    from cfm_core import reference as ref
+    from cfm_core.material import reference as ref
 
     for _, lam, P, lt in data[5::10]:
         h = 1e-7

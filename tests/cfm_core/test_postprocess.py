@@ -7,9 +7,8 @@ import numpy as np
 import pytest
 
 from cfm_core.errors import InputError, NumericalError
-from cfm_core.postprocess import (G0, compare_histories, drop_test_metrics, relative_l2,
-                                  resample_acceleration, summarize)
-from cfm_core.results import Result
+from cfm_core.post import G0, compare_histories, drop_test_metrics, relative_l2, resample_acceleration, summarize
+from cfm_core.simulation.result import Result
 
 MASS = 0.220  # kg
 F0 = 150.0  # N, peak force

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from cfm_core import make_material
-from cfm_core import reference as ref
-from cfm_core.prony import relaxation_function
+from cfm_core.material import reference as ref
+from cfm_core.material.prony import relaxation_function
 
 
 def shear_history(t, gamma):
@@ -32,7 +32,7 @@ def test_long_term_is_gamma_inf_times_instantaneous():
     S_iso0, S_vol = ref.pk2_parts(mat, F)
     sigma = ref.stress_history(mat, t, F)
     gammas, _ = mat.prony_arrays()
-    from cfm_core.kinematics import cauchy_from_pk2
+    from cfm_core.material.kinematics import cauchy_from_pk2
 
     expected = cauchy_from_pk2(F, (1 - gammas.sum()) * S_iso0 + S_vol)
     assert np.allclose(sigma[1], expected[1], rtol=1e-10, atol=1e-9)
@@ -75,7 +75,7 @@ def convolution_reference(mat, t_rows, F_rows, sub=4000):
 
     F is interpolated linearly in time between rows (as the recurrence assumes for S0 per step).
     """
-    from cfm_core.kinematics import cauchy_from_pk2
+    from cfm_core.material.kinematics import cauchy_from_pk2
 
     gammas, taus = mat.prony_arrays()
     out = []

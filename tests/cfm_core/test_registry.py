@@ -8,9 +8,10 @@ from importlib.metadata import EntryPoint
 import numpy as np
 import pytest
 
-from cfm_core import (InputError, MaterialSpec, isochoric, make_material, positive, register_material, registry,
+from cfm_core import (InputError, MaterialSpec, isochoric, make_material, positive, register_material, plugins,
                       volumetric)
-from cfm_core import reference as ref
+from cfm_core import get_backend, get_material
+from cfm_core.material import reference as ref
 
 
 @pytest.fixture
@@ -21,10 +22,10 @@ def fake_entry_points(monkeypatch):
     def fake(group):
         return table.get(group, [])
 
-    monkeypatch.setattr(registry, "_iter_entry_points", fake)
-    registry.refresh()
+    monkeypatch.setattr(plugins, "_iter_entry_points", fake)
+    plugins.refresh()
     yield table
-    registry.refresh()
+    plugins.refresh()
 
 
 def test_broken_plugin_is_reported_and_skipped(fake_entry_points):
@@ -34,15 +35,15 @@ def test_broken_plugin_is_reported_and_skipped(fake_entry_points):
         EntryPoint("wrongtype", "math:pi", "cfm.materials"),
     ]
     with pytest.warns(RuntimeWarning) as record:
-        entries = registry.entries("materials")
+        entries = plugins.entries("materials")
     messages = " ".join(str(w.message) for w in record)
     assert "'broken' is skipped" in messages and "'wrongtype' is skipped" in messages
     assert entries["good"][1] is None
     assert "No module named 'no_such_module_xyz'" in entries["broken"][1]
     assert "not a MaterialSpec" in entries["wrongtype"][1]
-    assert registry.get_material("good").name == "neo-hookean"
+    assert get_material("good").name == "neo-hookean"
     with pytest.raises(InputError, match="could not be used"):
-        registry.get_material("broken")
+        get_material("broken")
 
 
 def test_duplicate_names_warn_and_keep_the_first(fake_entry_points):
@@ -51,14 +52,14 @@ def test_duplicate_names_warn_and_keep_the_first(fake_entry_points):
         EntryPoint("dup", "cfm_plugins.cfm:CFM", "cfm.materials"),
     ]
     with pytest.warns(RuntimeWarning, match="keeping the first"):
-        spec = registry.get_material("dup")
+        spec = get_material("dup")
     assert spec.name == "neo-hookean"
 
 
 def test_unknown_name_lists_what_exists(fake_entry_points):
     fake_entry_points["cfm.backends"] = [EntryPoint("numpy", "cfm_core.reference_backend:NumpyReferenceBackend", "cfm.backends")]
     with pytest.raises(InputError, match=r"unknown backend 'gpu'; available: numpy"):
-        registry.get_backend("gpu")
+        get_backend("gpu")
 
 
 def test_runtime_registration_of_a_ten_line_material():
@@ -81,7 +82,7 @@ def test_runtime_registration_of_a_ten_line_material():
         with pytest.raises(InputError, match="already registered"):
             register_material(my_mooney_rivlin & my_volume, name="my-mr")
     finally:
-        registry.unregister("materials", "my-mr")
+        plugins.unregister("materials", "my-mr")
 
 
 def test_term_signature_is_checked_against_declaration():
@@ -98,9 +99,9 @@ def test_importing_core_and_listing_backends_imports_no_heavy_library():
         "import sys, warnings\n"
         "warnings.simplefilter('ignore')\n"
         "import cfm_core\n"
-        "from cfm_core import registry\n"
-        "registry.entries('backends'); registry.entries('materials')\n"
-        "from cfm_core.cli import main\n"
+        "from cfm_core import plugins\n"
+        "plugins.entries('backends'); plugins.entries('materials')\n"
+        "from cfm_core.cli.main import main\n"
         "main(['backends'])\n"
         "heavy = [m for m in ('numba', 'torch', 'skfem') if m in sys.modules]\n"
         "assert not heavy, heavy\n"
@@ -109,10 +110,10 @@ def test_importing_core_and_listing_backends_imports_no_heavy_library():
 
 
 def test_warnings_are_clean_for_installed_plugins():
-    registry.refresh()
+    plugins.refresh()
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        entries = registry.entries("materials")
+        entries = plugins.entries("materials")
     assert {"cfm", "neo-hookean", "ogden", "mooney-rivlin"} <= set(entries)
 
 

@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from cfm_core.errors import InputError
-from cfm_core.mesh import structured_hex_mesh
-from cfm_core.scene import (Scene, builtin_scene, builtin_scenes, load_scene, scene_from_dict,
-                            scene_to_dict, scene_to_toml)
-from cfm_core.scene_sections import MaterialSettings, SceneSettings, Specimen
+from cfm_core.scene.mesh import structured_hex_mesh
+from cfm_core.scene.scene import Scene, builtin_scene, builtin_scenes, load_scene, scene_from_dict, scene_to_dict, scene_to_toml
+from cfm_core.scene.sections import MaterialSettings, SceneSettings, Specimen
 
 
 def drop(**sections):
@@ -45,7 +44,7 @@ def test_builtin_defaults():
 
 
 def test_builtin_files_comment_units():
-    from cfm_core import scene as mod
+    from cfm_core.scene import scene as mod
     from pathlib import Path
 
     for name in builtin_scenes():

@@ -6,11 +6,11 @@ import shutil
 
 import pytest
 
-from cfm_core import sweep
-from cfm_core.cli import main
-from cfm_core.dask_runner import WORKER_ENV, SerialRunner, open_runner
+from cfm_core.studies import sweep
+from cfm_core.cli.main import main
+from cfm_core.studies.dask_runner import WORKER_ENV, SerialRunner, open_runner
 from cfm_core.errors import InputError
-from cfm_core.scene import builtin_scene, scene_to_toml
+from cfm_core.scene.scene import builtin_scene, scene_to_toml
 
 pytest.importorskip("numba")
 distributed = pytest.importorskip("distributed")
@@ -146,7 +146,7 @@ def test_runner_records_errors_without_stopping():
 
 @pytest.mark.parametrize("address", ["tcp://127.0.0.1:1", "no-port"])
 def test_unreachable_scheduler_is_an_input_error(address):
-    from cfm_core.dask_runner import connect
+    from cfm_core.studies.dask_runner import connect
 
     with pytest.raises(InputError, match=f"--scheduler {address}: cannot connect to a Dask scheduler"):
         connect(address, timeout=1.0)

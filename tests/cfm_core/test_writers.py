@@ -7,9 +7,9 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from cfm_core import writers
+from cfm_core.post import writers
 from cfm_core.errors import NumericalError
-from cfm_core.writers import write_csv, write_drop_test, write_json, write_vtu_series
+from cfm_core.post.writers import write_csv, write_drop_test, write_json, write_vtu_series
 
 
 def test_csv_header_first_and_exact_round_trip(tmp_path):
@@ -111,7 +111,7 @@ def test_vtu_series(tmp_path):
 
 def test_plots_written_atomically(tmp_path):
     pytest.importorskip("matplotlib")
-    from cfm_core.plotting import plot_acceleration, plot_overlay
+    from cfm_core.post.plots import plot_acceleration, plot_overlay
 
     t = np.linspace(0, 6e-3, 301)
     a = 500 * np.sin(np.pi * np.clip(t, 0, 4e-3) / 4e-3)

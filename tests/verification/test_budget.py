@@ -2,7 +2,7 @@
 
 import pytest
 
-from cfm_core.scene import builtin_scene
+from cfm_core.scene.scene import builtin_scene
 from cfm_verification.agreement import Budget, scene_agreement
 from cfm_verification.stability import run_scene_cases
 

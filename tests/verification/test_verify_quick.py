@@ -48,7 +48,7 @@ def test_report_contents(quick):
 
 
 def test_drucker_warnings_hydrostatic():
-    from cfm_core.material import make_material
+    from cfm_core.material.registry import make_material
     from cfm_verification.drucker import DruckerWarning, drucker_warnings
     from cfm_verification.histories import hydrostatic, uniaxial_compression
 

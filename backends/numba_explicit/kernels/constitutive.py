@@ -1,7 +1,7 @@
 """Constitutive update at one material point (numba, scalars only).
 
 Given F: J = det F (J <= 0 is an inversion), C = F^T F = Q diag(m) Q^T, and from the material's
-generated functions (DESIGN.md section 2; derivatives with respect to the eigenvalues m_a of C):
+generated functions (docs/conventions.md section 2; derivatives with respect to the eigenvalues m_a of C):
 
     S0_iso = Q diag(2 d psi_iso / d m_a) Q^T,   S_vol = Q diag(2 d psi_vol / d m_a) Q^T   (Pa)
 

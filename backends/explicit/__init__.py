@@ -1,0 +1,1 @@
+"""Shared numpy-only layer of the explicit backends (numba, torch)."""

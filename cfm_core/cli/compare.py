@@ -1,0 +1,55 @@
+"""``cfm compare REF_DIR DIR...``: compare finished runs of any backends with a reference run."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..post.compare import SIGNALS, Run, compare_runs, read_run
+from ..post.histories import G0
+from ..post.plots import _COLOURS, _figure, _save
+from ..post.writers import write_json
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("compare", help="compare finished runs (output directories) with a reference run",
+                       description="Compare runs written by 'cfm drop-test' or 'cfm run' (any backends) with the "
+                                   "first directory: relative L2 of the CFC 600 acceleration (or reaction force) "
+                                   "over the common time range, peak and time-of-peak differences, wall times.")
+    p.add_argument("reference", help="output directory of the reference run")
+    p.add_argument("runs", nargs="+", help="output directories of the runs to compare")
+    p.add_argument("--plot", help="also write an overlay PNG of all signals here")
+    p.add_argument("--json", help="also write the rows as JSON here")
+
+
+def cmd_compare(args) -> int:
+    ref = read_run(args.reference)
+    runs = [read_run(p) for p in args.runs]
+    rows = compare_runs(ref, runs)
+    unit = SIGNALS[ref.kind][1]
+    scale, shown = (G0, "g") if unit == "m/s^2" else (1.0, unit)
+    p0 = float(ref.y[np.argmax(np.abs(ref.y))])
+    print(f"reference {ref.label}: peak {p0 / scale:.4g} {shown}, wall {ref.summary.get('wall_time', float('nan')):.3g} s")
+    for r in rows:
+        ratio = f", {r['wall_ratio']:.3g}x the reference's" if r["wall_ratio"] else ""
+        print(f"{r['run']}: peak {r['peak'] / scale:.4g} {shown} ({100 * r['peak_diff']:+.2f} %), "
+              f"t_peak {1e3 * r['t_peak_diff']:+.3f} ms, rel L2 {100 * r['rel_l2']:.2f} %, "
+              f"wall {r['wall_time'] if r['wall_time'] is not None else float('nan'):.3g} s{ratio}")
+    if args.json:
+        write_json(args.json, {"reference": str(ref.path), "signal": SIGNALS[ref.kind][0], "unit": unit,
+                               "rows": rows})
+    if args.plot:
+        _plot(args.plot, [ref] + runs, scale, shown)
+    return 0
+
+
+def _plot(path, runs: list[Run], scale: float, shown: str) -> None:
+    fig, ax = _figure("Run comparison")
+    ax.set_ylabel(f"{'Impactor acceleration' if shown == 'g' else 'Reaction force'} ({shown})")
+    for i, r in enumerate(runs):
+        ax.plot(1e3 * r.t, r.y / scale, color=_COLOURS[i % len(_COLOURS)], linewidth=2.0 if i == 0 else 1.2,
+                linestyle="-" if i == 0 else "--", label=r.label + (" (reference)" if i == 0 else ""))
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+COMMANDS = {"compare": cmd_compare}

@@ -1,0 +1,72 @@
+"""The ``cfm`` command: one parser, subcommands from the command modules.
+
+Built-in command groups: material.py (``materials``, ``backends``, ``point``), scene.py
+(``drop-test``, ``run``), compare.py (``compare``), studies.py (``sweep``, ``calibrate``). More
+commands come from the ``cfm.commands`` entry-point group (the verification suite registers
+``verify`` there): a command module has ``add_parser(subparsers)`` and ``COMMANDS`` (name ->
+handler). User mistakes (InputError) print one paragraph and exit 2; numerical failures
+(NumericalError, including a run whose physics broke) print where and when and exit 3. No
+traceback for either, and no partial output file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from .. import plugins
+from ..errors import InputError, NumericalError
+from . import compare, material, scene, studies
+
+BUILTIN = (material, scene, compare, studies)
+
+plugins.declare_kind(
+    "commands", "cfm.commands", lambda obj: callable(getattr(obj, "add_parser", None)) and
+    isinstance(getattr(obj, "COMMANDS", None), dict), "a module with add_parser(subparsers) and COMMANDS",
+    "register one with the 'cfm.commands' entry-point group")
+
+
+def command_modules() -> list:
+    """The built-in command modules, then the registered ones (broken ones warn and are skipped)."""
+    extra = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for name, (module, err) in plugins.entries("commands").items():
+            if err:
+                print(f"cfm: command plugin '{name}' is skipped: {err}", file=sys.stderr)
+            else:
+                extra.append(module)
+    return [*BUILTIN, *extra]
+
+
+def build_parser(modules=None) -> argparse.ArgumentParser:
+    """The ``cfm`` argument parser with every command module's subcommands."""
+    parser = argparse.ArgumentParser(prog="cfm", description="Circular fiber model framework (SI units: m, s, kg, Pa).")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for module in modules or command_modules():
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
+    error, 3 numerical failure, 130 interrupted)."""
+    modules = command_modules()
+    args = build_parser(modules).parse_args(argv)
+    handlers = {name: fn for module in modules for name, fn in module.COMMANDS.items()}
+    try:
+        return handlers[args.command](args)
+    except InputError as exc:
+        print(f"cfm {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except NumericalError as exc:
+        print(f"cfm {args.command}: numerical failure: {exc}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt:
+        print(f"cfm {args.command}: interrupted; no result written.", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,86 @@
+"""``cfm materials``, ``cfm backends`` and ``cfm point`` (the material-point driver)."""
+
+from __future__ import annotations
+
+import warnings
+
+from .. import plugins
+from ..errors import InputError
+from ..material.registry import make_material
+from ..post.writers import write_csv
+from ..simulation import point
+from ..simulation.registry import backend_for
+from .options import add_material_options, parse_params
+
+
+def _entries(kind: str) -> dict:
+    """Registry entries without RuntimeWarnings: broken plugins are shown in the listing itself."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return plugins.entries(kind)
+
+
+def _cmd_materials(args) -> int:
+    for name, (spec, err) in _entries("materials").items():
+        if err:
+            print(f"{name}: BROKEN ({err})\n")
+            continue
+        print(f"{name}: {spec.description}")
+        for p in spec.parameters:
+            print(f"    {p.name:<8} = {p.default:<12g} {p.unit:<3} range {p.range_text():<22} {p.description}")
+        print()
+    return 0
+
+
+def _cmd_backends(args) -> int:
+    for name, (cls, err) in _entries("backends").items():
+        if err:
+            print(f"{name:<8} BROKEN       {err}")
+            continue
+        ok, why = cls().available()
+        status = "available" if ok else f"unavailable: {why}"
+        print(f"{name:<8} {cls.kind:<12} {status}  ({cls.description})")
+    return 0
+
+
+def _cmd_point(args) -> int:
+    material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
+    if args.uniaxial:
+        if args.history:
+            raise InputError("--uniaxial and --history exclude each other: give one of them.")
+        if args.rate is None or args.stretch is None:
+            raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
+        if args.backend not in (None, "numpy"):
+            raise InputError(f"--uniaxial runs on the numpy reference only; drop --backend {args.backend}.")
+        t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        write_csv(args.out, point.UNIAXIAL_HEADER, [t, lam, P, lat])
+        print(f"wrote {args.out}: {t.size} rows (t s, stretch -, nominal stress Pa, lateral stretch -)")
+        return 0
+    if not args.history:
+        raise InputError("give --history F.csv (header t,F11,...,F33) or --uniaxial --rate R --stretch L.")
+    t, F = point.read_history(args.history)
+    backend = backend_for(args.backend) if args.backend else None
+    sigma = point.run_history(material, t, F, backend)
+    write_csv(args.out, point.STRESS_HEADER, [t] + [sigma[:, k] for k in range(6)])
+    print(f"wrote {args.out}: {t.size} rows of Cauchy stress (Pa)")
+    return 0
+
+
+
+def add_parser(sub) -> None:
+    """Add ``materials``, ``backends`` and ``point`` to the ``cfm`` subcommands."""
+    sub.add_parser("materials", help="list materials with their parameters (units, defaults, ranges)")
+    sub.add_parser("backends", help="list backends: kind and availability")
+    p = sub.add_parser("point", help="material-point driver: Cauchy stress along F(t), or uniaxial stress")
+    add_material_options(p)
+    p.add_argument("--backend", default=None, help="backend for --history (default: numpy reference)")
+    p.add_argument("--history", help="CSV with header t,F11,F12,F13,F21,F22,F23,F31,F32,F33 (t in s)")
+    p.add_argument("--uniaxial", action="store_true", help="uniaxial stress, lateral tractions zero")
+    p.add_argument("--rate", type=float, help="engineering strain rate for --uniaxial, 1/s")
+    p.add_argument("--stretch", type=float, help="final stretch for --uniaxial, dimensionless (e.g. 0.5)")
+    p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
+    p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
+    p.add_argument("--out", required=True, help="output CSV (t,s11,s22,s33,s12,s23,s13 in s and Pa; or t,stretch,nominal_stress,lateral_stretch)")
+
+
+COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cmd_point}

@@ -1,0 +1,153 @@
+"""``cfm drop-test`` (the main job) and ``cfm run`` (any scene file)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ..errors import InputError
+from ..post import plots, writers
+from ..runs import pipeline
+from ..scene.scene import builtin_scene, builtin_scenes, load_scene
+from .options import Progress, add_material_options, out_dir, parse_params
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("drop-test", help="the paper's drop test: impactor acceleration history (CFC 600)",
+                       description="Rigid hemispherical impactor on a fat specimen on a rigid plate (SI units). "
+                                   "Writes acceleration.csv (t s, a_raw and a_cfc600 m/s^2), summary.json and "
+                                   "acceleration.png into --out.")
+    p.add_argument("--scene", help="scene TOML file (default: the built-in drop-test scene)")
+    p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N; default cpu)")
+    p.add_argument("--dtype", choices=["float64", "float32"],
+                   help="floating-point type for backends that have a choice (torch; default float64)")
+    p.add_argument("--thickness", type=float, help="specimen thickness, m (paper: 0.0048 .. 0.0083; default 0.008)")
+    p.add_argument("--element-size", type=float, help="hexahedron edge, m (default 0.001)")
+    p.add_argument("--velocity", type=float, help="impact speed, m/s (default 1.0)")
+    p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
+    p.add_argument("--symmetry", choices=["quarter", "none"], help="quarter model (default) or full specimen")
+    add_material_options(p, default_material=None)
+    p.add_argument("--vtu", action="store_true", help="also write the deformed specimen over time (ParaView .pvd/.vtu)")
+    p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--out", required=True, help="output directory")
+    add_run_parser(sub)
+
+
+def scene_from_args(args):
+    """The scene of ``cfm drop-test`` with the command-line overrides applied."""
+    scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
+    return _apply_overrides(scene, args, ("thickness", "element_size", "velocity", "friction", "symmetry"))
+
+
+def _apply_overrides(scene, args, keys=()):
+    """The scene with the command line's material options and the given scene keys applied
+    (options left at None change nothing)."""
+    over = {k: getattr(args, k) for k in (*keys, "material", "moduli") if getattr(args, k) is not None}
+    if args.elastic:
+        over["elastic"] = True
+    params = parse_params(args.param)
+    if params:
+        over["parameters"] = params
+    return scene.with_overrides(**over) if over else scene
+
+
+def _backend_options(args) -> dict:
+    options = {}
+    if getattr(args, "vtu", False):
+        options["frame_interval"] = 2e-4
+    if args.device is not None:
+        options["device"] = args.device
+    if args.dtype is not None:
+        options["dtype"] = args.dtype
+    return options
+
+
+def _drop_test(args, scene, backend: str) -> int:
+    """Run a drop-test scene and write acceleration.csv, summary.json (last) and the plot."""
+    out = out_dir(args)
+    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})",
+                        enabled=not args.quiet)
+    try:
+        outcome = pipeline.drop_test(scene, backend, progress=progress, **_backend_options(args))
+    finally:
+        progress.close()
+    (out / "summary.json").unlink(missing_ok=True)  # an earlier success must not survive a failure
+    out.mkdir(parents=True, exist_ok=True)
+    if getattr(args, "vtu", False):
+        writers.write_vtu_series(out, outcome.model.nodes, outcome.model.hexes, outcome.result.frames)
+    if not args.no_plot:
+        s = outcome.summary
+        title = (f"Drop test, {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, {s['material']} "
+                 f"({s['moduli']}), {s['backend']}")
+        plots.plot_acceleration(out / "acceleration.png", outcome.t, outcome.a_raw, outcome.a_cfc, title)
+    writers.write_drop_test(out, outcome.t, outcome.a_raw, outcome.a_cfc, outcome.summary)  # summary.json last
+    s = outcome.summary
+    print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
+          f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
+          f"hourglass/internal {100 * s.get('hourglass_ratio', math.nan):.2f} %")
+    print(f"wrote {out}/acceleration.csv, summary.json" + ("" if args.no_plot else ", acceleration.png"))
+    return 0
+
+
+def _cmd_drop_test(args) -> int:
+    return _drop_test(args, scene_from_args(args), args.backend)
+
+
+def add_run_parser(sub) -> None:
+    p = sub.add_parser("run", help="run any scene (drop-test, single-element, relaxation) on a backend",
+                       description="Run a scene file or a built-in scene (SI units). Drop tests write "
+                                   "acceleration.csv (t s, a_raw and a_cfc600 m/s^2); single-element and "
+                                   "relaxation scenes write reaction.csv (t s, stretch -, reaction_force N, "
+                                   "nominal_stress Pa); both write summary.json (last) and a PNG plot into --out.")
+    p.add_argument("--scene", required=True,
+                   help="scene TOML file, or a built-in scene name (drop-test, single-element, relaxation)")
+    p.add_argument("--backend", default=None,
+                   help="backend name (default: skfem for the quasi-static relaxation scene, numba otherwise)")
+    p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N)")
+    p.add_argument("--dtype", choices=["float64", "float32"], help="floating-point type (torch; default float64)")
+    add_material_options(p, default_material=None)
+    p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--out", required=True, help="output directory")
+
+
+def _scene_for_run(args):
+    name = args.scene
+    if not Path(name).exists() and name in builtin_scenes():
+        scene = builtin_scene(name)
+    elif not Path(name).exists():
+        raise InputError(f"--scene {name!r}: no such file, and not a built-in scene "
+                         f"(built-in: {', '.join(builtin_scenes())}).")
+    else:
+        scene = load_scene(name)
+    return _apply_overrides(scene, args)
+
+
+def _cmd_run(args) -> int:
+    scene = _scene_for_run(args)
+    backend = args.backend or pipeline.default_backend(scene)
+    if scene.type == "drop-test":
+        return _drop_test(args, scene, backend)
+    out = out_dir(args)
+    progress = Progress(scene.end_time, f"{scene.type} ({backend})", enabled=not args.quiet)
+    try:
+        outcome = pipeline.reaction_test(scene, backend, progress=progress, **_backend_options(args))
+    finally:
+        progress.close()
+    (out / "summary.json").unlink(missing_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
+    s = outcome.summary
+    if not args.no_plot:
+        title = (f"{scene.type}, stretch {s['stretch']:g}, {s['material']} ({s['moduli']}), {s['backend']}")
+        plots.plot_reaction(out / "reaction.png", outcome.t, outcome.force, title)
+    writers.write_reaction(out, outcome.t, outcome.stretch, outcome.force, outcome.nominal, s)
+    print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "
+          f"{s['final_force']:.4g} N ({100 * s['final_over_peak']:.2f} % of it); {s['steps']} steps, "
+          f"{s['wall_time']:.2f} s solver")
+    print(f"wrote {out}/reaction.csv, summary.json" + ("" if args.no_plot else ", reaction.png"))
+    return 0
+
+
+COMMANDS = {"drop-test": _cmd_drop_test, "run": _cmd_run, }

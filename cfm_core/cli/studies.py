@@ -1,0 +1,140 @@
+"""``cfm sweep`` (parameter studies) and ``cfm calibrate`` (fit to measured curves), on Dask.
+
+Both run many drop tests through :func:`cfm_core.studies.dask_runner.open_runner`: a local Dask cluster
+by default (``--workers N``, default: this machine's cores), an existing scheduler with
+``--scheduler tcp://host:8786``, or a loop in this process with ``--serial``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from ..errors import InputError
+from ..scene.scene import builtin_scene, load_scene
+from ..studies import calibrate, measured, sweep
+from ..studies.dask_runner import open_runner
+from .options import parse_params
+
+
+def _runner_options(p) -> None:
+    p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="Dask scheduler to run on, e.g. tcp://host:8786 ('none': serial); "
+                            "default: a local Dask cluster")
+    where.add_argument("--serial", action="store_true", help="run the drop tests one after another in this "
+                                                             "process (no Dask)")
+    p.add_argument("--workers", type=int, help="worker processes of the local Dask cluster (default: the "
+                                               "number of cores)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("sweep", help="parameter study: drop tests for every combination of values (Dask)",
+                       description="Runs the drop test for the cartesian product of --vary values (scene values "
+                                   "and material parameters, SI units) and writes sweep.csv (+ sweep.parquet), "
+                                   "runs/<id>/acceleration.csv and summary.json, and peaks.png into --out. "
+                                   "Rerunning skips the runs already complete.")
+    p.add_argument("--scene", help="drop-test scene TOML file (default: the built-in drop-test scene)")
+    p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...", required=True,
+                   help="a scene value (thickness, velocity, element_size, width, mass, radius, density, "
+                        "friction) or material parameter (c, k1, k2, kappa, g1, tau1, ...) and its values, "
+                        "SI units; repeatable")
+    _runner_options(p)
+    p.add_argument("--out", required=True, help="output directory")
+    c = sub.add_parser("calibrate", help="fit material parameters to measured acceleration histories (Dask)",
+                       description="Least-squares fit of material parameters to measured drop-test curves "
+                                   "(CSV t,a in s and m/s^2, t = 0 at first contact), both filtered with CFC 600. "
+                                   "Writes fit.json, fit_<curve>.png, objective.png and fitted-scene.toml "
+                                   "into --out.")
+    c.add_argument("--data", action="extend", nargs="+", metavar="FILE[:THICKNESS]", required=True,
+                   help="measured curve, with the specimen thickness in m (e.g. drop5.csv:0.005); "
+                        "without it the --scene file's thickness applies")
+    c.add_argument("--fit", required=True, metavar="NAME,...",
+                   help="parameters to fit, e.g. k1,k2 or k1,k2,prony (prony = g1,tau1)")
+    c.add_argument("--scene", help="drop-test scene TOML file: impactor, velocity, mesh, fixed parameters "
+                                   "(default: the built-in drop-test scene)")
+    c.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="starting value of a fitted parameter, SI units (default: the scene's); repeatable")
+    c.add_argument("--rel-step", type=float, default=None,
+                   help="relative finite-difference step of the Jacobian (default 1e-3)")
+    c.add_argument("--max-evaluations", type=int, default=60,
+                   help="most objective evaluations of the optimiser (default 60)")
+    _runner_options(c)
+    c.add_argument("--out", required=True, help="output directory")
+
+
+def _scene(path):
+    return load_scene(path) if path else builtin_scene("drop-test")
+
+
+def _progress(args):
+    if args.quiet:
+        return None
+    return lambda line: print(line, file=sys.stderr, flush=True)
+
+
+def _open(args):
+    return open_runner("none" if args.serial else args.scheduler, args.workers)
+
+
+def _cmd_sweep(args) -> int:
+    scene = _scene(args.scene)
+    axes = sweep.parse_vary(args.vary, scene)
+    out = Path(args.out)
+    with _open(args) as runner:
+        say = _progress(args)
+        if say:
+            say(f"sweep of {len(sweep.cases(axes))} drop tests on {runner.label}")
+        result = sweep.run_sweep(scene, axes, out, args.backend, runner, say)
+    n = len(result.rows)
+    print(f"{n} runs: {n - result.failed} complete ({result.skipped} from an earlier invocation), "
+          f"{result.failed} failed; {result.wall:.1f} s")
+    print("wrote " + ", ".join(str(f) for f in result.files) + f" and {out}/runs/")
+    if result.failed:
+        print(f"cfm sweep: {result.failed} run(s) failed; their errors are in the 'error' column of "
+              f"{out}/sweep.csv. Rerun the command to retry them (complete runs are skipped).", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _cmd_calibrate(args) -> int:
+
+    scene = _scene(args.scene)
+    names = calibrate.fit_names(args.fit, scene)
+    start = parse_params(args.param)
+    extra = sorted(set(start) - set(names))
+    if extra:
+        raise InputError(f"--param {', '.join(extra)}: only fitted parameters take a starting value here "
+                         f"(fitted: {', '.join(names)}); set fixed values in the --scene file.")
+    curves = measured.read_curves(args.data, scene, scene_given=args.scene is not None)
+    rel_step = calibrate.REL_STEP if args.rel_step is None else float(args.rel_step)
+    if args.max_evaluations < 1:
+        raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
+    t0 = time.perf_counter()
+    with _open(args) as runner:
+        say = _progress(args)
+        if say:
+            say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")
+        result = calibrate.fit(scene, curves, names, start, args.backend, runner, rel_step,
+                               args.max_evaluations, say)
+        label = runner.label
+    files = calibrate.write_fit(args.out, scene, result, {"runner": label,
+                                                          "total_time": time.perf_counter() - t0})
+    conf = result.confidence["parameters"]
+    for n, u in zip(result.problem.coords.names, result.problem.coords.units):
+        ci = conf[n]["ci"]
+        ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "not identifiable (J^T J singular)"
+        print(f"{n:<6} = {result.final.params[n]:<12.6g} {u:<3} start {result.start.params[n]:<10.5g} "
+              f"95 % CI {ci_text}")
+    for c, e in zip(result.problem.curves, result.final.rel_l2):
+        print(f"{c.name}: rel. L2 {100 * e:.2f} % ({1e3 * c.thickness:g} mm)")
+    print(f"{result.problem.runs} drop tests, {len(result.problem.history)} evaluations, "
+          f"{time.perf_counter() - t0:.1f} s; {result.status}")
+    print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+COMMANDS = {"sweep": _cmd_sweep, "calibrate": _cmd_calibrate}

@@ -1,0 +1,73 @@
+"""On-disk cache of generated material code (and the folder numba kernels are compiled into).
+
+Location: ``$CFM_CACHE_DIR`` or ``~/.cache/cfm``. Set ``CFM_NO_CODEGEN_CACHE=1`` to bypass it.
+A generated source is keyed by a fingerprint of everything it is derived from: for each term its
+kind, name, parameter declarations, the full text of the file defining its energy function and
+the values its closure captures, plus the text of :mod:`cfm_core.material.codegen`. A term defined where
+no source file exists (an interactive session) is never cached.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import os
+import tempfile
+from pathlib import Path
+from . import codegen
+
+
+def cache_dir(*parts: str) -> Path:
+    """The cache folder (created), optionally a subfolder; the temporary folder if home is read-only."""
+    root = Path(os.environ.get("CFM_CACHE_DIR") or Path.home() / ".cache" / "cfm")
+    path = root.joinpath(*parts)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".probe-{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+    except OSError:
+        path = Path(tempfile.gettempdir()).joinpath("cfm-cache", *parts)
+        path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _file_text(func) -> str | None:
+    try:
+        path = inspect.getsourcefile(func)
+    except TypeError:
+        return None
+    if not path or not os.path.isfile(path):
+        return None
+    return Path(path).read_text()
+
+
+def spec_fingerprint(spec) -> str | None:
+    """Hash identifying the generated code of a material spec, or None if it cannot be cached."""
+
+    h = hashlib.sha256()
+    h.update(Path(codegen.__file__).read_bytes())
+    terms = spec.isochoric + ((spec.volumetric,) if spec.volumetric else ())
+    for term in terms:
+        text = _file_text(term.energy)
+        if text is None:
+            return None
+        closure = [c.cell_contents for c in (term.energy.__closure__ or ())]
+        h.update(repr((term.kind, term.name, term.parameters, term.energy.__qualname__, closure)).encode())
+        h.update(text.encode())
+    return h.hexdigest()[:24]
+
+
+def codegen_cache(spec, dialect: str, generate) -> str:
+    """Return the cached source for (spec, dialect) or generate, store and return it."""
+    key = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else spec_fingerprint(spec)
+    if key is None:
+        return generate()
+    path = cache_dir("codegen") / f"{key}-{dialect}.py"
+    if path.is_file():
+        return path.read_text()
+    text = generate()
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return text

@@ -1,0 +1,104 @@
+"""Reference evaluation of a :class:`~cfm_core.material.Material` with numpy (float64).
+
+This is the truth every backend is checked against. Elastic functions give the *instantaneous*
+response (g = 1); :func:`stress_history` integrates the Prony series along a history.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import kinematics as kin
+from . import prony
+from ..errors import InputError, NumericalError
+
+
+def _evaluate(material, m, *names):
+    k = material.kernels("numpy")
+    p = material.param_array()
+    with np.errstate(over="ignore", invalid="ignore"):
+        outs = [np.stack(getattr(k, name)(m[:, 0], m[:, 1], m[:, 2], p), axis=1) for name in names]
+    for name, o in zip(names, outs):
+        if not np.isfinite(o).all():
+            i = int(np.argmax(~np.isfinite(o).all(axis=1)))
+            raise NumericalError(
+                f"material '{material.name}': {name} is not finite at point {i} (eigenvalues of C = "
+                f"{m[i].tolist()}); the fibre exponential overflows float64 when k2 (x-1)^2 > 709.",
+                element=i, quantity=name,
+            )
+    return outs
+
+
+def energy(material, F) -> np.ndarray:
+    """Instantaneous strain energy per reference volume (n,), Pa = J/m^3."""
+    m, _, _ = kin.principal(F)
+    (e,) = _evaluate(material, m, "psi_energy")
+    return e[:, 0] + e[:, 1]
+
+
+def pk2_parts(material, F):
+    """(S0_iso, S_vol): isochoric (instantaneous) and volumetric second Piola-Kirchhoff stress (n,3,3), Pa."""
+    m, Q, _ = kin.principal(F)
+    (g,) = _evaluate(material, m, "psi_grad")
+    return kin.from_principal(2.0 * g[:, :3], Q), kin.from_principal(2.0 * g[:, 3:], Q)
+
+
+def pk2(material, F) -> np.ndarray:
+    """Instantaneous second Piola-Kirchhoff stress S = 2 d psi / d C (n, 3, 3), Pa."""
+    S_iso, S_vol = pk2_parts(material, F)
+    return S_iso + S_vol
+
+
+def cauchy(material, F) -> np.ndarray:
+    """Instantaneous Cauchy stress (n, 3, 3), Pa."""
+    F = kin.as_batch(F)
+    return kin.cauchy_from_pk2(F, pk2(material, F))
+
+
+def tangent(material, F, iso_factor: float = 1.0) -> np.ndarray:
+    """Material tangent CC = 2 dS/dC = dS/dE (n, 3, 3, 3, 3), Pa.
+
+    iso_factor multiplies the isochoric part: 1 for the instantaneous response, the Prony
+    series' :func:`cfm_core.material.prony.effective_factor` for the consistent viscoelastic tangent.
+    """
+    m, Q, _ = kin.principal(F)
+    g, h = _evaluate(material, m, "psi_grad", "psi_hess")
+    g_tot = iso_factor * g[:, :3] + g[:, 3:]
+    h_tot = iso_factor * h[:, :6] + h[:, 6:]
+    return kin.tangent_from_principal(m, Q, g_tot, h_tot)
+
+
+def viscous_step(material, state, dt: float, S0_iso, S_vol):
+    """One Prony step at a material point: returns (S, new_state); ``state`` is not modified.
+
+    state: None (undeformed, relaxed) or (H (k, 3, 3), S0_old (3, 3)); dt in s (0 = jump);
+    S0_iso, S_vol: (3, 3) instantaneous isochoric and volumetric second Piola-Kirchhoff stress, Pa.
+    """
+    gammas, taus = material.prony_arrays()
+    if gammas.size == 0:
+        return S0_iso + S_vol, None
+    H, S0_old = state if state is not None else (np.zeros((gammas.size, 3, 3)), np.zeros((3, 3)))
+    H_new, S_iso = prony.update(H, S0_old, S0_iso, dt, gammas, taus)
+    return S_iso + S_vol, (H_new, S0_iso)
+
+
+def stress_history(material, t, F) -> np.ndarray:
+    """Cauchy stress (n, 3, 3), Pa, along a deformation history with Prony viscoelasticity.
+
+    t: (n,) non-decreasing times in s; F: (n, 3, 3). The material is undeformed and relaxed before
+    t[0]; a deformation already present at t[0] is applied as a jump (instantaneous response).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    F = kin.as_batch(F)
+    if t.ndim != 1 or t.shape[0] != F.shape[0]:
+        raise InputError(f"times ({t.shape}) and deformation gradients ({F.shape[0]}) must match in length.")
+    if t.size > 1 and not (np.diff(t) >= 0).all():
+        i = int(np.argmax(np.diff(t) < 0)) + 1
+        raise InputError(f"times must not decrease: t[{i}] = {t[i]:g} s < t[{i-1}] = {t[i-1]:g} s.")
+    S_iso0, S_vol = pk2_parts(material, F)
+    S = np.empty_like(S_iso0)
+    state = None
+    for n in range(t.size):
+        dt = 0.0 if n == 0 else t[n] - t[n - 1]
+        S[n], state = viscous_step(material, state, dt, S_iso0[n], S_vol[n])
+    return kin.cauchy_from_pk2(F, S)

@@ -1,0 +1,30 @@
+"""Symbolic building blocks for writing energy terms once.
+
+Energy terms are plain Python functions of symbols; they are traced once with sympy, and every
+backend gets code generated from that single expression. Use these helpers instead of ``math`` or
+``numpy`` inside an energy function::
+
+    from cfm_core.material.sym import exp, where
+
+    def fibre(x, k1, k2):
+        return where(x >= 1, k1 / (2 * k2) * (exp(k2 * (x - 1) ** 2) - 1), 0)
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+exp = sp.exp
+log = sp.log
+sqrt = sp.sqrt
+
+
+def where(condition, if_true, if_false):
+    """``if_true`` where ``condition`` holds, else ``if_false`` (a sympy Piecewise).
+
+    Both branches are evaluated by array backends, so each must be finite on the whole domain.
+    """
+    return sp.Piecewise((if_true, condition), (if_false, True))
+
+
+__all__ = ["exp", "log", "sqrt", "where"]

@@ -1,0 +1,170 @@
+"""Plugin registries found through entry points: the machinery shared by every kind of plugin.
+
+Each layer declares the kinds it owns with :func:`declare_kind`: the material layer declares
+``materials`` (group ``cfm.materials``, a :class:`~cfm_core.material.MaterialSpec`) and ``terms``
+(``cfm.terms``, a :class:`~cfm_core.material.Term`), the simulation layer ``backends``
+(``cfm.backends``, a :class:`~cfm_core.simulation.Backend` subclass) and the command line
+``commands`` (``cfm.commands``, a command module). This module imports none of them, so the
+imports go one way.
+
+Discovery is lazy and cached; :func:`refresh` clears the cache (xarray's backend registry works
+the same way). A plugin that fails to load or is of the wrong type becomes a ``RuntimeWarning``
+naming it and the error, and is listed as broken; the others still load. Two plugins with one
+name: a warning, the first is kept. Objects registered at run time take precedence over entry
+points.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from typing import Callable
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One kind of plugin: its entry-point group, the check an object must pass, and the hint
+    printed when a name is unknown."""
+
+    name: str
+    group: str
+    accepts: Callable[[object], bool]
+    expected: str
+    hint: str
+
+
+_kinds: dict[str, Kind] = {}
+_runtime: dict[str, dict[str, object]] = {}
+
+
+def declare_kind(name: str, group: str, accepts: Callable[[object], bool], expected: str, hint: str) -> Kind:
+    """Declare a kind of plugin (called once by the layer that owns it).
+
+    Parameters
+    ----------
+    name : str
+        Plural name of the kind, e.g. ``"materials"``.
+    group : str
+        Entry-point group, e.g. ``"cfm.materials"``.
+    accepts : callable
+        ``accepts(obj) -> bool``: whether a loaded object is a valid plugin of this kind.
+    expected : str
+        What ``accepts`` wants, for messages (``"a MaterialSpec"``).
+    hint : str
+        How to add a plugin of this kind, printed with unknown names.
+    """
+    kind = Kind(name, group, accepts, expected, hint)
+    _kinds[name] = kind
+    _runtime.setdefault(name, {})
+    return kind
+
+
+def _kind(name: str) -> Kind:
+    try:
+        return _kinds[name]
+    except KeyError:
+        raise InputError(f"unknown plugin kind '{name}'; declared kinds: {', '.join(sorted(_kinds))}.") from None
+
+
+def _iter_entry_points(group: str):
+    """The installed entry points of one group (patched in tests with fake EntryPoint objects)."""
+    return list(entry_points(group=group))
+
+
+@functools.lru_cache(maxsize=None)
+def _entry_point_table(kind: str) -> dict:
+    table: dict = {}
+    for ep in _iter_entry_points(_kind(kind).group):
+        if ep.name in table:
+            warnings.warn(
+                f"two {kind} plugins are named '{ep.name}' ({table[ep.name].value} and {ep.value}); "
+                f"keeping the first.", RuntimeWarning, stacklevel=3)
+            continue
+        table[ep.name] = ep
+    return table
+
+
+@functools.lru_cache(maxsize=None)
+def _load(kind: str, name: str):
+    """(object, None) or (None, error text) for one entry point."""
+    ep = _entry_point_table(kind)[name]
+    try:
+        obj = ep.load()
+    except Exception as exc:  # a broken plugin must not break the listing
+        return None, f"failed to load {ep.value}: {type(exc).__name__}: {exc}"
+    spec = _kind(kind)
+    if not spec.accepts(obj):
+        return None, f"{ep.value} is {obj!r}, not {spec.expected} as the '{spec.group}' group requires"
+    return obj, None
+
+
+def names(kind: str) -> list[str]:
+    """Names of all registered plugins of a kind (runtime first, then entry points), sorted."""
+    _kind(kind)
+    return sorted(set(_runtime[kind]) | set(_entry_point_table(kind)))
+
+
+def entries(kind: str) -> dict[str, tuple[object, str | None]]:
+    """name -> (object or None, error or None) for every plugin of a kind; warns on broken ones."""
+    out = {}
+    for name in names(kind):
+        if name in _runtime[kind]:
+            out[name] = (_runtime[kind][name], None)
+            continue
+        obj, err = _load(kind, name)
+        if err:
+            warnings.warn(f"{kind[:-1]} plugin '{name}' is skipped: {err}", RuntimeWarning, stacklevel=2)
+        out[name] = (obj, err)
+    return out
+
+
+def get(kind: str, name: str):
+    """The plugin object of a kind by name.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the names that exist and how to add one), or a plugin
+        that is installed but failed to load.
+    """
+    if name in _runtime[_kind(kind).name]:
+        return _runtime[kind][name]
+    if name in _entry_point_table(kind):
+        obj, err = _load(kind, name)
+        if err is None:
+            return obj
+        raise InputError(f"{kind[:-1]} '{name}' is installed but could not be used: {err}.")
+    available = ", ".join(names(kind)) or "none"
+    raise InputError(f"unknown {kind[:-1]} '{name}'; available: {available} ({_kind(kind).hint}).")
+
+
+def register(kind: str, name: str, obj, overwrite: bool = False):
+    """Register ``obj`` as plugin ``name`` of ``kind`` at run time; returns ``obj``.
+
+    Raises
+    ------
+    InputError
+        ``obj`` is not of the kind's type, or the name is taken and ``overwrite`` is False.
+    """
+    spec = _kind(kind)
+    if not spec.accepts(obj):
+        raise InputError(f"a {kind[:-1]} plugin must be {spec.expected}, got {obj!r}.")
+    if not overwrite and (name in _runtime[kind] or name in _entry_point_table(kind)):
+        raise InputError(f"a {kind[:-1]} named '{name}' is already registered; pass overwrite=True to replace it.")
+    _runtime[kind][name] = obj
+    return obj
+
+
+def unregister(kind: str, name: str) -> None:
+    """Remove a runtime registration (no effect on entry points)."""
+    _runtime[_kind(kind).name].pop(name, None)
+
+
+def refresh() -> None:
+    """Forget cached entry points (after installing or removing plugins)."""
+    _entry_point_table.cache_clear()
+    _load.cache_clear()

@@ -1,0 +1,110 @@
+"""Histories from a backend's :class:`~cfm_core.simulation.Result`: impactor acceleration on a
+uniform grid (box average of the contact impulse, no aliasing), filtered with SAE J211/1 CFC
+(:func:`cfm_core.post.filters.cfc_filter`), and reaction-force histories of prescribed-motion
+scenes. Acceleration in m/s^2, positive when the impactor decelerates; times in s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError, NumericalError
+from .filters import cfc_filter
+
+#: Standard gravity (m/s^2), used to express accelerations in g.
+G0 = 9.80665
+
+
+def _finite(name: str, a) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad.ravel()))
+        raise NumericalError(f"{name} has {int(bad.sum())} non-finite value(s), first at index {i} "
+                             f"({a.ravel()[i]!r}); refusing to post-process it.", quantity=name)
+    return a
+
+
+def _positive(name: str, value, unit: str) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v <= 0.0:
+        raise InputError(f"{name} = {value!r} {unit} is not allowed: it must be finite and > 0.")
+    return v
+
+
+def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[np.ndarray, np.ndarray]:
+    """Impactor acceleration on a uniform grid, box-averaged from the impulse (no aliasing).
+
+    mass: impactor mass (kg, full model); rate: samples per second (Hz). Returns (t, a_raw):
+    t_k = k h (s), h = 1/rate, k = 0 .. floor(t_end / h), t_end the last recorded time; and::
+
+        a_raw(t_k) = [I(t_k + h/2) - I(t_k - h/2)] / (h mass)        (m/s^2)
+
+    the mean contact force over [t_k - h/2, t_k + h/2] divided by the mass. I (N s) is
+    ``result.impulse`` linearly interpolated in ``result.t``, 0 for t < 0, held after t_end (and
+    ramped linearly from (0, 0) if the record starts after t = 0). If ``result.impulse`` is None,
+    I is the trapezoid-rule integral of ``result.contact_force`` (N). Summing a_raw h mass gives
+    back the total impulse. Raises InputError (bad mass, rate, times or missing histories) or
+    NumericalError (non-finite histories).
+    """
+    mass = _positive("mass", mass, "kg")
+    rate = _positive("rate", rate, "Hz")
+    t = _finite("result.t", result.t)
+    if t.ndim != 1 or t.size < 2:
+        raise InputError(f"result.t must be 1-D with at least 2 times (s); got shape {t.shape}.")
+    if t[0] < 0.0 or np.any(np.diff(t) < 0.0):
+        raise InputError(f"result.t must start at t >= 0 s and never decrease; got t[0] = {t[0]!r} s.")
+    if result.impulse is not None:
+        impulse = _finite("result.impulse", result.impulse)
+    elif result.contact_force is not None:
+        force = _finite("result.contact_force", result.contact_force)
+        if force.shape != t.shape:
+            raise InputError(f"result.contact_force has shape {force.shape}, result.t {t.shape}; they must match.")
+        impulse = np.concatenate(([0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(t))))
+    else:
+        raise InputError("result has neither impulse nor contact_force: the backend must record one "
+                         "of them for a drop test.")
+    if impulse.shape != t.shape:
+        raise InputError(f"result.impulse has shape {impulse.shape}, result.t {t.shape}; they must match.")
+    if t[0] > 0.0:
+        t = np.concatenate(([0.0], t))
+        impulse = np.concatenate(([0.0], impulse))
+    h = 1.0 / rate
+    n = int(math.floor(t[-1] * rate * (1.0 + 1e-12))) + 1
+    grid = np.arange(n) * h
+
+    def I(tq):
+        return np.interp(tq, t, impulse, left=0.0, right=impulse[-1])
+
+    a_raw = (I(grid + 0.5 * h) - I(grid - 0.5 * h)) / (h * mass)
+    return grid, a_raw
+
+
+def acceleration_histories(result, mass: float, rate: float = 50_000.0, cfc: float = 600.0):
+    """(t (s), a_raw (m/s^2), a_cfc (m/s^2)): :func:`resample_acceleration` then CFC filtering.
+
+    mass (kg); rate (Hz); cfc (Hz). The filter pads with zeros (history zero outside the record).
+    """
+    t, a_raw = resample_acceleration(result, mass, rate)
+    return t, a_raw, cfc_filter(a_raw, rate, cfc=cfc, pad="zero")
+
+
+def reaction_histories(result, model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Histories of a prescribed-motion scene (single element, relaxation), at the result's times.
+
+    Returns t (s), stretch (-) = 1 + u(t) / size of the prescribed face, reaction force (N, the
+    z force on the prescribed face, negative in compression) and nominal stress (Pa) = force /
+    size^2 (the undeformed face area). NumericalError on a non-finite history.
+    """
+    if result.reaction_force is None or model.prescribed is None:
+        raise InputError(f"scene '{model.name}' has no prescribed motion, so no reaction force; "
+                         f"reaction histories are for single-element and relaxation scenes.")
+    t = _finite("result.t", result.t)
+    force = _finite("result.reaction_force", result.reaction_force)
+    size = float(model.meta["size"])
+    u = np.interp(t, model.prescribed.times, model.prescribed.values)
+    return t, 1.0 + u / size, force, force / size**2
+
+

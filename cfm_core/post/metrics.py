@@ -1,0 +1,139 @@
+"""Metrics of histories: peak, time of peak, contact duration, pulse width, loading and unloading
+times (drop tests), peak reaction (element tests), and the comparison of two histories
+(relative L2, peak and time-of-peak differences). Times in s, accelerations in m/s^2.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from .histories import G0, _finite
+
+#: Raw acceleration above this fraction of the raw peak counts as contact (round-off guard).
+CONTACT_FRACTION_RAW = 1e-9
+#: Without a raw signal, filtered acceleration above this fraction of its peak counts as contact.
+CONTACT_FRACTION_FILTERED = 0.01
+#: Level (fraction of the filtered peak) defining the pulse width, loading and unloading times.
+PULSE_FRACTION = 0.05
+
+
+def _first_crossing(t: np.ndarray, a: np.ndarray, level: float) -> float:
+    """Earliest time (s) at which a rises to ``level``, linearly interpolated between samples."""
+    i = int(np.argmax(a >= level))
+    if i == 0:
+        return float(t[0])
+    return float(t[i - 1] + (level - a[i - 1]) * (t[i] - t[i - 1]) / (a[i] - a[i - 1]))
+
+
+def _last_crossing(t: np.ndarray, a: np.ndarray, level: float) -> float:
+    """Latest time (s) at which a falls to ``level``, linearly interpolated between samples."""
+    j = a.size - 1 - int(np.argmax(a[::-1] >= level))
+    if j == a.size - 1:
+        return float(t[-1])
+    return float(t[j] + (a[j] - level) * (t[j + 1] - t[j]) / (a[j] - a[j + 1]))
+
+
+def drop_test_metrics(t, a_filtered, a_raw=None) -> dict:
+    """Pulse metrics of a filtered impactor acceleration history (m/s^2, positive decelerating).
+
+    t (s), a_filtered (m/s^2), optional a_raw (m/s^2) on the same times. Returns (floats):
+
+    - peak_g = max(a_filtered) / 9.80665 (g), at the sample of the maximum; t_peak (s) its time;
+    - t5_start, t5_end (s): first rising and last falling crossing of 5 % of the peak
+      (linear interpolation); pulse_width = t5_end - t5_start (s);
+      loading_time = t_peak - t5_start (s); unloading_time = t5_end - t_peak (s);
+    - duration (s), the contact time. With a_raw: t[k1] - t[k0], k0 and k1 the first and last
+      samples with a_raw > 1e-9 max(a_raw) (box averages are exactly 0 without contact; the factor
+      only rejects round-off), exact to within one sample spacing h. Without a_raw: time between
+      the first and last crossings of 1 % of the filtered peak (interpolated); the filter's
+      spread makes this only an estimate.
+    """
+    t = _finite("t", t)
+    a = _finite("a_filtered", a_filtered)
+    if t.ndim != 1 or a.shape != t.shape or t.size < 2:
+        raise InputError(f"t and a_filtered must be 1-D of equal length >= 2; got {t.shape} and {a.shape}.")
+    k = int(np.argmax(a))
+    peak = float(a[k])
+    if peak <= 0.0:
+        raise InputError(f"a_filtered has no positive peak (max = {peak!r} m/s^2): there was no impact to measure.")
+    t_peak = float(t[k])
+    lo = PULSE_FRACTION * peak
+    t5_start = _first_crossing(t, a, lo)
+    t5_end = _last_crossing(t, a, lo)
+    if a_raw is not None:
+        r = _finite("a_raw", a_raw)
+        if r.shape != t.shape:
+            raise InputError(f"a_raw has shape {r.shape}, t {t.shape}; they must match.")
+        on = np.flatnonzero(r > CONTACT_FRACTION_RAW * float(np.max(r)))
+        if on.size == 0:
+            raise InputError("a_raw is never positive: no contact to time (max a_raw <= 0 m/s^2).")
+        duration = float(t[on[-1]] - t[on[0]])
+    else:
+        c = CONTACT_FRACTION_FILTERED * peak
+        duration = _last_crossing(t, a, c) - _first_crossing(t, a, c)
+    return {
+        "peak_g": peak / G0,
+        "t_peak": t_peak,
+        "duration": float(duration),
+        "pulse_width": t5_end - t5_start,
+        "loading_time": t_peak - t5_start,
+        "unloading_time": t5_end - t_peak,
+        "t5_start": t5_start,
+        "t5_end": t5_end,
+    }
+
+
+def relative_l2(a, b) -> float:
+    """||a - b||_2 / ||b||_2 (-) for two arrays sampled at the same times (b is the reference)."""
+    a = _finite("a", a)
+    b = _finite("b", b)
+    if a.shape != b.shape:
+        raise InputError(f"relative_l2 needs arrays on common samples; got shapes {a.shape} and {b.shape}. "
+                         "Use compare_histories for different time grids.")
+    nb = float(np.linalg.norm(b))
+    if nb == 0.0:
+        raise InputError("relative_l2: the reference b is identically zero; the relative error is undefined.")
+    return float(np.linalg.norm(a - b) / nb)
+
+
+def compare_histories(t1, a1, t2, a2) -> dict:
+    """Compare history (t1, a1) with the reference (t2, a2) (times in s, values in any one unit).
+
+    Both are linearly interpolated onto a uniform grid over the overlap of their time ranges with
+    the finer of the two median spacings. Returns rel_l2 (-) = ||a1 - a2|| / ||a2|| on that grid;
+    peak_diff (-) = (p1 - p2) / |p2| with p the value of largest magnitude of each history on its
+    own samples; t_peak_diff (s) = time of p1 - time of p2.
+    """
+    t1, a1, t2, a2 = (_finite(n, v) for n, v in (("t1", t1), ("a1", a1), ("t2", t2), ("a2", a2)))
+    for name, t, a in (("1", t1, a1), ("2", t2, a2)):
+        if t.ndim != 1 or a.shape != t.shape or t.size < 2 or np.any(np.diff(t) <= 0):
+            raise InputError(f"history {name}: t{name} must be increasing, 1-D, length >= 2 and match a{name}.")
+    start, end = max(t1[0], t2[0]), min(t1[-1], t2[-1])
+    if end <= start:
+        raise InputError(f"the histories do not overlap in time: [{t1[0]}, {t1[-1]}] s and [{t2[0]}, {t2[-1]}] s.")
+    dt = min(float(np.median(np.diff(t1))), float(np.median(np.diff(t2))))
+    n = int(math.ceil((end - start) / dt)) + 1
+    grid = np.linspace(start, end, n)
+    i1, i2 = int(np.argmax(np.abs(a1))), int(np.argmax(np.abs(a2)))
+    if a2[i2] == 0.0:
+        raise InputError("compare_histories: the reference history a2 is identically zero.")
+    return {
+        "rel_l2": relative_l2(np.interp(grid, t1, a1), np.interp(grid, t2, a2)),
+        "peak_diff": float((a1[i1] - a2[i2]) / abs(a2[i2])),
+        "t_peak_diff": float(t1[i1] - t2[i2]),
+    }
+
+
+#: Units of the keys :func:`summarize` writes (stored in summary.json under "units").
+def reaction_metrics(t, force) -> dict:
+    """Figures of a reaction-force history t (s), force (N): the largest |force| (N, signed) and
+    when (s), the final force (N), and final / largest (-), the relaxed fraction of a hold."""
+    k = int(np.argmax(np.abs(force)))
+    peak = float(force[k])
+    return {"peak_force": peak, "t_peak_force": float(t[k]), "final_force": float(force[-1]),
+            "final_over_peak": float(force[-1] / peak) if peak != 0.0 else 0.0}
+
+

@@ -1,0 +1,112 @@
+"""Figures of drop-test histories (matplotlib, Agg canvas; no pyplot state, no global backend switch).
+
+Inputs are SI (times in s, accelerations in m/s^2); the axes show time in ms and acceleration in
+g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .histories import G0
+from .writers import _finite_array, atomic_write
+
+_COLOURS = ["#1f4e9c", "#c0392b", "#27864a", "#8e44ad", "#d68910", "#17879b", "#555555", "#b03a7a"]
+
+
+def _figure(title: str):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4.2), dpi=150, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.set_title(title)
+    ax.set_xlabel("Time (ms)")
+    ax.set_ylabel("Impactor acceleration (g)")
+    ax.grid(True, color="0.88", linewidth=0.6)
+    ax.axhline(0.0, color="0.6", linewidth=0.6)
+    return fig, ax
+
+
+def _save(fig, path) -> None:
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+
+
+def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
+    """Save a PNG of one history: raw (thin grey) and CFC 600 (bold) acceleration against time.
+
+    t (s); a_raw, a_cfc (m/s^2, positive decelerating); plotted in ms and g. The peak of the
+    filtered curve is marked and labelled.
+    """
+    t = _finite_array("t", t, ndim=1)
+    a_raw = _finite_array("a_raw", a_raw, ndim=1)
+    a_cfc = _finite_array("a_cfc", a_cfc, ndim=1)
+    fig, ax = _figure(title)
+    ms = 1e3 * t
+    k = int(np.argmax(a_cfc))
+    ax.plot(ms, a_raw / G0, color="0.6", linewidth=0.7, label="raw (box average)")
+    ax.plot(ms, a_cfc / G0, color=_COLOURS[0], linewidth=2.2,
+            label=f"SAE J211 CFC 600 (peak {a_cfc[k] / G0:.1f} g at {ms[k]:.2f} ms)")
+    ax.plot(ms[k], a_cfc[k] / G0, "o", color=_COLOURS[0], markersize=4)
+    top = max(float(np.max(a_raw)), float(np.max(a_cfc))) / G0
+    if top > 0.0:
+        ax.set_ylim(top=1.15 * top)  # room for the legend
+    ax.set_xlim(ms[0], ms[-1])
+    ax.legend(loc="upper right", fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = None) -> None:
+    """Save a PNG of several filtered histories on one axes.
+
+    curves: list of (label, t (s), a_cfc (m/s^2)); reference_peaks: optional {label: peak
+    acceleration in m/s^2} drawn as dashed horizontal lines (e.g. experimental peaks, 52.5 g =
+    52.5 * 9.80665 m/s^2); a line whose label equals a curve's label takes that curve's colour.
+    """
+    fig, ax = _figure(title)
+    colour_of = {}
+    t_max, top = 0.0, 0.0
+    for i, (label, t, a) in enumerate(curves):
+        t = _finite_array(f"t of {label!r}", t, ndim=1)
+        a = _finite_array(f"a_cfc of {label!r}", a, ndim=1)
+        colour_of[label] = _COLOURS[i % len(_COLOURS)]
+        ax.plot(1e3 * t, a / G0, color=colour_of[label], linewidth=1.8, label=str(label))
+        t_max = max(t_max, 1e3 * float(t[-1]))
+        top = max(top, float(np.max(a)) / G0)
+    for j, (label, peak) in enumerate((reference_peaks or {}).items()):
+        peak = float(_finite_array(f"reference peak {label!r}", peak))
+        colour = colour_of.get(label, _COLOURS[(len(curves) + j) % len(_COLOURS)])
+        top = max(top, peak / G0)
+        ax.axhline(peak / G0, color=colour, linestyle="--", linewidth=1.0)
+        ax.annotate(f"exp. {label}: {peak / G0:.1f} g", (1.0, peak / G0), xycoords=("axes fraction", "data"),
+                    xytext=(-4, 3), textcoords="offset points", ha="right", fontsize=7, color=colour)
+    if t_max > 0.0:
+        ax.set_xlim(0.0, t_max)
+    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]), top=1.25 * top if top > 0.0 else None)
+    if curves:
+        ax.legend(loc="upper left", fontsize=8, framealpha=0.95, edgecolor="0.8", ncols=min(len(curves), 4))
+    _save(fig, path)
+
+
+def plot_reaction(path, t, force, title: str) -> None:
+    """Save a PNG of a reaction-force history: t (s), force (N), plotted in ms and N.
+
+    When the history spans more than three decades of time after its first sample (a relaxation
+    hold of seconds after a load of milliseconds), the time axis is logarithmic.
+    """
+    t = _finite_array("t", t, ndim=1)
+    force = _finite_array("reaction_force", force, ndim=1)
+    fig, ax = _figure(title)
+    ax.set_ylabel("Reaction force (N)")
+    ms = 1e3 * t
+    positive = ms > 0.0
+    if positive.sum() > 1 and ms[-1] > 1e3 * ms[positive][0]:
+        ax.set_xscale("log")
+        ms, force = ms[positive], force[positive]
+    k = int(np.argmax(np.abs(force)))
+    ax.plot(ms, force, color=_COLOURS[0], linewidth=2.0,
+            label=f"largest |F| = {abs(force[k]):.4g} N at {ms[k]:.3g} ms; final {force[-1]:.4g} N")
+    ax.plot(ms[k], force[k], "o", color=_COLOURS[0], markersize=4)
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    _save(fig, path)

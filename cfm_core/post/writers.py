@@ -1,0 +1,201 @@
+"""Atomic writers for results: CSV, JSON, the drop-test output folder and VTU/PVD series.
+
+Every file is written to a hidden temporary file in the target directory and then moved into
+place with ``os.replace`` (atomic on POSIX and Windows), so no partial file ever carries the final
+name. Data are checked first: non-finite values raise :class:`cfm_core.errors.NumericalError`
+before anything is written. Units: SI (times in s, displacements in m, accelerations in m/s^2).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..errors import InputError, NumericalError
+
+#: Units of the acceleration.csv columns, merged into summary.json["units"].
+DROP_TEST_COLUMN_UNITS = {"t": "s", "a_raw": "m/s^2", "a_cfc600": "m/s^2"}
+REACTION_COLUMN_UNITS = {"t": "s", "stretch": "-", "reaction_force": "N", "nominal_stress": "Pa"}
+
+
+def atomic_write(path, write: Callable[[str], None]) -> Path:
+    """Call ``write(tmp_path)`` on a temporary file next to ``path``, then rename it to ``path``.
+
+    On any exception the temporary file is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    # Not mkstemp: its 0600 mode would survive the rename; a random name gives normal permissions.
+    tmp = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+    try:
+        write(tmp)
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return path
+
+
+def _finite_array(name: str, a, ndim: int | None = None) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if ndim is not None and a.ndim != ndim:
+        raise InputError(f"{name} must be a {ndim}-D array; got shape {a.shape}.")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad.ravel()))
+        raise NumericalError(f"{name} has {int(bad.sum())} non-finite value(s), first at flat index {i} "
+                             f"({a.ravel()[i]!r}); nothing was written.", quantity=name)
+    return a
+
+
+def _check_line(kind: str, text: str) -> str:
+    text = str(text)
+    if "\n" in text or "\r" in text:
+        raise InputError(f"{kind} {text!r} contains a line break; use one line per entry.")
+    return text
+
+
+def write_csv(path, header: list[str], columns: list, comments: list[str] = ()) -> Path:
+    """Write equal-length 1-D ``columns`` as CSV under ``header`` (one name per column).
+
+    The header is the first line unless ``comments`` are given, which then precede it as lines
+    starting with ``"# "``. Values are written with Python's shortest round-trip repr (exact).
+    """
+    header = [_check_line("column name", h) for h in header]
+    if any("," in h for h in header):
+        raise InputError(f"column names must not contain commas; got {header}.")
+    if len(header) != len(columns):
+        raise InputError(f"{len(header)} column names for {len(columns)} columns; give one name per column.")
+    cols = [_finite_array(f"column {h!r}", c, ndim=1) for h, c in zip(header, columns)]
+    if len({c.size for c in cols}) > 1:
+        raise InputError(f"columns have different lengths {[c.size for c in cols]}; they must be equal.")
+    lines = [f"# {_check_line('comment', c)}" for c in comments]
+    lines.append(",".join(header))
+    rows = zip(*(c.tolist() for c in cols))
+    lines.extend(",".join(repr(v) for v in row) for row in rows)
+    text = "\n".join(lines) + "\n"
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+
+    return atomic_write(path, write)
+
+
+def _json_default(o):
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.floating):
+        return float(o)
+    if isinstance(o, np.bool_):
+        return bool(o)
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"object of type {type(o).__name__} is not JSON serialisable")
+
+
+def write_json(path, data) -> Path:
+    """Write ``data`` as indented JSON; NaN or inf anywhere raises NumericalError, nothing written."""
+    try:
+        text = json.dumps(data, indent=2, allow_nan=False, default=_json_default)
+    except ValueError as exc:  # raised by allow_nan=False
+        raise NumericalError(f"refusing to write {Path(path).name}: {exc} (NaN or inf in the data).") from None
+    except TypeError as exc:
+        raise InputError(f"cannot write {Path(path).name}: {exc}.") from None
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+
+    return atomic_write(path, write)
+
+
+def write_history(out_dir, filename: str, column_units: dict, columns: list, summary: dict) -> Path:
+    """Write ``filename`` (CSV, header = the keys of column_units) then ``summary.json`` in out_dir.
+
+    columns: equal-length 1-D arrays in the order of column_units ({name: SI unit}); summary is a
+    JSON-able dict, to which the column units are added under "units". Both are checked before
+    the disk is touched; a stale summary.json is removed first and the new one is written last,
+    so its presence means the run's output is complete. Returns out_dir.
+    """
+    out = Path(out_dir)
+    arrays = [_finite_array(n, a, ndim=1) for n, a in zip(column_units, columns)]
+    summary = dict(summary)
+    summary["units"] = {**column_units, **dict(summary.get("units") or {})}
+    try:  # check the summary before touching the disk
+        json.dumps(summary, allow_nan=False, default=_json_default)
+    except ValueError as exc:
+        raise NumericalError(f"refusing to write summary.json: {exc} (NaN or inf in the summary).") from None
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").unlink(missing_ok=True)
+    write_csv(out / filename, list(column_units), arrays)
+    write_json(out / "summary.json", summary)
+    return out
+
+
+def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
+    """``acceleration.csv`` (``t,a_raw,a_cfc600``: s, m/s^2, m/s^2) and summary.json; see
+    :func:`write_history`."""
+    return write_history(out_dir, "acceleration.csv", DROP_TEST_COLUMN_UNITS, [t, a_raw, a_cfc], summary)
+
+
+def write_reaction(out_dir, t, stretch, force, nominal, summary: dict) -> Path:
+    """``reaction.csv`` (``t,stretch,reaction_force,nominal_stress``: s, -, N, Pa) of a
+    prescribed-motion scene and summary.json; see :func:`write_history`."""
+    return write_history(out_dir, "reaction.csv", REACTION_COLUMN_UNITS, [t, stretch, force, nominal], summary)
+
+
+def write_vtu_series(out_dir, nodes, hexes, frames) -> Path:
+    """Write ``specimen_XXXX.vtu`` per frame and the ParaView collection ``specimen.pvd``.
+
+    nodes: (n, 3) reference coordinates (m); hexes: (m, 8) node indices (VTK hexahedron order);
+    frames: list of (t (s), displacement (n, 3) in m), stored as point data "displacement" on the
+    reference mesh (use ParaView's "Warp By Vector"). The .pvd is written last. Returns its path.
+    """
+    import meshio
+
+    out = Path(out_dir)
+    nodes = _finite_array("nodes", nodes, ndim=2)
+    hexes = np.asarray(hexes)
+    if nodes.shape[1] != 3:
+        raise InputError(f"nodes must have shape (n, 3) in m; got {nodes.shape}.")
+    if hexes.ndim != 2 or hexes.shape[1] != 8 or not np.issubdtype(hexes.dtype, np.integer):
+        raise InputError(f"hexes must be an integer array of shape (m, 8); got {hexes.dtype} {hexes.shape}.")
+    if hexes.size and (hexes.min() < 0 or hexes.max() >= len(nodes)):
+        raise InputError(f"hexes refer to nodes outside 0..{len(nodes) - 1}.")
+    checked = []
+    for k, (t, u) in enumerate(frames):
+        t = float(t)
+        if not math.isfinite(t):
+            raise NumericalError(f"frame {k} has time {t!r} s; nothing was written.", quantity="time")
+        u = _finite_array(f"frame {k} displacement", u, ndim=2)
+        if u.shape != nodes.shape:
+            raise InputError(f"frame {k} displacement has shape {u.shape}; expected {nodes.shape} (m).")
+        checked.append((t, u))
+    out.mkdir(parents=True, exist_ok=True)
+    width = max(4, len(str(len(checked) - 1)))
+    entries = []
+    for k, (t, u) in enumerate(checked):
+        name = f"specimen_{k:0{width}d}.vtu"
+        mesh = meshio.Mesh(nodes, [("hexahedron", hexes.astype(np.int64))], point_data={"displacement": u})
+        atomic_write(out / name, lambda tmp, m=mesh: meshio.write(tmp, m, file_format="vtu"))
+        entries.append(f'    <DataSet timestep="{t!r}" group="" part="0" file="{name}"/>')
+    pvd = "\n".join(['<?xml version="1.0"?>',
+                     '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                     "  <Collection>", *entries, "  </Collection>", "</VTKFile>", ""])
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(pvd)
+
+    return atomic_write(out / "specimen.pvd", write)

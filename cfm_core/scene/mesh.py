@@ -1,0 +1,185 @@
+"""Hexahedral meshes: structured generation, reading with meshio, node sets, volumes, Jacobians.
+
+All coordinates are in m, volumes in m^3. Connectivity follows the meshio/VTK hexahedron order:
+nodes 0-3 are the bottom face counter-clockwise seen from +z, nodes 4-7 the top face directly
+above them, so that a well-formed element has a positive Jacobian everywhere.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+# Reference coordinates (xi, eta, zeta) of the 8 nodes of the trilinear hexahedron, VTK order.
+HEX_REFERENCE = np.array(
+    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
+    dtype=np.float64,
+)
+
+# Cell blocks that carry no volume (boundary markers written by mesh generators): ignored on read.
+_SURFACE_CELL_TYPES = {"vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9"}
+
+
+def _shape_gradients(points: np.ndarray) -> np.ndarray:
+    """dN_a/dxi_k of the trilinear shape functions at reference points (p, 3) -> (p, 8, 3)."""
+    r = HEX_REFERENCE
+    p = np.asarray(points, dtype=np.float64)
+    f = 1.0 + p[:, None, :] * r[None, :, :]  # (p, 8, 3): 1 + xi_k * r_ak
+    g = np.empty_like(f)
+    g[..., 0] = r[None, :, 0] * f[..., 1] * f[..., 2]
+    g[..., 1] = r[None, :, 1] * f[..., 0] * f[..., 2]
+    g[..., 2] = r[None, :, 2] * f[..., 0] * f[..., 1]
+    return g / 8.0
+
+
+def hex_jacobians(nodes: np.ndarray, hexes: np.ndarray,
+                  points: np.ndarray | None = None) -> np.ndarray:
+    """Jacobian determinants det(dx/dxi) (m^3 per unit reference volume, i.e. volume/8 for a cube).
+
+    points: (p, 3) reference coordinates; default: the centre then the 8 corners (p = 9).
+    Returns (e, p). A value <= 0 means an inverted, degenerate or wrongly ordered element.
+    """
+    if points is None:
+        points = np.vstack([np.zeros((1, 3)), HEX_REFERENCE])
+    dn = _shape_gradients(points)
+    x = np.asarray(nodes, dtype=np.float64)[np.asarray(hexes)]  # (e, 8, 3)
+    jac = np.einsum("eai,pak->epik", x, dn)  # (e, p, 3, 3): dx_i/dxi_k
+    return np.linalg.det(jac)
+
+
+def element_volumes(nodes: np.ndarray, hexes: np.ndarray) -> np.ndarray:
+    """Exact volume (m^3) of each trilinear hexahedron, shape (e,).
+
+    det J of a trilinear map is at most quadratic in each reference coordinate, so the 2x2x2
+    Gauss rule (exact up to cubic per coordinate, weights 1) integrates it exactly.
+    """
+    g = 1.0 / math.sqrt(3.0)
+    gauss = HEX_REFERENCE * g
+    return hex_jacobians(nodes, hexes, gauss).sum(axis=1)
+
+
+def structured_hex_mesh(lx: float, ly: float, lz: float, nx: int, ny: int, nz: int,
+                        origin=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Box [ox, ox+lx] x [oy, oy+ly] x [oz, oz+lz] (m) split into nx * ny * nz equal hexahedra.
+
+    Returns nodes (n, 3) float64 in m, n = (nx+1)(ny+1)(nz+1), node (i, j, k) at index
+    i + (nx+1) * (j + (ny+1) * k); and hexes (nx*ny*nz, 8) int64 in VTK order (positive volume).
+    The box faces hold exactly ox and ox + lx (as float64 computes them), so node sets on them
+    can use tight tolerances.
+    """
+    for name, val in (("lx", lx), ("ly", ly), ("lz", lz)):
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(val) or val <= 0:
+            raise InputError(f"mesh size {name} = {val!r} m is invalid: it must be a finite "
+                             f"number > 0 m.")
+    for name, val in (("nx", nx), ("ny", ny), ("nz", nz)):
+        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 1:
+            raise InputError(f"element count {name} = {val!r} is invalid: it must be an "
+                             f"integer >= 1.")
+    if len(origin) != 3 or not all(math.isfinite(float(o)) for o in origin):
+        raise InputError(f"mesh origin = {origin!r} m is invalid: it must be three finite "
+                         f"numbers (m).")
+    ox, oy, oz = (float(o) for o in origin)
+    xs = ox + np.linspace(0.0, float(lx), nx + 1)
+    ys = oy + np.linspace(0.0, float(ly), ny + 1)
+    zs = oz + np.linspace(0.0, float(lz), nz + 1)
+    z, y, x = np.meshgrid(zs, ys, xs, indexing="ij")  # x varies fastest
+    nodes = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+
+    def idx(i, j, k):
+        return i + (nx + 1) * (j + (ny + 1) * k)
+
+    k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+    i, j, k = i.ravel(), j.ravel(), k.ravel()
+    hexes = np.column_stack([
+        idx(i, j, k), idx(i + 1, j, k), idx(i + 1, j + 1, k), idx(i, j + 1, k),
+        idx(i, j, k + 1), idx(i + 1, j, k + 1), idx(i + 1, j + 1, k + 1), idx(i, j + 1, k + 1),
+    ]).astype(np.int64)
+    return nodes, hexes
+
+
+def read_hex_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a hexahedral mesh with meshio; return (nodes (n, 3) in m, hexes (e, 8) int64).
+
+    Only ``hexahedron`` volume cells are accepted; vertex, line, triangle and quad blocks
+    (boundary markers from mesh generators) are ignored; any other cell type is an InputError
+    naming what was found. Nodes used by no hexahedron are dropped and the rest renumbered.
+    Every element must have a positive Jacobian at its centre and its 8 corners (VTK node order);
+    otherwise an InputError names the first bad element. Coordinates are taken as metres.
+    """
+    import meshio
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"mesh file '{path}' does not exist; give the path of a hexahedral mesh "
+                         f"readable by meshio (e.g. .vtu, .msh, .inp).")
+    try:
+        mesh = meshio.read(path)
+    except (Exception, SystemExit) as exc:  # meshio raises many types and may even sys.exit(1)
+        raise InputError(f"mesh file '{path}' could not be read by meshio: {exc}. "
+                         f"Use a format meshio reads (.vtu, .msh, .inp, ...).") from None
+    found = {}
+    blocks = []
+    for block in mesh.cells:
+        found[block.type] = found.get(block.type, 0) + len(block.data)
+        if block.type == "hexahedron":
+            blocks.append(np.asarray(block.data, dtype=np.int64))
+    found_text = ", ".join(f"{n} {t}" for t, n in found.items()) or "no cells"
+    other = sorted(t for t in found if t != "hexahedron" and t not in _SURFACE_CELL_TYPES)
+    if other or not blocks:
+        raise InputError(f"mesh file '{path}' must contain only 8-node 'hexahedron' volume cells, "
+                         f"but it contains {found_text}. Re-mesh with linear hexahedra.")
+    points = np.asarray(mesh.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"mesh file '{path}' has points of shape {points.shape}; 3D points (n, 3) "
+                         f"in m are required.")
+    hexes = np.vstack(blocks)
+    used = np.unique(hexes)
+    if used[0] < 0 or used[-1] >= len(points):
+        raise InputError(f"mesh file '{path}' refers to node {int(used[-1])} but has only "
+                         f"{len(points)} points.")
+    renumber = np.full(len(points), -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    nodes = points[used].copy()
+    hexes = renumber[hexes]
+    if not np.all(np.isfinite(nodes)):
+        raise InputError(f"mesh file '{path}' has non-finite (NaN or inf) node coordinates.")
+    check_hex_jacobians(nodes, hexes, source=f"mesh file '{path}'")
+    return nodes, hexes
+
+
+def check_hex_jacobians(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh") -> None:
+    """Raise InputError naming the first element whose Jacobian is <= 0 at its centre or a corner."""
+    dets = hex_jacobians(nodes, hexes)
+    bad = np.flatnonzero(np.any(dets <= 0.0, axis=1))
+    if bad.size:
+        e = int(bad[0])
+        where = ["centre"] + [f"corner {a}" for a in range(8)]
+        p = int(np.argmin(dets[e]))
+        raise InputError(
+            f"{source}: element {e} (nodes {hexes[e].tolist()}) has a non-positive Jacobian "
+            f"{dets[e, p]:.3g} m^3 at its {where[p]} ({bad.size} bad element(s) in total). The "
+            f"element is inverted, degenerate or not in VTK hexahedron order (nodes 0-3 the bottom "
+            f"face counter-clockwise seen from +z, 4-7 the top face above them); fix the mesh."
+        )
+
+
+def nodes_on_plane(nodes: np.ndarray, axis: int, value: float, tol: float = 1e-9) -> np.ndarray:
+    """Indices (int64, ascending) of nodes with |x_axis - value| <= tol; value and tol in m."""
+    if axis not in (0, 1, 2):
+        raise InputError(f"axis = {axis!r} is invalid: use 0, 1 or 2 (x, y, z).")
+    return np.flatnonzero(np.abs(np.asarray(nodes)[:, axis] - value) <= tol).astype(np.int64)
+
+
+def mean_edge_length(nodes: np.ndarray, hexes: np.ndarray) -> float:
+    """Mean length (m) of the 12 edges of all elements (the characteristic element size)."""
+    x = np.asarray(nodes)[np.asarray(hexes)]
+    pairs = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
+             (0, 4), (1, 5), (2, 6), (3, 7)]
+    a, b = np.array(pairs).T
+    return float(np.linalg.norm(x[:, a] - x[:, b], axis=-1).mean())

@@ -1,0 +1,266 @@
+"""Scenes: what is simulated, read from TOML, validated, in SI units (m, s, kg, Pa).
+
+Three scene types (docs/conventions.md section 4). ``drop-test``: sections [scene], [specimen], [impactor],
+[contact], [material]. ``single-element``: [scene], [element], [material]. ``relaxation``
+(quasi-static, no inertia): [scene], [relaxation], [material]. Every value is checked
+when its frozen section dataclass (:mod:`cfm_core.scene.sections`) is built; a bad value, a wrong
+type or an unknown key raises :class:`cfm_core.errors.InputError` naming the section, the key,
+the value, the unit and what is allowed. The built-in scene files (``cfm_core/scene/scenes/*.toml``)
+document every key with its unit.
+
+Public API: :func:`load_scene`, :func:`scene_from_dict`, :func:`builtin_scene`,
+:meth:`Scene.with_overrides`, :func:`scene_to_dict`, :func:`scene_to_toml`.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Mapping
+
+from ..errors import InputError
+from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
+
+__all__ = ["Scene", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
+           "ElementTest", "RelaxationTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
+           "builtin_scenes", "scene_to_dict", "scene_to_toml"]
+
+# ----------------------------------------------------------------------------- the scene
+_LAYOUT = {
+    "drop-test": {"scene": SceneSettings, "specimen": Specimen, "impactor": Impactor,
+                  "contact": Contact, "material": MaterialSettings},
+    "single-element": {"scene": SceneSettings, "element": ElementTest, "material": MaterialSettings},
+    "relaxation": {"scene": SceneSettings, "relaxation": RelaxationTest, "material": MaterialSettings},
+}
+_OVERRIDES_COMMON = {"name": ("scene", "name"), "end_time": ("scene", "end_time"),
+                     "output_rate": ("scene", "output_rate"), "material": ("material", "name"),
+                     "moduli": ("material", "moduli"), "elastic": ("material", "elastic"),
+                     "parameters": ("material", "parameters")}
+_OVERRIDES = {
+    "drop-test": {**{k: ("specimen", k) for k in ("width", "thickness", "element_size", "density",
+                                                  "symmetry", "mesh")},
+                  **{k: ("impactor", k) for k in ("radius", "mass", "velocity")},
+                  "friction": ("contact", "friction"), **_OVERRIDES_COMMON},
+    "single-element": {**{k: ("element", k) for k in ("size", "stretch", "rate", "hold",
+                                                       "density")}, **_OVERRIDES_COMMON},
+    "relaxation": {**{k: ("relaxation", k) for k in ("size", "stretch", "load_time", "hold",
+                                                      "lateral")}, **_OVERRIDES_COMMON},
+}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Sections a scene type does not use are None (and not allowed)."""
+
+    settings: SceneSettings
+    material: MaterialSettings = field(default_factory=MaterialSettings)
+    specimen: Specimen | None = None
+    impactor: Impactor | None = None
+    contact: Contact | None = None
+    element: ElementTest | None = None
+    relaxation: RelaxationTest | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.settings, SceneSettings):
+            raise InputError(f"Scene.settings must be a SceneSettings, got {self.settings!r}.")
+        layout = _LAYOUT[self.type]
+        for key, cls in (("specimen", Specimen), ("impactor", Impactor), ("contact", Contact),
+                         ("element", ElementTest), ("relaxation", RelaxationTest),
+                         ("material", MaterialSettings)):
+            val = getattr(self, key)
+            if key not in layout:
+                if val is not None:
+                    raise InputError(f"a {self.type} scene has no [{key}] section; allowed "
+                                     f"sections: {', '.join(layout)}.")
+            elif val is None:
+                _set(self, **{key: cls()})
+            elif not isinstance(val, cls):
+                raise InputError(f"Scene.{key} must be a {cls.__name__}, got {val!r}.")
+
+    @property
+    def type(self) -> str:
+        return self.settings.type
+
+    @property
+    def end_time(self) -> float:
+        """End time (s): [scene] end_time if given, else automatic.
+
+        drop-test: 10 * thickness / velocity + 5e-3 s, a generous bound (the sphere cannot travel
+        further than the thickness, and the run stops earlier once it separates); single-element
+        and relaxation: load time + hold.
+        """
+        if self.settings.end_time is not None:
+            return self.settings.end_time
+        if self.type == "drop-test":
+            return 10.0 * self.specimen.thickness / self.impactor.velocity + 5e-3
+        if self.type == "relaxation":
+            return self.relaxation.load_time + self.relaxation.hold
+        return self.element.load_time + self.element.hold
+
+    def with_overrides(self, **kw) -> "Scene":
+        """A new validated scene with some values replaced (SI units), e.g.
+        ``thickness=0.005, velocity=2.0, moduli="instantaneous", parameters={"c": 20.0}``.
+
+        Keys are the TOML keys of the scene's sections (``material`` sets the material name);
+        ``parameters`` are merged into the existing overrides; None restores a default
+        (``end_time=None``: automatic; ``mesh=None``: structured mesh with default geometry;
+        ``parameters=None``: no parameter overrides).
+        """
+        allowed = _OVERRIDES[self.type]
+        d = scene_to_dict(self)
+        for key, value in kw.items():
+            if key not in allowed:
+                raise InputError(f"unknown override '{key}' for a {self.type} scene; allowed: "
+                                 f"{', '.join(sorted(allowed))}.")
+            section, name = allowed[key]
+            table = d.setdefault(section, {})
+            if key == "parameters" and value is not None:
+                if not isinstance(value, Mapping):
+                    raise InputError(f"override parameters = {value!r} must be a dict "
+                                     f"{{name: value (SI)}}.")
+                table["parameters"] = {**table.get("parameters", {}), **value}
+            elif value is None:
+                table.pop(name, None)
+            else:
+                table[name] = value
+        if kw.get("mesh") is not None:
+            for key in ("width", "thickness", "element_size"):
+                if key not in kw:
+                    d["specimen"].pop(key, None)
+        return scene_from_dict(d)
+
+
+def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
+    """Validate a nested dict (as read from TOML) into a :class:`Scene`.
+
+    base_dir: folder that a relative [specimen] mesh path is taken from (default: the current one).
+    """
+    if not isinstance(d, Mapping):
+        raise InputError(f"a scene must be a table of sections, got {type(d).__name__}.")
+    head = d.get("scene")
+    if not isinstance(head, Mapping) or "type" not in head:
+        raise InputError(f"a scene needs a [scene] section with type = one of "
+                         f"{', '.join(repr(t) for t in SCENE_TYPES)}.")
+    stype = _choice("scene", "type", head["type"], SCENE_TYPES)
+    layout = _LAYOUT[stype]
+    for key in d:
+        if key not in layout:
+            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene; allowed "
+                             f"sections: {', '.join(layout)}.")
+    sections = {}
+    for key, cls in layout.items():
+        table = d.get(key, {})
+        if not isinstance(table, Mapping):
+            raise InputError(f"[{key}] must be a table (section), got {table!r}.")
+        allowed = [f.name for f in fields(cls)]
+        for k in table:
+            if k not in allowed:
+                raise InputError(f"unknown key '{k}' in [{key}] of a {stype} scene; allowed keys: "
+                                 f"{', '.join(allowed)}.")
+        table = dict(table)
+        if key == "specimen" and isinstance(table.get("mesh"), str):
+            mesh = Path(table["mesh"]).expanduser()
+            if not mesh.is_absolute() and base_dir is not None:
+                table["mesh"] = str(Path(base_dir) / mesh)
+        sections["settings" if key == "scene" else key] = cls(**table)
+    return Scene(**sections)
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a TOML scene file (SI units); errors name the file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"scene file '{p}' cannot be read: {exc.strerror or exc}.") from None
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"scene file '{p}' is not valid TOML: {exc}.") from None
+    try:
+        return scene_from_dict(d, base_dir=p.resolve().parent)
+    except InputError as exc:
+        raise InputError(f"scene file '{p}': {exc}") from None
+
+
+def _scenes_dir() -> Path:
+    return Path(__file__).resolve().parent / "scenes"
+
+
+def builtin_scenes() -> list[str]:
+    """Names of the built-in scenes shipped in ``cfm_core/scenes``."""
+    return sorted(p.stem for p in _scenes_dir().glob("*.toml"))
+
+
+def builtin_scene(name: str) -> Scene:
+    """A built-in scene by name ("drop-test", "single-element", "relaxation")."""
+    if name not in builtin_scenes():
+        raise InputError(f"unknown built-in scene {name!r}; available: "
+                         f"{', '.join(builtin_scenes())}.")
+    return load_scene(_scenes_dir() / f"{name}.toml")
+
+
+
+# ----------------------------------------------------------------------------- writing
+_UNITS = {"end_time": "s", "output_rate": "Hz", "width": "m", "thickness": "m",
+          "element_size": "m", "density": "kg/m^3", "radius": "m", "mass": "kg",
+          "velocity": "m/s, impact speed, positive = down", "friction": "-", "size": "m",
+          "stretch": "-", "rate": "1/s", "hold": "s", "load_time": "s"}
+
+
+def scene_to_dict(scene: Scene) -> dict:
+    """The scene as a nested dict of plain values that :func:`scene_from_dict` reads back.
+
+    Automatic values are left out (end_time when None; width, thickness and element_size when
+    they come from a mesh).
+    """
+    out = {}
+    for key in _LAYOUT[scene.type]:
+        obj = scene.settings if key == "scene" else getattr(scene, key)
+        table = {}
+        for f in fields(obj):
+            val = getattr(obj, f.name)
+            if val is None:
+                continue
+            if key == "specimen" and scene.specimen.mesh is not None and \
+                    f.name in ("width", "thickness", "element_size"):
+                continue
+            if key == "material" and f.name == "parameters":
+                if val:
+                    table["parameters"] = dict(val)
+                continue
+            table[f.name] = val
+        out[key] = table
+    return out
+
+
+def _toml_key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(float(v))
+    if isinstance(v, str):
+        return json.dumps(v)  # a JSON string is a valid TOML basic string
+    raise TypeError(f"cannot write {v!r} to TOML")
+
+
+def scene_to_toml(scene: Scene) -> str:
+    """The scene as TOML text (SI units, commented); :func:`load_scene` reads it back equal."""
+    lines = [f"# {scene.type} scene written by cfm_core.scene.scene_to_toml (SI units)"]
+    for section, table in scene_to_dict(scene).items():
+        params = table.pop("parameters", None)
+        lines += ["", f"[{section}]"]
+        for k, v in table.items():
+            unit = f"  # {_UNITS[k]}" if k in _UNITS else ""
+            lines.append(f"{_toml_key(k)} = {_toml_value(v)}{unit}")
+        if params:
+            lines += ["", f"[{section}.parameters]  # SI units"]
+            lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in params.items()]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,332 @@
+"""Sections of a scene file as frozen dataclasses, each validated at construction (SI units).
+
+Every bad value, wrong type or out-of-range number raises :class:`cfm_core.errors.InputError`
+naming the section, the key, the value, the unit and the allowed range. :mod:`cfm_core.scene`
+assembles the sections into a :class:`~cfm_core.scene.Scene` and reads and writes TOML.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import numbers
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import InputError
+from .mesh import mean_edge_length, read_hex_mesh
+
+SCENE_TYPES = ("drop-test", "single-element", "relaxation")
+MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
+
+
+# ----------------------------------------------------------------------------- value checks
+def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="") -> float:
+    """``value`` as a float if it is a finite real number in the range, else InputError."""
+    lo_s, hi_s = ("<" if lo_open else "<="), ("<" if hi_open else "<=")
+    allowed = f"a finite number with {lo:g} {lo_s} {key} {hi_s} {hi:g} {unit}"
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise InputError(f"[{section}] {key} = {value!r} ({type(value).__name__}) is not a number; "
+                         f"it must be {allowed}. {note}".rstrip())
+    x = float(value)
+    ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
+    if not ok:
+        raise InputError(f"[{section}] {key} = {value!r} {unit} is out of range; it must be "
+                         f"{allowed}. {note}".rstrip())
+    return x
+
+
+def _choice(section, key, value, allowed) -> str:
+    if not isinstance(value, str) or value not in allowed:
+        raise InputError(f"[{section}] {key} = {value!r} is not allowed; use one of "
+                         f"{', '.join(repr(a) for a in allowed)}.")
+    return value
+
+
+def _text(section, key, value) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"[{section}] {key} = {value!r} must be a non-empty string.")
+    return value
+
+
+def _set(obj, **kw):
+    for k, v in kw.items():
+        object.__setattr__(obj, k, v)
+
+
+# ----------------------------------------------------------------------------- sections
+@dataclass(frozen=True)
+class SceneSettings:
+    """[scene]: type ("drop-test" | "single-element" | "relaxation"); name (text, default: the type);
+    end_time (s, upper bound; None: automatic, see :attr:`Scene.end_time`);
+    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper)."""
+
+    type: str
+    name: str | None = None
+    end_time: float | None = None
+    output_rate: float = 50_000.0
+
+    def __post_init__(self):
+        _choice("scene", "type", self.type, SCENE_TYPES)
+        _set(self, name=self.type if self.name is None else _text("scene", "name", self.name))
+        if self.end_time is not None:
+            _set(self, end_time=_num("scene", "end_time", self.end_time, "s", 0, 1e4, lo_open=True))
+        _set(self, output_rate=_num("scene", "output_rate", self.output_rate, "Hz", 0, 1e9,
+                                    lo_open=True))
+
+
+@functools.lru_cache(maxsize=16)
+def _read_mesh_cached(path: str, mtime_ns: int, size: int):
+
+    nodes, hexes = read_hex_mesh(path)
+    nodes.setflags(write=False)
+    hexes.setflags(write=False)
+    return nodes, hexes, mean_edge_length(nodes, hexes)
+
+
+def read_specimen_mesh(path) -> tuple[np.ndarray, np.ndarray, float]:
+    """(nodes (m), hexes, mean edge length (m)) of a user mesh, read once per file version.
+
+    The arrays are read-only and shared; copy them before changing them.
+    """
+    p = Path(path)
+    st = p.stat() if p.is_file() else None
+    if st is None:
+        raise InputError(f"[specimen] mesh = '{path}': the file does not exist. Give the path of a "
+                         f"hexahedral mesh readable by meshio (relative paths are taken from the "
+                         f"scene file's folder).")
+    return _read_mesh_cached(str(p), st.st_mtime_ns, st.st_size)
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """[specimen] of a drop test: a square block on the plate, bottom at z = 0, centred at x=y=0.
+
+    width (m, full in-plane size, default 0.05); thickness (m, default 0.008, allowed 1e-4..0.1);
+    element_size (m, default 0.001, at most the thickness); density (kg/m^3, default 950, an
+    assumption: not in the paper); symmetry ("quarter": only x, y >= 0 is modelled | "none").
+    mesh: optional path of a user hexahedral mesh (coordinates in m); then width (x extent of the
+    full specimen), thickness (max z) and element_size (mean edge length) are taken from the mesh,
+    and values given for them must agree with it. The mesh's bottom must be at z = 0; with
+    symmetry "none" its lateral centre at x = y = 0, with "quarter" it must be the x, y >= 0
+    quarter (min x = min y = 0).
+    """
+
+    width: float | None = None
+    thickness: float | None = None
+    element_size: float | None = None
+    density: float = 950.0
+    symmetry: str = "quarter"
+    mesh: str | None = None
+
+    def __post_init__(self):
+        s = "specimen"
+        _choice(s, "symmetry", self.symmetry, ("quarter", "none"))
+        _set(self, density=_num(s, "density", self.density, "kg/m^3", 1, 1e5,
+                                note="The default 950 kg/m^3 is an assumption (not in the paper)."))
+        if self.mesh is not None:
+            self._geometry_from_mesh()
+        else:
+            for key, default in (("width", 0.05), ("thickness", 0.008), ("element_size", 0.001)):
+                if getattr(self, key) is None:
+                    _set(self, **{key: default})
+        src = f" (Taken from the mesh '{self.mesh}'.)" if self.mesh is not None else ""
+        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 10.0, note=src.strip()))
+        _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1,
+                                  note="The paper's specimens are 4.8e-3 to 8.3e-3 m thick." + src))
+        if self.mesh is None:
+            _set(self, element_size=_num(s, "element_size", self.element_size, "m", 0,
+                                         self.thickness, lo_open=True, note=f"The upper bound is the "
+                                         f"thickness, so that there is at least one layer of "
+                                         f"elements; use a smaller element_size."))
+            n = self.n_elements
+            if n > MAX_ELEMENTS:
+                raise InputError(f"[specimen] element_size = {self.element_size!r} m gives {n} "
+                                 f"elements for the modelled part (at most {MAX_ELEMENTS} allowed); "
+                                 f"use a larger element_size (m).")
+
+    def _geometry_from_mesh(self):
+        if not isinstance(self.mesh, (str, Path)) or not str(self.mesh).strip():
+            raise InputError(f"[specimen] mesh = {self.mesh!r} must be a file path (string).")
+        path = str(Path(self.mesh).expanduser().resolve())
+        nodes, _, edge = read_specimen_mesh(path)
+        lo, hi = nodes.min(axis=0), nodes.max(axis=0)
+        tol = 1e-6 * float(np.max(hi - lo))
+        if abs(lo[2]) > tol:
+            raise InputError(f"[specimen] mesh '{path}': its bottom is at z = {lo[2]:g} m, but it "
+                             f"must be at z = 0 (the plate). Translate the mesh.")
+        if self.symmetry == "quarter":
+            if abs(lo[0]) > tol or abs(lo[1]) > tol:
+                raise InputError(f"[specimen] mesh '{path}' with symmetry = 'quarter' must be the "
+                                 f"x >= 0, y >= 0 quarter (min x = min y = 0 m), but min x = "
+                                 f"{lo[0]:g} m, min y = {lo[1]:g} m. Give a quarter mesh or set "
+                                 f"symmetry = 'none' for a full mesh centred at x = y = 0.")
+            width = 2.0 * float(hi[0])
+        else:
+            cx, cy = 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])
+            if abs(cx) > tol or abs(cy) > tol:
+                raise InputError(f"[specimen] mesh '{path}' with symmetry = 'none' must be centred "
+                                 f"at x = y = 0, but its centre is at x = {cx:g} m, y = {cy:g} m. "
+                                 f"Translate the mesh.")
+            width = float(hi[0] - lo[0])
+        derived = {"width": width, "thickness": float(hi[2]), "element_size": edge}
+        for key, val in derived.items():
+            given = getattr(self, key)
+            if given is not None:
+                g = _num("specimen", key, given, "m", 0, math.inf, lo_open=True)
+                if not math.isclose(g, val, rel_tol=1e-9, abs_tol=0.0):
+                    raise InputError(f"[specimen] {key} = {given!r} m disagrees with the mesh "
+                                     f"'{path}', which gives {val!r} m; remove {key} (it is taken "
+                                     f"from the mesh) or fix the mesh.")
+        _set(self, mesh=path, **derived)
+
+    @property
+    def grid(self) -> tuple[int, int, int]:
+        """(nx, ny, nz) of the structured mesh of the modelled part (quarter or full).
+
+        Quarter: nx = ny = round(width / 2 / element_size); full: twice that (the mirrored
+        quarter, so the two models have exactly the same elements); nz = round(thickness /
+        element_size); each at least 1, halves rounded up.
+        """
+        nq = max(1, math.floor(self.width / 2.0 / self.element_size + 0.5))
+        nz = max(1, math.floor(self.thickness / self.element_size + 0.5))
+        n = nq if self.symmetry == "quarter" else 2 * nq
+        return n, n, nz
+
+    @property
+    def n_elements(self) -> int:
+        """Number of elements of the modelled part (structured mesh or user mesh)."""
+        if self.mesh is not None:
+            return int(read_specimen_mesh(self.mesh)[1].shape[0])
+        nx, ny, nz = self.grid
+        return nx * ny * nz
+
+
+@dataclass(frozen=True)
+class Impactor:
+    """[impactor]: rigid hemisphere. radius (m, 0.055), mass (kg, 0.220, the full impactor),
+    velocity (m/s, impact speed, positive = moving down, default 1.0)."""
+
+    radius: float = 0.055
+    mass: float = 0.220
+    velocity: float = 1.0
+
+    def __post_init__(self):
+        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 10.0))
+        _set(self, mass=_num("impactor", "mass", self.mass, "kg", 0, 1e4, lo_open=True))
+        _set(self, velocity=_num("impactor", "velocity", self.velocity, "m/s", 0, 1e3, lo_open=True,
+                                 note="It is the impact speed; the direction (down) is implied."))
+
+
+@dataclass(frozen=True)
+class Contact:
+    """[contact]: friction (-, Coulomb coefficient on both sphere and plate, default 0, 0..1)."""
+
+    friction: float = 0.0
+
+    def __post_init__(self):
+        _set(self, friction=_num("contact", "friction", self.friction, "-", 0.0, 1.0))
+
+
+@dataclass(frozen=True)
+class MaterialSettings:
+    """[material]: name (registered material, default "cfm"); moduli ("instantaneous" |
+    "long-term", default "long-term", docs/conventions.md section 2); elastic (bool: drop the Prony series);
+    parameters: overrides by name in SI units (stored as sorted (name, value) pairs; values are
+    range-checked later by the material itself)."""
+
+    name: str = "cfm"
+    moduli: str = "long-term"
+    elastic: bool = False
+    parameters: tuple = ()
+
+    def __post_init__(self):
+        _text("material", "name", self.name)
+        _choice("material", "moduli", self.moduli, ("instantaneous", "long-term"))
+        if not isinstance(self.elastic, (bool, np.bool_)):
+            raise InputError(f"[material] elastic = {self.elastic!r} must be true or false.")
+        _set(self, elastic=bool(self.elastic))
+        p = self.parameters
+        items = p.items() if isinstance(p, Mapping) else p
+        try:
+            items = [(k, v) for k, v in items]
+        except (TypeError, ValueError):
+            raise InputError(f"[material.parameters] = {p!r} must be a table of name = number "
+                             f"(SI units).") from None
+        out = {}
+        for k, v in items:
+            _text("material.parameters", "name", k)
+            out[k] = _num("material.parameters", k, v, "(SI unit of the parameter)", -math.inf,
+                          math.inf, lo_open=True, hi_open=True)
+        _set(self, parameters=tuple(sorted(out.items())))
+
+    @property
+    def parameter_dict(self) -> dict[str, float]:
+        """The parameter overrides as a new dict {name: value (SI)}."""
+        return dict(self.parameters)
+
+
+@dataclass(frozen=True)
+class ElementTest:
+    """[element] of a single-element scene: one cube, top face moved along z.
+
+    size (m, edge, default 0.001); stretch (-, final stretch of the top face, 0.05..3, != 1,
+    default 0.5 = 50 % compression); rate (1/s, engineering strain rate, default 100, about the
+    drop-test rate); hold (s, hold after reaching the stretch, default 0); density (kg/m^3, 950,
+    assumed). Load time t_load = |stretch - 1| / rate (s).
+    """
+
+    size: float = 0.001
+    stretch: float = 0.5
+    rate: float = 100.0
+    hold: float = 0.0
+    density: float = 950.0
+
+    def __post_init__(self):
+        e = "element"
+        _set(self, size=_num(e, "size", self.size, "m", 1e-5, 1.0))
+        _set(self, stretch=_num(e, "stretch", self.stretch, "-", 0.05, 3.0))
+        if self.stretch == 1.0:
+            raise InputError("[element] stretch = 1.0 (-) means no deformation; give a stretch != 1 "
+                             "in 0.05 <= stretch <= 3 (e.g. 0.5 for 50 % compression).")
+        _set(self, rate=_num(e, "rate", self.rate, "1/s", 0, 1e6, lo_open=True))
+        _set(self, hold=_num(e, "hold", self.hold, "s", 0, 1e4))
+        _set(self, density=_num(e, "density", self.density, "kg/m^3", 1, 1e5))
+
+    @property
+    def load_time(self) -> float:
+        """Time (s) to reach the stretch: |stretch - 1| / rate."""
+        return abs(self.stretch - 1.0) / self.rate
+
+
+@dataclass(frozen=True)
+class RelaxationTest:
+    """[relaxation] of a quasi-static relaxation scene: one cube compressed, then held.
+
+    size (m, edge, default 0.001); stretch (-, held stretch of the top face, 0.05..3, != 1,
+    default 0.7 = 30 % compression); load_time (s, ramp time to the stretch, default 1e-3);
+    hold (s, hold time, default 30: three times the longest Prony time of the paper, 10 s);
+    lateral ("free": lateral faces traction free, uniaxial stress | "confined": lateral faces
+    held in their planes, uniaxial strain). No inertia: the scene is quasi-static (there is no
+    density); an explicit solver would need millions of steps for the hold.
+    """
+
+    size: float = 0.001
+    stretch: float = 0.7
+    load_time: float = 1e-3
+    hold: float = 30.0
+    lateral: str = "free"
+
+    def __post_init__(self):
+        r = "relaxation"
+        _set(self, size=_num(r, "size", self.size, "m", 1e-5, 1.0))
+        _set(self, stretch=_num(r, "stretch", self.stretch, "-", 0.05, 3.0))
+        if self.stretch == 1.0:
+            raise InputError("[relaxation] stretch = 1.0 (-) means no deformation; give a stretch != 1 "
+                             "in 0.05 <= stretch <= 3 (e.g. 0.7 for 30 % compression).")
+        _set(self, load_time=_num(r, "load_time", self.load_time, "s", 0, 1e4, lo_open=True))
+        _set(self, hold=_num(r, "hold", self.hold, "s", 0, 1e5, lo_open=True))
+        _choice(r, "lateral", self.lateral, ("free", "confined"))

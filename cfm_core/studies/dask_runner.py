@@ -1,0 +1,189 @@
+"""Run many independent tasks (drop tests): serially, on a local Dask cluster, or on a scheduler.
+
+:func:`open_runner` is what ``cfm sweep`` and ``cfm calibrate`` use:
+
+- ``scheduler=None``: a local Dask cluster of ``workers`` processes (default: this machine's
+  cores), one thread each, started for the command and closed after it. The workers get
+  ``NUMBA_NUM_THREADS=1`` (and OMP/BLAS threads 1) before numba starts, so that N workers on N
+  cores do not each start N threads;
+- ``scheduler="tcp://host:8786"`` (any Dask address): connect to a running scheduler, so the same
+  command runs on a cluster. The workers there need cfm-materials installed; start them with
+  one thread each (``dask worker tcp://host:8786 --nthreads 1``) and ``NUMBA_NUM_THREADS`` set to
+  the cores per worker;
+- ``scheduler="none"`` (or ``"serial"``): a plain loop in this process, no Dask needed.
+
+``runner.map(fn, items)`` yields one :class:`Done` per item as soon as it finishes (in completion
+order): its index, fn's return value, or the error text when fn raised (or its worker died). One
+failure never stops the others. Dask is imported only when a Dask runner is opened.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import logging
+import os
+from dataclasses import dataclass
+from typing import Callable, Iterable, Iterator
+
+from ..errors import InputError
+
+#: Values of --scheduler that mean "no Dask, a loop in this process".
+SERIAL = ("none", "serial")
+#: Environment of the local cluster's worker processes: one thread per worker process.
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+              "MKL_NUM_THREADS": "1"}
+#: Seconds to wait for the scheduler's first worker before giving up.
+WORKER_WAIT = 60.0
+
+
+@dataclass(frozen=True)
+class Done:
+    """One finished task: ``index`` into the submitted items, ``value`` (fn's return value) or
+    ``error`` ("ExceptionType: message") when it failed."""
+
+    index: int
+    value: object = None
+    error: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def error_text(exc: BaseException) -> str:
+    """One line naming the exception type and its message."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _guarded(fn: Callable, item):
+    """(True, fn(item)) or (False, error text): a task's failure travels as a value, so the
+    worker does not log it as a crash and the text is the same as in a serial run."""
+    try:
+        return True, fn(item)
+    except Exception as exc:
+        return False, error_text(exc)
+
+
+class SerialRunner:
+    """Tasks one after another in this process (the reference the Dask runs are compared with)."""
+
+    label = "serial (this process)"
+    workers = 1
+
+    def map(self, fn: Callable, items: Iterable) -> Iterator[Done]:
+        for i, item in enumerate(items):
+            ok, value = _guarded(fn, item)  # KeyboardInterrupt still stops the loop
+            yield Done(i, value) if ok else Done(i, error=value)
+
+
+class DaskRunner:
+    """Tasks on a Dask client; ``cluster`` is the local cluster this runner owns (or None)."""
+
+    def __init__(self, client, label: str, cluster=None):
+        self.client, self.label, self.cluster = client, label, cluster
+
+    @property
+    def workers(self) -> int:
+        """Number of task slots (worker threads) the scheduler has now."""
+        return max(1, sum(self.client.nthreads().values()))
+
+    def map(self, fn: Callable, items: Iterable) -> Iterator[Done]:
+        from distributed import as_completed
+
+        items = list(items)
+        futures = self.client.map(functools.partial(_guarded, fn), items, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        pending = set(index)
+        try:
+            for fut in as_completed(futures):
+                pending.discard(fut.key)
+                i = index[fut.key]
+                if fut.status == "finished":
+                    ok, value = fut.result()
+                    yield Done(i, value) if ok else Done(i, error=value)
+                else:  # the worker died or the task could not be sent
+                    yield Done(i, error=error_text(fut.exception()))
+                fut.release()
+        finally:  # the consumer stopped early (error, Ctrl-C): do not leave work queued
+            left = [f for f in futures if f.key in pending]
+            if left:
+                self.client.cancel(left)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def _import_distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise InputError("Dask is not installed, so --scheduler cannot be used: install it with "
+                         "pip install 'cfm-materials[dask]' (dask[distributed]), or run serially with "
+                         "--serial.") from None
+    return distributed
+
+
+def local_cluster(workers: int) -> DaskRunner:
+    """A :class:`DaskRunner` on a new local cluster of ``workers`` one-thread processes."""
+    distributed = _import_distributed()
+    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       env=dict(WORKER_ENV), dashboard_address=":0",
+                                       silence_logs=logging.ERROR)
+    try:
+        client = distributed.Client(cluster)
+    except BaseException:
+        cluster.close()
+        raise
+    return DaskRunner(client, f"local Dask cluster, {workers} worker process(es) x 1 thread", cluster)
+
+
+def connect(address: str, timeout: float = 30.0) -> DaskRunner:
+    """A :class:`DaskRunner` on the Dask scheduler at ``address`` (e.g. tcp://host:8786)."""
+    distributed = _import_distributed()
+    try:
+        client = distributed.Client(address, timeout=f"{timeout}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
+                         f"({error_text(exc)}). Start one with 'dask scheduler' and workers with "
+                         f"'dask worker {address} --nthreads 1', or leave --scheduler out to use a "
+                         f"local cluster.") from None
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT)
+    except (TimeoutError, OSError):
+        client.close()
+        raise InputError(f"--scheduler {address}: the scheduler has had no worker for "
+                         f"{WORKER_WAIT:g} s; start some with 'dask worker {address} --nthreads 1'.") from None
+    runner = DaskRunner(client, f"Dask scheduler {address}")
+    runner.label += f" ({runner.workers} worker thread(s))"
+    return runner
+
+
+@contextlib.contextmanager
+def open_runner(scheduler: str | None = None, workers: int | None = None):
+    """Context manager yielding a runner (see the module docstring); closes what it started.
+
+    scheduler: None (local cluster), "none"/"serial" (this process) or a Dask address.
+    workers: processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
+    """
+    if workers is not None and (isinstance(workers, bool) or int(workers) != workers or workers < 1):
+        raise InputError(f"--workers {workers!r} is not allowed: give a whole number >= 1 "
+                         f"(worker processes of the local Dask cluster).")
+    if scheduler is not None and scheduler.strip().lower() in SERIAL:
+        if workers not in (None, 1):
+            raise InputError(f"--workers {workers} has no effect with a serial run; leave it out "
+                             f"or drop --serial / --scheduler none.")
+        yield SerialRunner()
+        return
+    if scheduler is not None and workers is not None:
+        raise InputError(f"--workers {workers} sets the size of the local cluster and has no effect "
+                         f"with --scheduler {scheduler}: the scheduler's workers are used. Leave one "
+                         f"of them out.")
+    runner = local_cluster(workers or os.cpu_count() or 1) if scheduler is None else connect(scheduler)
+    try:
+        yield runner
+    finally:
+        runner.close()

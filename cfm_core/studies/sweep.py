@@ -1,0 +1,292 @@
+"""Parameter sweeps of the drop test: every combination of some scene and material values.
+
+A sweep varies names of the drop-test scene (:data:`SCENE_KEYS`: thickness, velocity, ... in SI
+units) and parameters of its material (``cfm``: c, k1, k2, kappa, g1, tau1, g2, tau2, g3, tau3) over
+given values, runs the cartesian product (the last ``--vary`` changes fastest) on a runner of
+:mod:`cfm_core.studies.dask_runner`, and writes into ``out``:
+
+- ``runs/<id>/acceleration.csv`` and ``summary.json`` per run (:func:`writers.write_drop_test`;
+  the summary, written last, also holds the run's values under ``sweep``), or
+  ``runs/<id>/failed.json`` (values and error text) for a run that failed;
+- ``sweep.csv`` (and ``sweep.parquet`` when pyarrow is installed): one row per run, in product
+  order, with the varied values, ``status`` ("ok" | "failed"), ``error`` and the summary figures.
+  Headers carry the units: ``thickness [m]``, ``k1 [Pa]``, ``peak_g [g]``; ``run_time [s]`` is
+  the whole run (model build, solver, post-processing), ``wall_time [s]`` the solver only;
+- ``peaks.png``: peak acceleration against the first varied name, one line per combination of
+  the others.
+
+The run id is a hash of the scene, the backend and the run's values, so rerunning the command
+skips every run whose ``summary.json`` exists (a changed scene or backend gives new ids); failed
+runs are run again. Every run is validated where it runs: a value out of range fails that run
+only, with the InputError's text in the table.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import itertools
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .dask_runner import SerialRunner, error_text
+from ..errors import InputError
+from ..scene.scene import _UNITS as SCENE_UNITS
+from ..scene.scene import scene_to_dict
+from ..post.writers import atomic_write, write_drop_test, write_json
+from ..material.registry import get_material
+from ..runs import pipeline as simulate
+from ..post import SUMMARY_UNITS
+from ..post.plots import _COLOURS, _figure, _save
+
+#: Scene keys a sweep can vary (SI units, see cfm_core/scene/scenes/drop-test.toml).
+SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius", "density", "friction")
+#: Summary figures copied into the table, in this order.
+SUMMARY_COLUMNS = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time", "unloading_time",
+                   "steps", "elements", "wall_time", "energy_error", "hourglass_ratio", "run_time")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One varied name with its unit and values (SI)."""
+
+    name: str
+    unit: str
+    values: tuple
+
+
+@dataclass
+class SweepResult:
+    """Rows of the table (dicts, product order) and counts of this invocation."""
+
+    rows: list
+    axes: list
+    executed: int = 0
+    skipped: int = 0
+    wall: float = 0.0
+    files: list = field(default_factory=list)
+
+    @property
+    def failed(self) -> int:
+        return sum(r["status"] != "ok" for r in self.rows)
+
+
+# ----------------------------------------------------------------------------- what to run
+def variable_units(scene) -> dict:
+    """{name: unit} of everything a sweep (or a fit) of this drop-test scene can vary."""
+
+    if scene.type != "drop-test":
+        raise InputError(f"sweeps and calibrations run drop tests; the scene is a '{scene.type}' scene.")
+    units = {k: SCENE_UNITS[k].split(",")[0] for k in SCENE_KEYS}
+    for p in get_material(scene.material.name).parameters:
+        units.setdefault(p.name, p.unit)
+    return units
+
+
+def parse_vary(items, scene) -> list[Axis]:
+    """``NAME=V1,V2,...`` strings -> axes; InputError naming the bad item and what is allowed."""
+    units = variable_units(scene)
+    axes, seen = [], set()
+    for item in items or []:
+        name, sep, text = str(item).partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(f"--vary expects NAME=V1,V2,... (SI units), got {item!r}.")
+        if name not in units:
+            raise InputError(f"--vary {name}: unknown name; a drop-test sweep can vary the scene values "
+                             f"{', '.join(SCENE_KEYS)} and the parameters of material "
+                             f"'{scene.material.name}': {', '.join(n for n in units if n not in SCENE_KEYS)}.")
+        if name in seen:
+            raise InputError(f"--vary {name} is given twice; put all its values in one --vary.")
+        seen.add(name)
+        values = []
+        for v in text.split(","):
+            try:
+                values.append(float(v))
+            except ValueError:
+                raise InputError(f"--vary {name}: value {v.strip()!r} is not a number "
+                                 f"({units[name]}); give NAME=V1,V2,...") from None
+        if len(set(values)) != len(values):
+            raise InputError(f"--vary {name}: a value is repeated in {text!r}; give each value once.")
+        axes.append(Axis(name, units[name], tuple(values)))
+    if not axes:
+        raise InputError("a sweep needs at least one --vary NAME=V1,V2,... (SI units).")
+    return axes
+
+
+def cases(axes: list[Axis]) -> list[dict]:
+    """The cartesian product of the axes' values, as {name: value}; the last axis runs fastest."""
+    return [dict(zip((a.name for a in axes), combo)) for combo in itertools.product(*(a.values for a in axes))]
+
+
+def overrides(case: dict) -> dict:
+    """{name: value} -> keyword arguments of :meth:`Scene.with_overrides` (scene keys, parameters)."""
+    over = {k: v for k, v in case.items() if k in SCENE_KEYS}
+    params = {k: v for k, v in case.items() if k not in SCENE_KEYS}
+    if params:
+        over["parameters"] = params
+    return over
+
+
+def run_id(scene, backend: str, case: dict) -> str:
+    """Stable id (12 hex digits) of one run: hash of the scene, the backend and the values."""
+    key = json.dumps({"scene": scene_to_dict(scene), "backend": backend,
+                      "case": {k: repr(float(v)) for k, v in sorted(case.items())}}, sort_keys=True)
+    return hashlib.sha256(key.encode()).hexdigest()[:12]
+
+
+def run_case(task) -> dict:
+    """Run one drop test; task = (scene, {name: value}, backend). Runs on a Dask worker.
+
+    Returns t (s), a_raw and a_cfc (m/s^2) and the summary (with ``run_time``, s, end to end).
+    Errors (invalid values, numerical failures) propagate; the runner records them.
+    """
+
+    scene, case, backend = task
+    start = time.perf_counter()
+    outcome = simulate.drop_test(scene.with_overrides(**overrides(case)), backend)
+    summary = dict(outcome.summary, run_time=time.perf_counter() - start)
+    summary["units"] = dict(summary.get("units", {}), run_time="s")
+    return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}
+
+
+# ----------------------------------------------------------------------------- the sweep
+def _row(rid: str, case: dict, summary: dict | None, error: str | None) -> dict:
+    row = {"run_id": rid, **case, "status": "ok" if error is None else "failed", "error": error or ""}
+    for key in SUMMARY_COLUMNS:
+        row[key] = (summary or {}).get(key)
+    return row
+
+
+def _describe(case: dict, axes) -> str:
+    return " ".join(f"{a.name}={case[a.name]:g}" for a in axes)
+
+
+def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None, progress=None) -> SweepResult:
+    """Run (or resume) a sweep into folder ``out``; see the module docstring.
+
+    runner: from :func:`cfm_core.studies.dask_runner.open_runner` (default: serial in this process).
+    progress: callable receiving one line of text per finished run (e.g. printing to stderr).
+    """
+    runner = runner or SerialRunner()
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is not a directory.")
+    start = time.perf_counter()
+    todo = cases(axes)
+    ids = [run_id(scene, backend, c) for c in todo]
+    rows: list = [None] * len(todo)
+    pending = []
+    for i, (rid, case) in enumerate(zip(ids, todo)):
+        done = out / "runs" / rid / "summary.json"
+        if done.is_file():
+            rows[i] = _row(rid, case, json.loads(done.read_text(encoding="utf-8")), None)
+        else:
+            pending.append(i)
+    result = SweepResult(rows, axes, skipped=len(todo) - len(pending))
+    say = progress or (lambda line: None)
+    if result.skipped:
+        say(f"{result.skipped} of {len(todo)} runs already complete in {out}/runs: skipped")
+    tasks = [(scene, todo[i], backend) for i in pending]
+    for n, done in enumerate(runner.map(run_case, tasks), start=1):
+        i = pending[done.index]
+        rid, case = ids[i], todo[i]
+        folder = out / "runs" / rid
+        error = done.error
+        if error is None:
+            try:
+                summary = dict(done.value["summary"], sweep=case, run_id=rid)
+                write_drop_test(folder, done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
+                (folder / "failed.json").unlink(missing_ok=True)
+            except (ValueError, RuntimeError) as exc:  # InputError, NumericalError: non-finite data
+                error = error_text(exc)
+        if error is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+            write_json(folder / "failed.json", {"run_id": rid, "sweep": case, "error": error})
+        rows[i] = _row(rid, case, done.value["summary"] if error is None else None, error)
+        result.executed += 1
+        wall = time.perf_counter() - start
+        what = (f"peak {rows[i]['peak_g']:.1f} g, {rows[i]['run_time']:.2f} s" if error is None
+                else f"FAILED: {error}")
+        say(f"[{n + result.skipped}/{len(todo)}] {_describe(case, axes)}: {what} ({wall:.1f} s elapsed)")
+    result.files = write_table(out, rows, axes)
+    if any(r["status"] == "ok" for r in rows):
+        plot_peaks(out / "peaks.png", rows, axes, f"{scene.settings.name}, {backend}")
+        result.files.append(out / "peaks.png")
+    result.wall = time.perf_counter() - start
+    return result
+
+
+# ----------------------------------------------------------------------------- the table
+def columns(axes: list[Axis]) -> list[tuple[str, str]]:
+    """(key, header) of the table: run_id, the varied names, status, error, summary figures."""
+
+    units = {**{k: u.split(" ")[0] for k, u in SUMMARY_UNITS.items()}, "run_time": "s"}
+    return ([("run_id", "run_id")] + [(a.name, f"{a.name} [{a.unit}]") for a in axes]
+            + [("status", "status"), ("error", "error")]
+            + [(k, f"{k} [{units.get(k, '-')}]") for k in SUMMARY_COLUMNS])
+
+
+def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
+    """Write sweep.csv (and sweep.parquet if pyarrow is importable) atomically; returns the paths."""
+    cols = columns(axes)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([h for _, h in cols])
+    for r in rows:
+        w.writerow(["" if r[k] is None else (repr(r[k]) if isinstance(r[k], float) else r[k]) for k, _ in cols])
+    text = buf.getvalue()
+
+    def write_csv(tmp):
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+
+    out.mkdir(parents=True, exist_ok=True)
+    files = [atomic_write(out / "sweep.csv", write_csv)]
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return files
+    text_keys = ("run_id", "status", "error")
+    table = pa.table({h: pa.array([r[k] for r in rows], pa.string() if k in text_keys else pa.float64())
+                      for k, h in cols})
+    files.append(atomic_write(out / "sweep.parquet", lambda tmp: pq.write_table(table, tmp)))
+    return files
+
+
+def read_table(path) -> list[dict]:
+    """Rows of a sweep.csv as dicts keyed by header; numbers as floats, empty cells as None."""
+    with open(path, encoding="utf-8", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        for k, v in r.items():
+            if k not in ("run_id", "status", "error"):
+                r[k] = float(v) if v != "" else None
+    return rows
+
+
+def plot_peaks(path, rows: list, axes: list[Axis], title: str) -> None:
+    """PNG of peak acceleration (g) against the first varied name, one line per other combination."""
+
+    first, others = axes[0], axes[1:]
+    fig, ax = _figure(f"Peak acceleration, {title}")
+    ax.set_xlabel(f"{first.name} ({first.unit})")
+    ax.set_ylabel("Peak impactor acceleration, CFC 600 (g)")
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault(tuple(r[a.name] for a in others), []).append(r)
+    for j, (key, group) in enumerate(groups.items()):
+        x = np.array([r[first.name] for r in group])
+        y = np.array([r["peak_g"] if r["status"] == "ok" else math.nan for r in group])
+        label = ", ".join(f"{a.name} = {v:g} {a.unit}" for a, v in zip(others, key)) or None
+        ax.plot(x, y, "o-", color=_COLOURS[j % len(_COLOURS)], linewidth=1.5, markersize=4, label=label)
+    if others and len(groups) <= 16:
+        ax.legend(fontsize=7, frameon=False, ncols=1 + len(groups) // 9)
+    _save(fig, path)

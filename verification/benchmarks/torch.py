@@ -1,0 +1,160 @@
+"""Agreement and speed of the torch backend next to the numba backend (figures, not timed tests).
+
+    python -m cfm_verification.benchmarks.torch [--compile] [--refined-time 0.004] [--repeat 2]
+                                                     [--skip-refined] [--threads N ...]
+
+1. Material point: ``point`` (float64) against the core reference ``cfm_core.material.reference.stress_history``
+   along a drop-test-like history (compression with shear at about 150 1/s, then a hold): largest
+   stress difference relative to the largest stress.
+2. Agreement: the built-in drop test (8 mm and 5 mm, 1 mm elements, quarter model) on numba and
+   on torch (float64, and float32 for information) with the same mesh and step rule: relative L2
+   difference of the CFC 600 filtered impactor acceleration over the common 50 kHz samples, peaks,
+   step counts.
+3. Speed: solver wall time (compilation excluded, reported apart) and nanoseconds per
+   element-cycle (wall / (elements x steps)) of numba and of torch on the CPU (eager float64 and
+   float32; compiled with ``--compile``) with the same thread count (``--threads``, default 1),
+   best of ``--repeat`` runs, as ratios torch / numba; on the default drop test and on a refined
+   one (0.5 mm elements, 8x the elements) simulated for ``--refined-time`` seconds of the impact.
+
+Timings on a loaded machine are not meaningful: the load average is printed first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from dataclasses import replace
+
+import numpy as np
+
+
+def scene_model(thickness: float = 0.008, element_size: float = 0.001, end_time: float | None = None):
+    """The built-in drop test with a thickness and element size (m); optional end time (s)."""
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    model = build_model(builtin_scene("drop-test").with_overrides(thickness=thickness, element_size=element_size))
+    return replace(model, end_time=end_time) if end_time else model
+
+
+def filtered_acceleration(result, model) -> np.ndarray:
+    from cfm_core.post import acceleration_histories
+
+    return acceleration_histories(result, model.mass_full)[2]
+
+
+def rel_l2(a: np.ndarray, ref: np.ndarray) -> float:
+    """Relative L2 difference over the common samples (two runs may stop a step apart)."""
+    from cfm_core.post import relative_l2
+
+    n = min(a.size, ref.size)
+    return relative_l2(a[:n], ref[:n])
+
+
+def point_agreement() -> dict:
+    """Max |sigma_torch - sigma_ref| / max |sigma_ref| along a drop-test-like history (float64, float32)."""
+    from cfm_core.material import kinematics as kin
+    from cfm_core.material import reference
+    from cfm_core.material.registry import make_material
+
+    from . import TorchExplicitBackend
+
+    material = make_material("cfm")
+    t = np.linspace(0.0, 0.01, 401)
+    s = np.minimum(t / 0.004, 1.0)                       # 0.6 compression in 4 ms (150 1/s), then hold
+    F = np.zeros((t.size, 3, 3))
+    F[:, 0, 0] = F[:, 1, 1] = (1.0 - 0.6 * s) ** -0.4
+    F[:, 2, 2] = 1.0 - 0.6 * s
+    F[:, 0, 2] = 0.2 * s
+    ref = kin.to_voigt(reference.stress_history(material, t, F))
+    out = {}
+    for dtype in ("float64", "float32"):
+        sig = TorchExplicitBackend().point(material, t, F, dtype=dtype)
+        out[dtype] = float(np.abs(sig - ref).max() / np.abs(ref).max())
+    return out
+
+
+def timed(backend: str, model, repeat: int, **options):
+    """Best (smallest solver wall time) of ``repeat`` runs: the Result."""
+    from cfm_core.simulation.registry import get_backend
+
+    best, first = None, None
+    for _ in range(repeat):
+        r = get_backend(backend).run(model, **options)
+        first = r.info.get("compile_time") if first is None else first
+        if best is None or r.wall_time < best.wall_time:
+            best = r
+    best.info["first_compile_time"] = first
+    return best
+
+
+def agreement(thickness: float) -> None:
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    from . import TorchExplicitBackend
+
+    model = scene_model(thickness)
+    ref = NumbaExplicitBackend().run(model)
+    a_ref = filtered_acceleration(ref, model)
+    for dtype in ("float64", "float32"):
+        res = TorchExplicitBackend().run(model, dtype=dtype)
+        a = filtered_acceleration(res, model)
+        print(f"  {1e3 * thickness:.0f} mm, {model.n_elements} elements, torch {dtype}: rel. L2 of filtered "
+              f"acceleration {rel_l2(a, a_ref):.2e}; peak {a.max() / 9.80665:.4f} g (numba "
+              f"{a_ref.max() / 9.80665:.4f} g); steps {res.steps} (numba {ref.steps}); energy error "
+              f"{res.energy_error():.2e} (numba {ref.energy_error():.2e})", flush=True)
+
+
+def speed(label: str, model, repeat: int, compile_: bool, threads: list[int]) -> None:
+    ne = model.n_elements
+    print(f"\n{label}: {ne} hexahedra, {model.n_nodes} nodes, end time {1e3 * model.end_time:g} ms", flush=True)
+    timed("numba", model, 1, threads=1)                 # compile / load the numba kernels
+    rows = []
+    for th in threads:
+        rows.append((f"numba, {th} thread(s)", timed("numba", model, repeat, threads=th)))
+        rows.append((f"torch eager cpu float64, {th} thread(s)", timed("torch", model, repeat, threads=th)))
+        rows.append((f"torch eager cpu float32, {th} thread(s)",
+                     timed("torch", model, repeat, threads=th, dtype="float32")))
+        if compile_:
+            rows.append((f"torch compiled cpu float64, {th} thread(s)",
+                         timed("torch", model, repeat, threads=th, compile=True)))
+    ref = {th: r.wall_time for name, r in rows if name.startswith("numba") for th in [r.info["threads"]]}
+    for name, r in rows:
+        extra = (f", compilation {r.info['first_compile_time']:.1f} s apart (first run)"
+                 if r.info.get("compile") else "")
+        ratio = r.wall_time / ref.get(r.info["threads"], float("nan"))
+        print(f"  {name:<40} {r.wall_time:8.3f} s {r.info['ns_per_element_cycle']:7.0f} ns/element-cycle "
+              f"{r.steps:6d} steps  {ratio:5.2f} x numba{extra}", flush=True)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=2, help="runs per configuration (the fastest is kept)")
+    ap.add_argument("--compile", action="store_true", help="also time torch.compile'd element passes")
+    ap.add_argument("--refined-time", type=float, default=0.004,
+                    help="simulated time of the refined (0.5 mm) drop test, s (default 0.004)")
+    ap.add_argument("--skip-refined", action="store_true", help="skip the refined drop test")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1],
+                    help="thread counts to time, the same for both backends (default: 1)")
+    args = ap.parse_args(argv)
+
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs "
+          f"(timings are only meaningful on an idle machine)", flush=True)
+    t0 = time.perf_counter()
+    print("\n1. material point vs cfm_core.material.reference.stress_history (max |d sigma| / max |sigma|):")
+    pa = point_agreement()
+    print(f"  float64 {pa['float64']:.2e}, float32 {pa['float32']:.2e}", flush=True)
+    print("\n2. drop test agreement with numba (same mesh, same step rule):")
+    for thickness in (0.008, 0.005):
+        agreement(thickness)
+    print("\n3. speed (solver wall time, compilation excluded):")
+    speed("default drop test (8 mm, 1 mm elements)", scene_model(), args.repeat, args.compile, args.threads)
+    if not args.skip_refined:
+        speed(f"refined drop test (8 mm, 0.5 mm elements, first {1e3 * args.refined_time:g} ms)",
+              scene_model(0.008, 0.0005, args.refined_time), args.repeat, args.compile, args.threads)
+    print(f"\nbenchmark took {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
