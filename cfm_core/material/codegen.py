@@ -26,6 +26,8 @@ import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..errors import InputError
+
 M = sp.symbols("m1 m2 m3", positive=True)
 J_SYMBOL = sp.Symbol("J", positive=True)
 PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
@@ -85,14 +87,30 @@ def energies(isochoric_terms, volumetric_term, param_symbols):
     lam = [sp.sqrt(m * jm23) for m in M]
     iso = sp.Integer(0)
     for term in isochoric_terms:
-        args = [param_symbols[p.name] for p in term.parameters]
-        iso += term.energy(*lam, *args)
+        iso += _trace(term, lam, [param_symbols[p.name] for p in term.parameters])
     iso = param_symbols["s_iso"] * iso
     vol = sp.Integer(0)
     if volumetric_term is not None:
-        args = [param_symbols[p.name] for p in volumetric_term.parameters]
-        vol = volumetric_term.energy(J, *args)
+        vol = _trace(volumetric_term, [J], [param_symbols[p.name] for p in volumetric_term.parameters])
     return sp.sympify(iso), sp.sympify(vol)
+
+
+def _trace(term, kinematic, params):
+    """Call a term's energy with sympy symbols; a function that cannot take symbols (``math.exp``,
+    ``np.exp``, ``if x > 1``) raises InputError naming the term and the symbolic helpers to use."""
+    try:
+        value = term.energy(*kinematic, *params)
+        expr = sp.sympify(value)
+    except (TypeError, ValueError, AttributeError, sp.SympifyError) as exc:
+        raise InputError(
+            f"energy term '{term.name}' cannot be traced symbolically ({type(exc).__name__}: {exc}). Energies are "
+            f"called once with sympy symbols, so write them with the helpers of cfm_core.sym (cfm.sym.exp, "
+            f"log, sqrt, where(condition, a, b)) and arithmetic, not math.exp, numpy.exp or Python if/else "
+            f"on the arguments.") from None
+    if not isinstance(expr, sp.Expr):
+        raise InputError(f"energy term '{term.name}' returned {value!r}, not an expression of its arguments "
+                         f"(energy per reference volume in Pa).")
+    return expr
 
 
 def _opaque_to_symbols(exprs):

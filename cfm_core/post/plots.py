@@ -14,6 +14,23 @@ from .writers import _finite_array, atomic_write
 _COLOURS = ["#1f4e9c", "#c0392b", "#27864a", "#8e44ad", "#d68910", "#17879b", "#555555", "#b03a7a"]
 
 
+#: Units shown scaled in figures (files keep SI): SI unit -> (factor, shown unit).
+DISPLAY_UNITS = {"m": (1e3, "mm"), "kg": (1e3, "g"), "s": (1e3, "ms"), "Pa": (1e-3, "kPa")}
+
+
+def display(unit: str) -> tuple[float, str]:
+    """(factor, unit text) to show a quantity in ``unit`` (SI) in a figure: lengths in mm, masses
+    in g, times in ms, stresses in kPa; dimensionless ("-") shows no unit."""
+    return DISPLAY_UNITS.get(unit, (1.0, "" if unit in ("-", "") else unit))
+
+
+def display_text(name: str, value: float, unit: str) -> str:
+    """``name = value unit`` for a legend, in the units of :func:`display` (``k2 = 1.66``,
+    ``thickness = 5 mm``)."""
+    factor, shown = display(unit)
+    return f"{name} = {value * factor:g}{' ' + shown if shown else ''}"
+
+
 def _figure(title: str):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -108,5 +125,19 @@ def plot_reaction(path, t, force, title: str) -> None:
     ax.plot(ms, force, color=_COLOURS[0], linewidth=2.0,
             label=f"largest |F| = {abs(force[k]):.4g} N at {ms[k]:.3g} ms; final {force[-1]:.4g} N")
     ax.plot(ms[k], force[k], "o", color=_COLOURS[0], markersize=4)
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def plot_uniaxial(path, stretch, nominal, title: str) -> None:
+    """Save a PNG of a uniaxial test: nominal stress (Pa, shown in kPa) against stretch (-)."""
+    stretch = _finite_array("stretch", stretch, ndim=1)
+    nominal = _finite_array("nominal_stress", nominal, ndim=1)
+    fig, ax = _figure(title)
+    ax.set_xlabel("Stretch (-)")
+    ax.set_ylabel("Nominal stress (kPa)")
+    ax.plot(stretch, 1e-3 * nominal, color=_COLOURS[0], linewidth=2.0)
+    ax.plot(stretch[-1], 1e-3 * nominal[-1], "o", color=_COLOURS[0], markersize=4,
+            label=f"{1e-3 * nominal[-1]:.3g} kPa at stretch {stretch[-1]:.3g}")
     ax.legend(loc="best", fontsize=8, frameon=False)
     _save(fig, path)

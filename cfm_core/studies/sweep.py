@@ -43,7 +43,7 @@ from ..post.writers import atomic_write, write_drop_test, write_json
 from ..material.registry import get_material
 from ..runs import pipeline as simulate
 from ..post import SUMMARY_UNITS
-from ..post.plots import _COLOURS, _figure, _save
+from ..post.plots import _COLOURS, _figure, _save, display, display_text
 
 #: Scene keys a sweep can vary (SI units, see cfm_core/scene/scenes/drop-test.toml).
 SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius", "density", "friction")
@@ -277,15 +277,16 @@ def plot_peaks(path, rows: list, axes: list[Axis], title: str) -> None:
 
     first, others = axes[0], axes[1:]
     fig, ax = _figure(f"Peak acceleration, {title}")
-    ax.set_xlabel(f"{first.name} ({first.unit})")
+    xfactor, xunit = display(first.unit)
+    ax.set_xlabel(f"{first.name} ({xunit})" if xunit else first.name)
     ax.set_ylabel("Peak impactor acceleration, CFC 600 (g)")
     groups: dict = {}
     for r in rows:
         groups.setdefault(tuple(r[a.name] for a in others), []).append(r)
     for j, (key, group) in enumerate(groups.items()):
-        x = np.array([r[first.name] for r in group])
+        x = xfactor * np.array([r[first.name] for r in group])
         y = np.array([r["peak_g"] if r["status"] == "ok" else math.nan for r in group])
-        label = ", ".join(f"{a.name} = {v:g} {a.unit}" for a, v in zip(others, key)) or None
+        label = ", ".join(display_text(a.name, v, a.unit) for a, v in zip(others, key)) or None
         ax.plot(x, y, "o-", color=_COLOURS[j % len(_COLOURS)], linewidth=1.5, markersize=4, label=label)
     if others and len(groups) <= 16:
         ax.legend(fontsize=7, frameon=False, ncols=1 + len(groups) // 9)
