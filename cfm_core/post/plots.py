@@ -101,8 +101,10 @@ def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = 
     if t_max > 0.0:
         ax.set_xlim(0.0, t_max)
     ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]), top=1.25 * top if top > 0.0 else None)
-    if curves:
-        ax.legend(loc="upper left", fontsize=8, framealpha=0.95, edgecolor="0.8", ncols=min(len(curves), 4))
+    if len(curves) > 4:  # a long legend goes beside the axes (constrained layout makes room for it)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+    elif curves:
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.95, edgecolor="0.8")
     _save(fig, path)
 
 
