@@ -70,16 +70,22 @@ def _backend_options(args) -> dict:
     return options
 
 
-def _drop_test(args, scene, backend: str) -> int:
-    """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
-    out = out_dir(args)
-    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})",
-                        enabled=not args.quiet)
+def _with_progress(args, run, scene, backend: str, label: str):
+    """``run(scene, backend, progress=..., **options)`` with a progress bar unless ``--quiet``."""
+    progress = Progress(scene.end_time, label, enabled=not args.quiet)
     try:
-        outcome = pipeline.drop_test(scene, backend, progress=progress, **_backend_options(args))
+        outcome = run(scene, backend, progress=progress, **_backend_options(args))
         progress.finish()
     finally:
         progress.close()
+    return outcome
+
+
+def _drop_test(args, scene, backend: str) -> int:
+    """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
+    out = out_dir(args)
+    outcome = _with_progress(args, pipeline.drop_test, scene, backend,
+                             f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})")
     outcome.save(out, plot=not args.no_plot, vtu=getattr(args, "vtu", False))
     s = outcome.summary
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
@@ -129,12 +135,7 @@ def _cmd_run(args) -> int:
     if scene.type == "drop-test":
         return _drop_test(args, scene, backend)
     out = out_dir(args)
-    progress = Progress(scene.end_time, f"{scene.type} ({backend})", enabled=not args.quiet)
-    try:
-        outcome = pipeline.reaction_test(scene, backend, progress=progress, **_backend_options(args))
-        progress.finish()
-    finally:
-        progress.close()
+    outcome = _with_progress(args, pipeline.reaction_test, scene, backend, f"{scene.type} ({backend})")
     outcome.save(out, plot=not args.no_plot)
     s = outcome.summary
     print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "
