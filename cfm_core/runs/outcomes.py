@@ -62,13 +62,26 @@ class DropTestOutcome:
         return float(self.summary["peak_g"])
 
     def to_dataframe(self) -> pd.DataFrame:
-        """The histories as a DataFrame: columns ``t [s]``, ``a_raw [m/s^2]``, ``a_cfc600 [m/s^2]``
-        and ``a_cfc600 [g]``, one row per sample."""
+        """The histories as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t [s]``, ``a_raw [m/s^2]``, ``a_cfc600 [m/s^2]`` and ``a_cfc600 [g]``,
+            one row per sample (n rows).
+        """
         return pd.DataFrame({"t [s]": self.t, "a_raw [m/s^2]": self.a_raw, "a_cfc600 [m/s^2]": self.a_cfc,
                              "a_cfc600 [g]": self.a_cfc / G0})
 
     def title(self) -> str:
-        """Plot title naming what ran: thickness, speed, impactor, friction, mesh, material, backend."""
+        """Plot title naming what ran.
+
+        Returns
+        -------
+        str
+            Two lines: thickness (mm), speed (m/s), impactor mass (g) and radius (mm), friction,
+            element size (mm); material with its moduli convention (or "elastic"), backend.
+        """
         s, sc = self.summary, self.scene
         name = f"{sc.settings.name}: " if sc.settings.name not in (None, "", sc.type) else ""
         friction = f", friction {sc.contact.friction:g}" if sc.contact.friction else ""
@@ -77,15 +90,34 @@ class DropTestOutcome:
                 f"{1e3 * s['element_size']:g} mm elements\n{_material_text(s)}, {s['backend']}")
 
     def save(self, out, plot: bool = True, vtu: bool = False) -> Path:
-        """Write ``acceleration.csv`` (t s, a_raw and a_cfc600 m/s^2), ``scene.toml`` (the
-        resolved scene, so the run can be repeated with ``cfm run --scene``), ``acceleration.png``
-        (if ``plot``), the ParaView series (if ``vtu`` and the run stored frames) and
-        ``summary.json`` last. Returns the directory.
+        """Write the run's files, the same the command line writes.
+
+        ``acceleration.csv`` (t s, a_raw and a_cfc600 m/s^2), ``scene.toml`` (the resolved scene,
+        so that ``cfm run --scene DIR/scene.toml`` repeats the run), ``acceleration.png`` and the
+        ParaView series (``specimen_*.vtu``, ``specimen.pvd``), then ``summary.json`` last: its
+        presence means the output is complete.
+
+        Parameters
+        ----------
+        out : str or path-like
+            Output directory (created if missing).
+        plot : bool
+            Write ``acceleration.png``.
+        vtu : bool
+            Write the deformed specimen over time (needs a run with stored frames, backend option
+            ``frame_interval`` in s).
+
+        Returns
+        -------
+        pathlib.Path
+            The output directory.
 
         Raises
         ------
         InputError
             ``out`` exists and is not a directory, or ``vtu`` was asked of a run without frames.
+        NumericalError
+            A history or summary value is not finite (nothing is written as complete).
         """
         out = _prepare(out)
         if vtu:
@@ -99,8 +131,17 @@ class DropTestOutcome:
     def compare(self, reference: "DropTestOutcome") -> dict:
         """This run's CFC 600 acceleration against a reference run's.
 
-        Returns :func:`cfm_core.post.compare_histories` of the two: ``rel_l2`` (-), ``peak_diff``
-        (-, this peak / reference peak - 1) and ``t_peak_diff`` (s, this minus the reference)."""
+        Parameters
+        ----------
+        reference : DropTestOutcome
+            The run to compare with.
+
+        Returns
+        -------
+        dict
+            :func:`cfm_core.post.compare_histories` of the two: ``rel_l2`` (-), ``peak_diff``
+            (-, this peak / reference peak - 1) and ``t_peak_diff`` (s, this minus the reference).
+        """
         return compare_histories(self.t, self.a_cfc, reference.t, reference.a_cfc)
 
 
@@ -132,20 +173,53 @@ class ReactionOutcome:
     summary: dict
 
     def to_dataframe(self) -> pd.DataFrame:
-        """The histories as a DataFrame: ``t [s]``, ``stretch [-]``, ``reaction_force [N]``,
-        ``nominal_stress [Pa]``."""
+        """The histories as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t [s]``, ``stretch [-]``, ``reaction_force [N]``, ``nominal_stress [Pa]``.
+        """
         return pd.DataFrame({"t [s]": self.t, "stretch [-]": self.stretch, "reaction_force [N]": self.force,
                              "nominal_stress [Pa]": self.nominal})
 
     def title(self) -> str:
-        """Plot title: scene type, stretch, material, backend."""
+        """Plot title naming what ran.
+
+        Returns
+        -------
+        str
+            Scene type, final stretch, material with its moduli convention, backend.
+        """
         s = self.summary
         name = f"{self.scene.settings.name}: " if self.scene.settings.name not in (None, "", self.scene.type) else ""
         return f"{name}{self.scene.type}, stretch {s['stretch']:g}, {_material_text(s)}, {s['backend']}"
 
     def save(self, out, plot: bool = True) -> Path:
-        """Write ``reaction.csv`` (t s, stretch -, reaction_force N, nominal_stress Pa),
-        ``scene.toml``, ``reaction.png`` (if ``plot``) and ``summary.json`` last; returns the directory."""
+        """Write the run's files, the same the command line writes.
+
+        ``reaction.csv`` (t s, stretch -, reaction_force N, nominal_stress Pa), ``scene.toml``,
+        ``reaction.png``, then ``summary.json`` last.
+
+        Parameters
+        ----------
+        out : str or path-like
+            Output directory (created if missing).
+        plot : bool
+            Write ``reaction.png``.
+
+        Returns
+        -------
+        pathlib.Path
+            The output directory.
+
+        Raises
+        ------
+        InputError
+            ``out`` exists and is not a directory.
+        NumericalError
+            A history or summary value is not finite.
+        """
         out = _prepare(out)
         atomic_write(out / "scene.toml", lambda p: Path(p).write_text(scene_to_toml(self.scene)))
         if plot:
