@@ -1,0 +1,80 @@
+"""Septa fibres: the isotropic collagen network between the fat lobules (paper, section 5 outlook).
+
+The paper's CFM leaves out the septa, "a three-dimensional network of collagen fibers with no
+preferred orientation", and expects them to matter at large deformation. Here they are
+tension-only fibres whose directions n are spread uniformly over the unit sphere, each with the
+exponential (HGO-type) law of the CFM's own fibres, averaged over all directions:
+
+    W_septa = < f(I4(n)) >,   < . > = 1/(4 pi) int_{S^2} . dOmega              (energy, Pa)
+    f(I4) = k1s / (2 k2s) [exp(k2s (I4 - 1)^2) - 1]   if I4 >= 1, else 0      (tension only)
+    I4(n) = sum_a l_a^2 n_a^2,   I4 - 1 = sum_a n_a^2 (l_a^2 - 1)
+
+with l_a the isochoric principal stretches and n written in the principal frame. Because the
+distribution is isotropic, the mean is a symmetric function of (l1, l2, l3), so the term is an
+ordinary isochoric term and runs on every backend. The mean is computed with an octahedrally
+symmetric sphere rule of stated degree (:mod:`cfm_plugins.sphere_quadrature`, default degree 17,
+110 directions, 19 distinct squared directions): permutation-closed with equal weights, so the
+sum is symmetric in the stretches. The squared components are rounded to 40-bit dyadic numbers
+summing to exactly 1, so that I4 - 1 is exactly 0 in floating point at the reference state, where every fibre sits on the switch (as in the CFM, the active side
+is taken at I4 = 1: value and slope of f vanish there, its second derivative jumps from 0 to k1s).
+
+Small-strain stiffness: with all fibres counted active, the initial shear modulus of the term is
+4 k1s <n1^2 n2^2> = 4 k1s / 15; a real small deformation stretches half of the fibres, so it is
+k1s * 2/15 in effect. The quadrature error comes from the switch (the integrand is C^1 across the
+cone I4 = 1, not a polynomial): measured against an adaptive integration split at the cone in
+``tests/plugins/test_septa.py``.
+
+Parameters (SI): k1s (Pa, > 0) fibre stiffness, k2s (-, > 0) stiffening exponent. Under the
+"long-term" moduli convention they are relaxed values, like c and k1 (the Prony series acts on
+the whole isochoric energy).
+"""
+
+from fractions import Fraction
+
+from cfm_core.parameters import positive
+from cfm_core.sym import exp, where
+from cfm_core.terms import isochoric
+
+from .cfm import TABLE1_PRONY, circular_fibers, lipid
+from .sphere_quadrature import POINTS, squared_directions
+from .volumetric import ogden_volumetric
+
+#: Degree of the default sphere rule (110 directions on the sphere).
+DEGREE = 17
+#: Squared direction components are rounded to multiples of 2^-BITS (moments move by ~1e-12): sympy
+#: expands a (l1^2 - 1) + b (l2^2 - 1) + c (l3^2 - 1) into a l1^2 + b l2^2 + c l3^2 - (a + b + c), and
+#: only with exactly representable a, b, c summing to 1 (passed as exact fractions, so that the
+#: generated code prints them exactly) is I4 - 1 exactly 0 at the reference state (every fibre
+#: then takes the active side of the switch, as the CFM's fibres do).
+BITS = 40
+K1S = positive("k1s", "Pa", 100.0, "septa fibre stiffness (exponential law, tension only)")
+K2S = positive("k2s", "-", 1.0, "septa fibre stiffening exponent")
+
+
+def septa_term(degree: int = DEGREE):
+    """The septa-fibre isochoric term integrated with the sphere rule of ``degree`` (11, 15 or 17).
+
+    Returns a :class:`cfm_core.terms.Term` named ``septa-fibers`` (degree 17) or
+    ``septa-fibers-<degree>``; energy in Pa.
+    """
+    weights, squares = squared_directions(degree, bits=BITS)
+
+    def energy(l1, l2, l3, k1s, k2s):
+        total = 0
+        for w, row in zip(weights, squares):
+            a, b, c = (Fraction(float(x)) for x in row)  # exact: printed as p/q, not as 15 digits
+            e = a * (l1**2 - 1) + b * (l2**2 - 1) + c * (l3**2 - 1)  # I4 - 1 of this direction
+            total += float(w) * where(e >= 0, k1s / (2 * k2s) * (exp(k2s * e**2) - 1), 0)
+        return total
+
+    name = "septa-fibers" if degree == DEGREE else f"septa-fibers-{degree}"
+    return isochoric(K1S, K2S, name=name,
+                     description=f"isotropic tension-only septa fibres, exponential law, sphere rule of degree "
+                                 f"{degree} ({POINTS[degree]} directions)")(energy)
+
+
+septa_fibers = septa_term()
+
+CFM_SEPTA = (lipid & circular_fibers & septa_fibers & ogden_volumetric & TABLE1_PRONY).named(
+    "cfm-septa", "CFM + isotropic tension-only septa fibres (exponential law, 110-direction sphere rule of "
+    "degree 17); Table 1 defaults for the CFM part")
