@@ -17,9 +17,9 @@ import warnings
 
 from .. import plugins
 from ..errors import InputError, NumericalError
-from . import compare, material, scene, studies
+from . import compare, fit, material, scene, studies
 
-BUILTIN = (material, scene, compare, studies)
+BUILTIN = (material, scene, compare, studies, fit)
 
 plugins.declare_kind(
     "commands", "cfm.commands", lambda obj: callable(getattr(obj, "add_parser", None)) and

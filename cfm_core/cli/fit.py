@@ -1,0 +1,73 @@
+"""``cfm fit``: fit a registered material to laboratory tests (stress-strain curves of a testing machine).
+
+One command per user job: the tests (``--test FILE:KIND:RATE[:WEIGHT]``), the parameters to fit
+(``--fit``) and the material; writes fit.json, fit_<test>.png and fitted-scene.toml (a drop-test
+scene with the fitted material, for ``cfm drop-test --scene`` and ``cfm calibrate --scene``).
+Method and file formats: :mod:`cfm_core.studies.fit`, :mod:`cfm_core.studies.lab_tests`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from ..errors import InputError
+from ..scene.scene import load_scene
+from ..studies import fit as lab_fit
+from ..studies.lab_tests import KINDS
+from .options import add_material_options, out_dir, parse_params
+
+
+def add_parser(sub) -> None:
+    """Add the ``fit`` subcommand to ``sub`` (an argparse subparsers object)."""
+    kinds = "; ".join(f"{k}: {v[1]}" for k, v in KINDS.items())
+    p = sub.add_parser("fit", help="fit a material's parameters to laboratory tests (stress-strain curves)",
+                       description="Least-squares fit of a registered material's parameters (Prony terms "
+                                   "included) to material tests, each a CSV with header t,stretch,stress (or "
+                                   "t,shear,stress for simple shear) in s, -, Pa (nominal stress). Kinds: "
+                                   f"{kinds}. Writes fit.json (values, 95 % intervals, correlations, "
+                                   "identifiability warnings), fit_<test>.png and fitted-scene.toml into --out.")
+    add_material_options(p)
+    p.add_argument("--test", action="extend", nargs="+", metavar="FILE:KIND:RATE[:WEIGHT]", required=True,
+                   help="a test curve: CSV file, kind (" + ", ".join(KINDS) + "), the loading's engineering "
+                        "strain (or shear) rate in 1/s, optional weight (-, default 1); repeatable")
+    p.add_argument("--fit", required=True, metavar="NAME,...",
+                   help="parameters to fit, e.g. c,k1,k2 or k1,k2,prony (prony = every g_i, tau_i); "
+                        "--param sets the start of these and the value of the others (SI units)")
+    p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
+    p.add_argument("--max-evaluations", type=int, default=400,
+                   help="most residual evaluations of the optimiser (default 400)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--out", required=True, help="output directory")
+
+
+def _cmd_fit(args) -> int:
+    out = out_dir(args)
+    names = lab_fit.fit_names(args.fit, args.material)
+    given = parse_params(args.param)
+    start = {k: v for k, v in given.items() if k in names}
+    fixed = {k: v for k, v in given.items() if k not in names}
+    scene = load_scene(args.scene) if args.scene else None
+    tests = lab_fit.read_tests(args.test)
+    say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    if say:
+        say(f"fitting {', '.join(names)} of '{args.material}' to {len(tests)} test(s)")
+    t0 = time.perf_counter()
+    result = lab_fit.fit_lab(args.material, tests, names, start, fixed, args.moduli, args.elastic,
+                             args.max_evaluations, say)
+    files = lab_fit.write_lab_fit(out, result, scene, {"total_time": time.perf_counter() - t0})
+    conf = result.confidence["parameters"]
+    for n, u in zip(result.coords.names, result.coords.units):
+        ci = conf[n]["ci"]
+        ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "withheld (not identifiable)"
+        print(f"{n:<6} = {result.fitted[n]:<12.6g} {u:<3} start {result.start[n]:<10.5g} 95 % CI {ci_text}")
+    for t, e in zip(result.tests, result.rel_rms()):
+        print(f"{t.name}: {t.kind} at {t.rate:g} 1/s, rel. RMS {100 * e:.2f} %")
+    for w in result.warnings:
+        print(f"WARNING: {w}")
+    print(f"{result.evaluations} evaluations, {result.wall:.1f} s; {result.status}")
+    print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+COMMANDS = {"fit": _cmd_fit}

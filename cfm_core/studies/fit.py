@@ -1,0 +1,379 @@
+"""Fit a registered material's parameters to laboratory tests (the paper's first stage).
+
+The tests (:mod:`cfm_core.studies.lab_tests`: uniaxial, relaxation, shear, equibiaxial, confined)
+are simulated at a material point, vectorised over their time steps. Objective: with P_jk the
+nominal stress of test j at row k (Pa), n_j its rows, w_j its weight and s_j = max_k |P_meas,jk|,
+
+    r_jk = sqrt(w_j / n_j) (P_sim,jk - P_meas,jk) / s_j,      cost = 1/2 sum r^2
+
+so each curve counts by its weight, not by its number of rows or its stress level.
+``scipy.optimize.least_squares`` (trust region reflective, 2-point Jacobian) works on ln p for
+parameters whose range starts at 0 and on p otherwise, inside the parameters' valid ranges; a
+fitted Prony coefficient g_i is bounded so that the fitted ones keep sum g_i < 1
+(:func:`cfm_core.studies.calibrate.coordinates`).
+
+Intervals (:func:`cfm_core.studies.calibrate.confidence`): cov = s^2 (J^T J)^-1, 95 % Student t;
+they assume independent residuals and a correct model. Identifiability (:func:`identifiability`):
+when two fitted parameters are correlated with |r| >= :data:`CORRELATION_LIMIT`, or the
+correlation matrix has a condition number above :data:`CONDITION_LIMIT` (near-singular J^T J),
+the data fix a combination, not each value: a warning names them (printed and in fit.json) and
+their intervals are withheld (null), not reported as if they meant something.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..material.registry import get_material
+from ..scene.scene import builtin_scene, scene_to_toml
+from .calibrate import Coordinates, confidence, coordinates
+from .lab_tests import KINDS, LabTest, read_lab_test, simulate
+
+#: |correlation| at or above which two parameters are reported as not separately identifiable.
+CORRELATION_LIMIT = 0.99
+#: Condition number of the correlation matrix above which J^T J counts as near-singular.
+CONDITION_LIMIT = 1e10
+#: A parameter fitted in log coordinates is searched within start / SEARCH_FACTOR .. start * SEARCH_FACTOR
+#: (and its valid range); a value that ends on this box is reported as not determined.
+SEARCH_FACTOR = 1e4
+#: Starting points of a fit that includes a Prony time (the given start and PRONY_STARTS - 1 others).
+PRONY_STARTS = 6
+#: Relative standard error above which a parameter is reported as poorly determined (-).
+POOR_STD = 0.5
+
+
+def parse_test_spec(spec: str) -> tuple[str, str, float, float]:
+    """``FILE:KIND:RATE[:WEIGHT]`` -> (file, kind, rate 1/s, weight -); InputError naming the part."""
+    parts = str(spec).rsplit(":", 3)
+    if len(parts) == 4 and parts[2] in KINDS:
+        path, kind, rate, weight = parts
+    elif len(parts) >= 3 and parts[-2] in KINDS:
+        path, kind, rate = str(spec).rsplit(":", 2)
+        weight = "1"
+    else:
+        raise InputError(f"--test {spec!r}: expected FILE:KIND:RATE[:WEIGHT] with KIND one of {', '.join(KINDS)}, "
+                         f"RATE the loading's engineering strain rate in 1/s and WEIGHT a positive number, e.g. "
+                         f"comp.csv:uniaxial:0.01 or fast.csv:uniaxial:1:2.")
+    values = []
+    for label, text in (("RATE (1/s)", rate), ("WEIGHT (-)", weight)):
+        try:
+            values.append(float(text))
+        except ValueError:
+            raise InputError(f"--test {spec!r}: {label} = {text!r} is not a number.") from None
+    return path, kind, values[0], values[1]
+
+
+def read_tests(specs) -> list[LabTest]:
+    """The tests of ``--test`` specs, names made unique."""
+    if not specs:
+        raise InputError("give at least one --test FILE:KIND:RATE[:WEIGHT] (columns t s, stretch or shear -, "
+                         "stress Pa).")
+    tests, seen = [], {}
+    for spec in specs:
+        path, kind, rate, weight = parse_test_spec(spec)
+        stem = Path(path).stem
+        seen[stem] = seen.get(stem, 0) + 1
+        tests.append(read_lab_test(path, kind, rate, weight, stem if seen[stem] == 1 else f"{stem}-{seen[stem]}"))
+    return tests
+
+
+def fit_names(text: str, material: str) -> list[str]:
+    """``c,k1,prony`` -> parameter names of ``material`` (``prony``: every g_i and tau_i)."""
+    spec = get_material(material)
+    known = [p.name for p in spec.parameters]
+    prony = [p.name for p in spec.prony.parameters] if spec.prony else []
+    names = []
+    for item in str(text).split(","):
+        item = item.strip()
+        for name in (prony if item == "prony" and prony else [item]):
+            if name not in known:
+                raise InputError(f"--fit {item!r}: material '{spec.name}' has no parameter of that name; its "
+                                 f"parameters are {', '.join(known)}{' (prony = ' + ', '.join(prony) + ')' if prony else ''}.")
+            if name in names:
+                raise InputError(f"--fit names {name} twice; give each parameter once.")
+            names.append(name)
+    if not names:
+        raise InputError("--fit needs at least one parameter name, e.g. --fit c,k1,k2.")
+    return names
+
+
+def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
+    """(warnings, names whose intervals are withheld) from the confidence dict (module docstring).
+
+    at_bound: names whose fitted value ended on the search box or the valid range (not determined).
+    """
+    pre = [f"{n} ended on the edge of its search range ({conf['parameters'][n]['value']:.6g}): the data do not "
+           f"determine it (or the range excludes the best value); its interval is withheld." for n in at_bound]
+    pre += [f"{n} is poorly determined: relative standard error {conf['parameters'][n]['std'] / abs(conf['parameters'][n]['value']):.3g}; "
+            f"more data (another rate, another kind of test) would pin it down."
+            for n in names if n not in at_bound and conf["parameters"][n]["std"] is not None
+            and conf["parameters"][n]["value"] != 0
+            and conf["parameters"][n]["std"] > POOR_STD * abs(conf["parameters"][n]["value"])]
+    warnings, withheld = _correlations(conf, names)
+    return pre + warnings, withheld | set(at_bound)
+
+
+def _correlations(conf: dict, names) -> tuple[list[str], set]:
+    corr = conf["correlation"]
+    if corr is None:
+        return ([f"J^T J is singular: the data do not determine {', '.join(names)} (some combination of them "
+                 f"leaves every residual unchanged); intervals withheld."], set(names))
+    corr = np.asarray(corr)
+    warnings, withheld = [], set()
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            if abs(corr[i, j]) >= CORRELATION_LIMIT:
+                warnings.append(f"{names[i]} and {names[j]} are correlated (r = {corr[i, j]:+.4f}): the data fix a "
+                                f"combination of them, not each; their intervals are withheld.")
+                withheld |= {names[i], names[j]}
+    cond = float(np.linalg.cond(corr)) if len(names) > 1 else 1.0
+    if not cond <= CONDITION_LIMIT:
+        warnings.append(f"J^T J is near-singular (condition number of the correlation matrix {cond:.3g} > "
+                        f"{CONDITION_LIMIT:g}): some combination of {', '.join(names)} is not determined by the "
+                        f"data; all intervals are withheld.")
+        withheld |= set(names)
+    return warnings, withheld
+
+
+def _search_box(coords: Coordinates, values: dict) -> Coordinates:
+    """The valid ranges, narrowed for log coordinates to start / SEARCH_FACTOR .. start * SEARCH_FACTOR."""
+    x = coords.to_x(values)
+    span = np.where(coords.log, math.log(SEARCH_FACTOR), np.inf)
+    return Coordinates(coords.names, coords.units, coords.log, np.maximum(coords.lower, x - span),
+                       np.minimum(coords.upper, x + span))
+
+
+def _start_offsets(coords: Coordinates, x0, values: dict, names, starts: int) -> list[np.ndarray]:
+    """Offsets from x0 of the starting points: 0 first, then a scrambled Halton sequence (seed 0) within a
+    decade of the start for log coordinates (ln 10 either way), within +-50 % for linear ones, clipped
+    to the search box. Deterministic."""
+    out = [np.zeros_like(x0)]
+    if starts > 1:
+        from scipy.stats import qmc
+
+        u = qmc.Halton(len(x0), scramble=True, seed=0).random(starts - 1)
+        half = np.where(coords.log, math.log(10.0), 0.5 * np.maximum(np.abs(x0), 1e-12))
+        lo, hi = coords.lower - x0, coords.upper - x0
+        for row in u:
+            out.append(np.clip((2 * row - 1) * half, lo + 1e-9 * np.abs(lo), hi - 1e-9 * np.abs(hi)))
+    return out
+
+
+@dataclass
+class LabFitResult:
+    """What :func:`fit_lab` found (values in SI units; stresses in Pa)."""
+
+    material: str
+    moduli: str
+    elastic: bool
+    coords: Coordinates
+    tests: list
+    start: dict
+    fitted: dict
+    P_start: list
+    P_fit: list
+    cost_start: float
+    cost: float
+    confidence: dict
+    warnings: list
+    withheld: set
+    status: str
+    evaluations: int
+    wall: float
+    history: list = field(default_factory=list)
+    tried: list = field(default_factory=list)
+
+    def rel_rms(self, which: str = "fit") -> list[float]:
+        """Per test: RMS of (simulated - measured) over the largest |measured| stress (-)."""
+        sims = self.P_fit if which == "fit" else self.P_start
+        return [float(np.sqrt(np.mean((s - t.P) ** 2)) / t.scale) for s, t in zip(sims, self.tests)]
+
+
+def fit_lab(material: str, tests: list, names: list, start: dict | None = None, fixed: dict | None = None,
+            moduli: str | None = None, elastic: bool = False, max_evaluations: int = 200,
+            progress=None, starts: int | None = None) -> LabFitResult:
+    """Fit ``names`` of the registered ``material`` to the lab tests by least squares.
+
+    Parameters
+    ----------
+    material : str
+        Registered material name (``cfm materials``).
+    tests : list of LabTest
+        Measured curves (:func:`read_tests`).
+    names : list of str
+        Parameters to fit (:func:`fit_names`).
+    start : dict, optional
+        Starting values of fitted parameters (SI); default: the material's defaults (or ``fixed``).
+    fixed : dict, optional
+        Values of the other parameters (SI); default: the material's defaults.
+    moduli, elastic
+        Moduli convention ("instantaneous" | "long-term", default the material's) and whether the Prony
+        series is off.
+    max_evaluations : int
+        Most residual evaluations of the optimiser (per start).
+    starts : int, optional
+        Number of starting points (:func:`_start_offsets`); default :data:`PRONY_STARTS` when a Prony
+        time is fitted (Prony fits have local minima: a time far above the test's duration has no
+        effect, and the fit can stop there), else 1. The lowest cost wins; all are in fit.json.
+
+    Returns
+    -------
+    LabFitResult
+
+    Raises
+    ------
+    InputError
+        Unknown names, values out of range, a fitted Prony parameter with ``elastic``, no tests.
+    NumericalError
+        A test's simulation failed (exponential overflow, no lateral stretch).
+    """
+    from scipy.optimize import least_squares
+
+    spec = get_material(material)
+    if not tests:
+        raise InputError("no tests to fit: give at least one --test FILE:KIND:RATE.")
+    prony_names = {p.name for p in spec.prony.parameters} if spec.prony else set()
+    if starts is None:
+        starts = PRONY_STARTS if any(n.startswith("tau") and n in prony_names for n in names) else 1
+    if not (isinstance(starts, int) and starts >= 1):
+        raise InputError(f"starts = {starts!r} must be an integer >= 1.")
+    if not (isinstance(max_evaluations, int) and max_evaluations >= 1):
+        raise InputError(f"max_evaluations = {max_evaluations!r} must be an integer >= 1.")
+    if elastic and prony_names & set(names):
+        raise InputError(f"--fit {', '.join(sorted(prony_names & set(names)))}: the Prony series is switched off "
+                         f"(--elastic); drop --elastic or fit the elastic parameters only.")
+    overrides = {**(fixed or {}), **(start or {})}
+    base = spec.bind(overrides, moduli, elastic)  # InputError for bad names or values
+    moduli = base.moduli
+    values = dict(base.values)
+    scene = builtin_scene("drop-test").with_overrides(material=material, parameters=None)
+    coords = _search_box(coordinates(names, scene, values), values)
+    x0 = np.clip(coords.to_x(values), coords.lower, coords.upper)
+    history = []
+    memories = [{} for _ in tests]
+
+    def bind(x):
+        return spec.bind({**values, **coords.to_params(x)}, moduli, elastic)
+
+    def stresses(x):
+        m = bind(x)
+        return [simulate(m, t, mem) for t, mem in zip(tests, memories)]
+
+    def residual(x):
+        sims = stresses(x)
+        r = np.concatenate([math.sqrt(t.weight / t.x.size) * (s - t.P) / t.scale for s, t in zip(sims, tests)])
+        history.append(0.5 * float(r @ r))
+        if progress and len(history) % 10 == 1:
+            progress(f"evaluation {len(history)}: cost {history[-1]:.4e}; "
+                     + ", ".join(f"{k} = {v:.5g}" for k, v in coords.to_params(x).items()))
+        return r
+
+    t0 = time.perf_counter()
+    r0 = residual(x0)
+    tried = []
+    best = None
+    for y0 in _start_offsets(coords, x0, values, names, starts):
+        # Work in y = x - x0: scipy's first trust radius is |y0| (or 1 when y0 = 0), so the first step stays
+        # near the start instead of jumping by |ln p| (a jump of ln tau by ~7 lands on the plateau where a
+        # Prony time has no effect, and the fit stops there).
+        res = least_squares(lambda y: residual(x0 + y), y0, bounds=(coords.lower - x0, coords.upper - x0),
+                            method="trf", jac="2-point", x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                            max_nfev=max_evaluations)
+        res.x = x0 + res.x
+        tried.append({"start": coords.to_params(x0 + y0), "fitted": coords.to_params(res.x),
+                      "cost": 0.5 * float(res.fun @ res.fun), "evaluations": int(res.nfev)})
+        if best is None or tried[-1]["cost"] < 0.5 * float(best.fun @ best.fun):
+            best = res
+    res = best
+    wall = time.perf_counter() - t0
+    conf = confidence(res.x, res.jac, res.fun, coords)
+    edge = (res.x <= coords.lower + 1e-6) | (res.x >= coords.upper - 1e-6)
+    warnings, withheld = identifiability(conf, list(coords.names), [n for n, e in zip(coords.names, edge) if e])
+    for n in withheld:
+        conf["parameters"][n]["ci"] = None
+    fitted = dict(bind(res.x).values)
+    return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, stresses(x0),
+                        stresses(res.x), 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,
+                        withheld, str(res.message), len(history), wall, history, tried)
+
+
+# ----------------------------------------------------------------------------- outputs
+def _safe(name: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
+
+
+def fitted_scene(result: LabFitResult, scene=None):
+    """A drop-test scene (``scene`` or the built-in one) with the fitted material and every parameter value."""
+    scene = scene or builtin_scene("drop-test")
+    return scene.with_overrides(material=result.material, moduli=result.moduli, elastic=result.elastic,
+                                parameters=None).with_overrides(parameters=result.fitted)
+
+
+def plot_test(path, test: LabTest, P_start, P_fit) -> None:
+    """PNG of a test: measured, start and fitted nominal stress (Pa) against stretch or shear (-)."""
+    from ..post.plots import _figure, _save
+
+    fig, ax = _figure(f"{test.name}: {test.kind}, {test.rate:g} 1/s")
+    ax.set_xlabel(f"{KINDS[test.kind][0]} (-)" if test.kind != "relaxation" else "time (s)")
+    ax.set_ylabel("nominal stress (Pa)")
+    x = test.t if test.kind == "relaxation" else test.x
+    ax.plot(x, test.P, "o", markersize=2.5, color="0.3", label="measured")
+    ax.plot(x, P_start, "--", color="tab:orange", linewidth=1.2, label="start")
+    ax.plot(x, P_fit, "-", color="tab:blue", linewidth=1.6, label="fitted")
+    ax.legend(fontsize=8)
+    _save(fig, path)
+
+
+def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None = None) -> list[Path]:
+    """Write fit_<test>.png, fitted-scene.toml and, last, fit.json into ``out`` (fit.json means complete).
+
+    Returns the written paths. A stale fit.json is removed first, so an interrupted run leaves none.
+    """
+    from ..post.writers import atomic_write, write_json
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is not a directory.")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "fit.json").unlink(missing_ok=True)
+    files = []
+    for t, s, f in zip(result.tests, result.P_start, result.P_fit):
+        path = out / f"fit_{_safe(t.name)}.png"
+        plot_test(path, t, s, f)
+        files.append(path)
+    text = scene_to_toml(fitted_scene(result, scene))
+    head = "".join(f"# material fitted by cfm fit to {t.path} ({t.kind}, {t.rate:g} 1/s)\n" for t in result.tests)
+
+    def write_toml(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(head + text)
+
+    files.append(atomic_write(out / "fitted-scene.toml", write_toml))
+    conf = result.confidence["parameters"]
+    params = {}
+    for n, u, lg in zip(result.coords.names, result.coords.units, result.coords.log):
+        params[n] = {"start": result.start[n], "fitted": result.fitted[n], "unit": u, "std": conf[n]["std"],
+                     "ci95": conf[n]["ci"], "coordinate": "log" if lg else "linear",
+                     "interval": "withheld: not identifiable (see warnings)" if n in result.withheld else "ok"}
+    decl = {p.name: p.unit for p in get_material(result.material).parameters}
+    fixed = {n: {"value": v, "unit": decl[n]} for n, v in result.fitted.items() if n not in params}
+    tests = [{"name": t.name, "file": t.path, "kind": t.kind, "rate": t.rate, "weight": t.weight, "rows": int(t.t.size),
+              "peak_stress": t.scale, "rel_rms_start": s, "rel_rms": e}
+             for t, s, e in zip(result.tests, result.rel_rms("start"), result.rel_rms())]
+    data = {"material": result.material, "moduli": result.moduli, "elastic": result.elastic,
+            "parameters": params, "fixed": fixed, "names": list(result.coords.names),
+            "correlation": result.confidence["correlation"], "cond_JTJ": result.confidence["cond_JTJ"],
+            "identifiability_warnings": result.warnings, "tests": tests, "cost_start": result.cost_start,
+            "cost": result.cost, "status": result.status, "evaluations": result.evaluations,
+            "wall_time": result.wall, "dof": result.confidence["dof"], "starts": result.tried,
+            **(settings or {}),
+            "units": {"rate": "1/s", "peak_stress": "Pa", "rel_rms": "-", "cost": "-", "wall_time": "s",
+                      "parameters": "SI (see each parameter's unit)"}}
+    files.append(write_json(out / "fit.json", data))
+    return files

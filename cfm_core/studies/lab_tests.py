@@ -1,0 +1,328 @@
+"""Laboratory material tests: reading their curves and simulating them at a material point.
+
+A test is a homogeneous deformation along axis 1 (SI units; stretches and shear dimensionless):
+
+============  ==========================================  ==============================  =========
+kind          deformation gradient F                      condition solved per step       stress
+============  ==========================================  ==============================  =========
+uniaxial      diag(l, q, q)                               S22 = S33 = 0 (q unknown)       P11
+relaxation    diag(l, q, q), l ramps then holds           S22 = S33 = 0 (q unknown)       P11
+shear         I + gamma e1 (x) e2 (simple shear)          none (F prescribed)             P12
+equibiaxial   diag(l, l, q)                               S33 = 0 (q unknown)             P11
+confined      diag(l, 1, 1) (lateral strain held at 0)    none (F prescribed)             P11
+============  ==========================================  ==============================  =========
+
+P = F S is the nominal (first Piola-Kirchhoff) stress in Pa, S = 2 d psi / d C, with the Prony
+series of the material on the isochoric part (recurrence of :mod:`cfm_core.material.prony`). The
+material is undeformed and relaxed before the first row; a deformed first row is a jump.
+
+Vectorised over the time steps: for the diagonal kinds the principal stretches are the diagonal of
+F, and the generated kernels (``psi_grad``, ``psi_hess``) are evaluated on all steps at once; the
+unknown lateral stretch q of every step is found together by Newton iterations with the diagonal
+of the (lower-triangular, causal) Jacobian, which converge because the history terms are small
+next to the volumetric stiffness; only the Prony recurrence loops over the steps (a few arrays of
+3 numbers). Shear evaluates the stresses of all steps with :func:`cfm_core.material.reference.pk2_parts`.
+
+CSV of a test: lines starting with '#' and blank lines are skipped; the first other line is the
+header, naming ``t`` (s), ``stretch`` (-, all kinds but shear) or ``shear`` (-, kind shear) and
+``stress`` (Pa, the nominal stress of the table above); a name may carry its unit in brackets
+(``t [s]``, ``stress [Pa]``): another unit (e.g. kPa) is an error. Other columns are ignored.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, NumericalError
+from ..material import prony
+from ..material import reference as ref
+
+#: kind -> (deformation column, what it is)
+KINDS = {
+    "uniaxial": ("stretch", "uniaxial stress (tension or compression) at a constant engineering strain rate"),
+    "relaxation": ("stretch", "uniaxial stress relaxation: ramp at the rate, then hold"),
+    "shear": ("shear", "simple shear at a constant shear rate; stress = nominal shear stress P12"),
+    "equibiaxial": ("stretch", "equibiaxial tension: equal stretch along 1 and 2, traction-free along 3"),
+    "confined": ("stretch", "confined compression: stretch along 1, lateral stretches held at 1"),
+}
+UNITS = {"t": "s", "stretch": "-", "shear": "-", "stress": "Pa"}
+#: Fewest data rows of a test.
+MIN_ROWS = 5
+#: Largest relative difference between the stated rate and the file's median loading rate.
+RATE_TOLERANCE = 0.1
+
+
+@dataclass(frozen=True)
+class LabTest:
+    """One measured curve: kind, nominal rate (1/s), weight (-), t (s), x (stretch or shear, -), P (Pa)."""
+
+    name: str
+    path: str
+    kind: str
+    rate: float
+    weight: float
+    t: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+
+    @property
+    def scale(self) -> float:
+        """Largest |measured nominal stress| (Pa), the residual scale of this curve."""
+        return float(np.max(np.abs(self.P)))
+
+
+def _header(path, lineno, line, kind):
+    cols = {}
+    for i, cell in enumerate(line.split(",")):
+        name, _, unit = cell.strip().partition("[")
+        name, unit = name.strip(), unit.rstrip("]").strip()
+        if name in UNITS and unit and unit != UNITS[name]:
+            raise InputError(f"test file '{path}', line {lineno}: column '{cell.strip()}' has unit {unit!r}; "
+                             f"{name} must be in {UNITS[name]} (convert the column, e.g. kPa x 1000 = Pa).")
+        cols[name] = i
+    need = ["t", KINDS[kind][0], "stress"]
+    missing = [n for n in need if n not in cols]
+    if missing:
+        raise InputError(f"test file '{path}', line {lineno}: the header {line.strip()!r} lacks the column(s) "
+                         f"{', '.join(missing)}; a {kind} test needs t (s), {KINDS[kind][0]} (-) and stress "
+                         f"(nominal, Pa), e.g. 't,{KINDS[kind][0]},stress'.")
+    return [cols[n] for n in need], len(cols)
+
+
+def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str | None = None) -> LabTest:
+    """Read and check one test curve (see the module docstring for the CSV).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with columns t (s), stretch or shear (-), stress (Pa).
+    kind : str
+        One of :data:`KINDS`.
+    rate : float
+        Nominal engineering strain (or shear) rate of the loading, 1/s, > 0; checked against the file's
+        median rate over the loading rows (within :data:`RATE_TOLERANCE`).
+    weight : float
+        Weight of the curve in the objective (-), > 0.
+
+    Returns
+    -------
+    LabTest
+
+    Raises
+    ------
+    InputError
+        Naming the file, line, field, value and what is allowed, for any problem.
+    """
+    p = Path(path)
+    if kind not in KINDS:
+        raise InputError(f"test '{path}': kind {kind!r} is not known; allowed: {', '.join(KINDS)}.")
+    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
+        raise InputError(f"test '{path}': rate = {rate!r} 1/s is not allowed; give the loading's engineering "
+                         f"strain (or shear) rate, a positive number in 1/s.")
+    if not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight > 0):
+        raise InputError(f"test '{path}': weight = {weight!r} is not allowed; give a positive number (-).")
+    try:
+        lines = p.read_text(encoding="utf-8-sig").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"test file '{p}' cannot be read: {getattr(exc, 'strerror', None) or exc}.") from None
+    rows = [(n, s) for n, s in enumerate(lines, start=1) if s.strip() and not s.lstrip().startswith("#")]
+    if not rows:
+        raise InputError(f"test file '{p}' is empty; it needs a header 't,{KINDS[kind][0]},stress' and rows "
+                         f"(s, -, Pa).")
+    idx, ncol = _header(p, *rows[0], kind)
+    data = np.empty((len(rows) - 1, 3))
+    for k, (n, s) in enumerate(rows[1:]):
+        cells = s.split(",")
+        if len(cells) != ncol:
+            raise InputError(f"test file '{p}', line {n}: {len(cells)} values for {ncol} header columns.")
+        for j, col in enumerate(idx):
+            try:
+                data[k, j] = float(cells[col])
+            except ValueError:
+                data[k, j] = math.nan
+            if not math.isfinite(data[k, j]):
+                field = ("t", KINDS[kind][0], "stress")[j]
+                raise InputError(f"test file '{p}', line {n}: {field} = {cells[col].strip()!r} is not a finite "
+                                 f"number ({UNITS[field]}).")
+    if data.shape[0] < MIN_ROWS:
+        raise InputError(f"test file '{p}' has {data.shape[0]} data rows; at least {MIN_ROWS} are needed.")
+    t, x, P = data.T
+    lineno = [n for n, _ in rows[1:]]
+    if t[0] < 0:
+        raise InputError(f"test file '{p}', line {lineno[0]}: t = {t[0]!r} s is negative; t starts at 0 or later.")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        k = bad[0] + 1
+        raise InputError(f"test file '{p}', line {lineno[k]}: t = {t[k]!r} s does not increase (previous row "
+                         f"{t[k - 1]!r} s); rows must be in time order.")
+    _check_deformation(p, kind, x, lineno)
+    _check_rate(p, kind, rate, t, x)
+    return LabTest(name or p.stem, str(p), kind, float(rate), float(weight), t, x, P)
+
+
+def _check_deformation(p, kind, x, lineno):
+    base = 0.0 if kind == "shear" else 1.0
+    if kind == "shear":
+        bad = np.flatnonzero(np.abs(x) > 5.0)
+        allowed = "|shear| <= 5"
+    else:
+        bad = np.flatnonzero((x < 0.05) | (x > 5.0))
+        allowed = "0.05 <= stretch <= 5"
+    if bad.size:
+        k = bad[0]
+        raise InputError(f"test file '{p}', line {lineno[k]}: {KINDS[kind][0]} = {x[k]!r} is outside {allowed}.")
+    d = x - base
+    if (d > 1e-12).any() and (d < -1e-12).any():
+        k = int(np.flatnonzero(np.sign(d) != np.sign(d[np.argmax(np.abs(d))]))[0])
+        raise InputError(f"test file '{p}', line {lineno[k]}: {KINDS[kind][0]} = {x[k]!r} crosses the undeformed "
+                         f"value {base:g}; one test is either tension or compression (split the file).")
+    limits = {"equibiaxial": (1.0, "tension (stretch >= 1)"), "confined": (-1.0, "compression (stretch <= 1)")}
+    if kind in limits and (limits[kind][0] * d < -1e-12).any():
+        k = int(np.flatnonzero(limits[kind][0] * d < -1e-12)[0])
+        raise InputError(f"test file '{p}', line {lineno[k]}: stretch = {x[k]!r}; a {kind} test is "
+                         f"{limits[kind][1]}.")
+    inc = np.diff(np.abs(d))
+    if (inc < -1e-9 * max(np.abs(d).max(), 1e-300)).any():
+        k = int(np.flatnonzero(inc < -1e-9 * np.abs(d).max())[0]) + 1
+        raise InputError(f"test file '{p}', line {lineno[k]}: {KINDS[kind][0]} = {x[k]!r} moves back towards "
+                         f"{base:g}; a {kind} test loads monotonically (unloading is not supported; cut the file "
+                         f"at the largest deformation).")
+
+
+def _check_rate(p, kind, rate, t, x):
+    v = np.abs(np.diff(x)) / np.diff(t)
+    loading = v > 1e-3 * v.max() if v.max() > 0 else np.zeros_like(v, bool)
+    if not loading.any():
+        raise InputError(f"test file '{p}': the {KINDS[kind][0]} never changes; a test must deform the material.")
+    measured = float(np.median(v[loading]))
+    if abs(measured - rate) > RATE_TOLERANCE * rate:
+        raise InputError(f"test '{p}': the stated rate {rate:g} 1/s differs from the file's median loading rate "
+                         f"{measured:.4g} 1/s by more than {100 * RATE_TOLERANCE:g} %; give the rate of the test "
+                         f"(engineering strain rate, 1/s) or check the t column (s).")
+
+
+# ----------------------------------------------------------------------------- simulation
+def _hess3(h):
+    """(n, 6) Hessian entries (11, 22, 33, 12, 23, 13) -> (n, 3, 3)."""
+    out = np.empty((h.shape[0], 3, 3))
+    for k, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))):
+        out[:, a, b] = out[:, b, a] = h[:, k]
+    return out
+
+
+def _principal(material, m):
+    """Instantaneous principal PK2 parts S0_iso, S_vol (n, 3) and their d/dm (n, 3, 3) at eigenvalues m (n, 3)."""
+    k = material.kernels("numpy")
+    p = material.param_array()
+    with np.errstate(over="ignore", invalid="ignore"):
+        g = np.stack(k.psi_grad(m[:, 0], m[:, 1], m[:, 2], p), axis=1)
+        h = np.stack(k.psi_hess(m[:, 0], m[:, 1], m[:, 2], p), axis=1)
+    if not (np.isfinite(g).all() and np.isfinite(h).all()):
+        i = int(np.argmax(~(np.isfinite(g).all(axis=1) & np.isfinite(h).all(axis=1))))
+        raise NumericalError(f"material '{material.name}': stress not finite at stretches^2 {m[i].tolist()} "
+                             f"(exponential overflow?).", quantity="stress")
+    return 2 * g[:, :3], 2 * g[:, 3:], 2 * _hess3(h[:, :6]), 2 * _hess3(h[:, 6:])
+
+
+def _segments(t):
+    """(start, stop, dt) of the runs of equal step dt (s); the first row is its own run with dt = 0."""
+    dt = np.diff(t)
+    out, a = [(0, 1, 0.0)], 1
+    for b in range(2, t.size + 1):
+        if b == t.size or abs(dt[b - 1] - dt[a - 1]) > 1e-9 * dt[a - 1]:
+            out.append((a, b, float(dt[a - 1])))
+            a = b
+    return out
+
+
+def _viscous(material, t, S0):
+    """Isochoric stress with the Prony recurrence, and the per-step factor d S_iso / d S0 (n,).
+
+    The recurrence H_n = decay H_(n-1) + gain (S0_n - S0_(n-1)) (:func:`cfm_core.material.prony.step_factors`,
+    S0 = 0 before the first row) is a first-order linear filter with constant coefficients on each run of
+    equal steps: ``scipy.signal.lfilter`` per run and Prony term, the state carried between runs.
+    """
+    from scipy.signal import lfilter
+
+    gammas, taus = material.prony_arrays()
+    if gammas.size == 0:
+        return S0, np.ones(t.size)
+    g_inf = 1.0 - float(np.sum(gammas))
+    dS = np.diff(S0, axis=0, prepend=np.zeros_like(S0[:1]))
+    H = np.zeros_like(S0)
+    eff = np.full(t.size, g_inf)
+    state = np.zeros((gammas.size,) + S0.shape[1:])
+    for a, b, dt in _segments(t):
+        decay, gain = prony.step_factors(dt, gammas, taus)
+        eff[a:b] += gain.sum()
+        for i in range(gammas.size):
+            y, _ = lfilter([gain[i]], [1.0, -decay[i]], dS[a:b], axis=0, zi=decay[i] * state[i][None])
+            H[a:b] += y
+            state[i] = y[-1]
+    return g_inf * S0 + H, eff
+
+
+def _diagonal(material, t, axis1, free, guess=None, iterations=100):
+    """Principal PK2 (n, 3) along stretches (axis1, ...) with the ``free`` axes' common stretch q solving S = 0.
+
+    axis1: (n, 3) fixed stretches (the free entries are ignored); free: tuple of free axes (may be empty);
+    guess: (n,) starting q (e.g. the previous solution for nearby parameters). Returns (S (n, 3), stretches (n, 3)).
+    """
+    lam = axis1.copy()
+    if free and guess is not None and guess.shape == (t.size,):
+        lam[:, list(free)] = guess[:, None]
+    elif free:  # start from the volume-preserving lateral stretch
+        fixed = [a for a in range(3) if a not in free]
+        lam[:, list(free)] = (np.prod(lam[:, fixed], axis=1) ** (-1.0 / len(free)))[:, None]
+    a0 = free[0] if free else None
+    for _ in range(iterations):
+        S0, Sv, dS0, dSv = _principal(material, lam**2)
+        S_iso, eff = _viscous(material, t, S0)
+        S = S_iso + Sv
+        if not free:
+            return S, lam
+        r = S[:, a0]
+        scale = max(float(np.abs(S).max()), 1e-30)
+        if np.abs(r).max() <= 1e-11 * scale:
+            return S, lam
+        q = lam[:, a0]
+        d = sum(eff * dS0[:, a0, b] + dSv[:, a0, b] for b in free) * 2 * q
+        step = r / d
+        lam[:, list(free)] = np.maximum(q - step, 0.5 * q)[:, None]
+    raise NumericalError(f"material '{material.name}': the lateral stretch did not converge in {iterations} "
+                         f"iterations (largest lateral stress {np.abs(r).max():.3g} Pa).", quantity="lateral stretch")
+
+
+def simulate(material, test: LabTest, memory: dict | None = None) -> np.ndarray:
+    """Nominal stress (n,) in Pa of ``material`` along the test's deformation history (table above).
+
+    memory: optional dict kept between calls for the same test (a fit): the last lateral stretches are
+    reused as the next starting guess, which saves most Newton iterations.
+
+    Raises
+    ------
+    NumericalError
+        Non-finite stress (exponential overflow) or a lateral stretch that does not converge.
+    """
+    t, x = test.t, test.x
+    n = t.size
+    if test.kind == "shear":
+        F = np.tile(np.eye(3), (n, 1, 1))
+        F[:, 0, 1] = x
+        S0, Sv = ref.pk2_parts(material, F)
+        S_iso, _ = _viscous(material, t, S0)
+        S = S_iso + Sv
+        return S[:, 0, 1] + x * S[:, 1, 1]
+    stretches = np.ones((n, 3))
+    stretches[:, 0] = x
+    free = {"uniaxial": (1, 2), "relaxation": (1, 2), "equibiaxial": (2,), "confined": ()}[test.kind]
+    if test.kind == "equibiaxial":
+        stretches[:, 1] = x
+    S, lam = _diagonal(material, t, stretches, free, None if memory is None else memory.get("lateral"))
+    if memory is not None and free:
+        memory["lateral"] = lam[:, free[0]].copy()
+    return lam[:, 0] * S[:, 0]
