@@ -51,7 +51,7 @@ POOR_STD = 0.5
 def parse_test_spec(spec: str) -> tuple[str, str, float, float]:
     """``FILE:KIND:RATE[:WEIGHT]`` -> (file, kind, rate 1/s, weight -); InputError naming the part."""
     parts = str(spec).rsplit(":", 3)
-    if len(parts) == 4 and parts[2] in KINDS:
+    if len(parts) == 4 and parts[1] in KINDS:
         path, kind, rate, weight = parts
     elif len(parts) >= 3 and parts[-2] in KINDS:
         path, kind, rate = str(spec).rsplit(":", 2)

@@ -1,0 +1,184 @@
+"""cfm fit: lab-test simulation against independent solutions, twin experiments, identifiability, bad input.
+
+Synthetic "measurements" come from code paths other than the one under test: uniaxial and
+relaxation curves from the point driver's per-step root finding (:func:`point.uniaxial`, brentq),
+shear from :func:`reference.stress_history` (Cauchy stress along F(t), converted to nominal
+stress here), equibiaxial from brentq on sigma33 = 0 with the reference stresses, confined
+compression of a Neo-Hookean solid in closed form.
+"""
+
+import json
+import time
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from cfm_core.cli.main import main
+from cfm_core.material import make_material
+from cfm_core.material import reference as ref
+from cfm_core.scene.scene import load_scene
+from cfm_core.simulation import point
+from cfm_core.studies.fit import fit_lab
+from cfm_core.studies.lab_tests import LabTest, simulate
+
+
+def _nominal(t, F, material):
+    """Nominal stress P = J sigma F^-T (n, 3, 3), Pa, along F(t) (reference.stress_history)."""
+    sigma = ref.stress_history(material, t, F)
+    return np.einsum("nij,nkj->nik", sigma, np.linalg.inv(F)) * np.linalg.det(F)[:, None, None]
+
+
+def uniaxial(material, rate, stretch, steps=200, hold=0.0, kind="uniaxial"):
+    t, lam, P, _ = point.uniaxial(material, rate, stretch, steps=steps, hold=hold)
+    return LabTest(f"{kind}-{rate:g}", "-", kind, rate, 1.0, t, lam, P)
+
+
+def shear(material, rate, gamma, steps=200):
+    t = np.linspace(0.0, gamma / rate, steps + 1)
+    F = np.tile(np.eye(3), (t.size, 1, 1))
+    F[:, 0, 1] = rate * t
+    return LabTest(f"shear-{rate:g}", "-", "shear", rate, 1.0, t, rate * t, _nominal(t, F, material)[:, 0, 1])
+
+
+def _write(path, test):
+    col = "shear" if test.kind == "shear" else "stretch"
+    rows = "\n".join(f"{a:.17g},{b:.17g},{c:.17g}" for a, b, c in zip(test.t, test.x, test.P))
+    path.write_text(f"# synthetic {test.kind} test\nt [s],{col} [-],stress [Pa]\n{rows}\n")
+    return path
+
+
+# ----------------------------------------------------------------------------- the test kinds
+def test_uniaxial_and_relaxation_match_the_point_driver():
+    m = make_material("cfm")
+    for test in (uniaxial(m, 10.0, 0.6, steps=80), uniaxial(m, 50.0, 0.7, steps=40, hold=0.5, kind="relaxation"),
+                 uniaxial(m, 1.0, 1.3, steps=40)):
+        P = simulate(m, test)
+        assert np.abs(P - test.P).max() <= 1e-9 * np.abs(test.P).max()
+
+
+def test_shear_matches_the_reference_history():
+    m = make_material("cfm")
+    test = shear(m, 10.0, 0.8)
+    assert np.abs(simulate(m, test) - test.P).max() <= 1e-10 * np.abs(test.P).max()
+
+
+def test_confined_compression_neo_hookean_closed_form():
+    """F = diag(l, 1, 1): P11 = mu l^(-5/3) (2/3)(l^2 - 1) + kappa (l - 1) for mu/2 (I1bar - 3) + kappa/2 (J - 1)^2."""
+    mu, kappa = 1000.0, 5e4
+    m = make_material("neo-hookean", {"mu": mu, "kappa": kappa})
+    lam = np.linspace(1.0, 0.6, 41)
+    test = LabTest("c", "-", "confined", 1.0, 1.0, 1.0 - lam, lam, np.zeros_like(lam))
+    P = mu * lam ** (-5 / 3) * (2 / 3) * (lam**2 - 1) + kappa * (lam - 1)
+    assert np.abs(simulate(m, test) - P).max() <= 1e-10 * np.abs(P).max()
+
+
+def test_equibiaxial_matches_root_finding_on_the_reference_stress():
+    m = make_material("mooney-rivlin", {"kappa": 2e4})
+    lam = np.linspace(1.0, 1.4, 21)
+    P = []
+    for l in lam:
+        def s33(q):
+            return ref.cauchy(m, np.diag([l, l, q]))[0, 2, 2]
+        q = brentq(s33, 0.2, 1.5, xtol=1e-15)
+        sigma = ref.cauchy(m, np.diag([l, l, q]))[0]
+        P.append(l * q * sigma[0, 0])  # P11 = J sigma11 / l
+    test = LabTest("e", "-", "equibiaxial", 1.0, 1.0, lam - 1.0, lam, np.zeros_like(lam))
+    assert np.abs(simulate(m, test) - np.array(P)).max() <= 1e-8 * np.abs(P).max()
+
+
+# ----------------------------------------------------------------------------- twin experiments
+def test_cli_twin_recovers_elastic_parameters_within_1_percent(tmp_path):
+    """cfm fit end to end: three curves of known parameters, start 30 % off, recovered within 1 %."""
+    true = {"c": 10.0, "k1": 1320.0, "k2": 1.66}
+    m = make_material("cfm", true, elastic=True)
+    files = [_write(tmp_path / "comp.csv", uniaxial(m, 1.0, 0.6)), _write(tmp_path / "shear.csv", shear(m, 1.0, 0.8)),
+             _write(tmp_path / "tens.csv", uniaxial(m, 1.0, 1.3))]
+    out = tmp_path / "fit"
+    rc = main(["fit", "--material", "cfm", "--elastic", "--fit", "c,k1,k2", "--param", "c=7", "--param", "k1=924",
+               "--param", "k2=2.158", "--test", f"{files[0]}:uniaxial:1", f"{files[1]}:shear:1",
+               f"{files[2]}:uniaxial:1:2", "--quiet", "--out", str(out)])
+    assert rc == 0
+    fit = json.loads((out / "fit.json").read_text())
+    for name, value in true.items():
+        assert fit["parameters"][name]["fitted"] == pytest.approx(value, rel=1e-2)
+    assert fit["identifiability_warnings"] == []
+    assert {p.name for p in out.glob("fit_*.png")} == {"fit_comp.png", "fit_shear.png", "fit_tens.png"}
+    scene = load_scene(out / "fitted-scene.toml")  # what cfm drop-test --scene and cfm calibrate --scene read
+    assert scene.material.name == "cfm" and scene.material.elastic
+    assert scene.material.parameter_dict["k1"] == pytest.approx(fit["parameters"]["k1"]["fitted"], rel=1e-12)
+
+
+@pytest.mark.slow
+def test_twin_six_parameters_three_curves_of_200_points():
+    """k1, k2, g1, tau1, g2, tau2 from uniaxial compression at 1 and 100 1/s and shear at 10 1/s."""
+    truth = make_material("cfm")
+    tests = [uniaxial(truth, 1.0, 0.6), uniaxial(truth, 100.0, 0.6), shear(truth, 10.0, 0.8)]
+    names = ["k1", "k2", "g1", "tau1", "g2", "tau2"]
+    start = {n: truth.values[n] * (1.3 if n in ("k2", "tau1", "tau2") else 0.7) for n in names}
+    t0 = time.perf_counter()
+    result = fit_lab("cfm", tests, names, start=start, starts=1)
+    wall = time.perf_counter() - t0
+    for n in names:
+        assert result.fitted[n] == pytest.approx(truth.values[n], rel=1e-2)
+    print(f"6 parameters, 3 curves x 200 points: {wall:.1f} s, {result.evaluations} evaluations")
+
+
+def test_two_rates_pin_down_a_prony_term_that_one_rate_cannot():
+    """g1, tau1 (tau1 = 1 ms) from 1 %-noisy uniaxial compression: at 0.01 1/s alone the 1 ms term has
+    relaxed throughout and tau1 is not determined; adding 100 1/s (a 4 ms ramp) pins both down."""
+    truth = make_material("cfm")
+    rng = np.random.default_rng(1)
+
+    def noisy(test):
+        P = test.P + 0.01 * np.abs(test.P).max() * rng.standard_normal(test.P.size)
+        return LabTest(test.name, test.path, test.kind, test.rate, 1.0, test.t, test.x, P)
+
+    slow, fast = noisy(uniaxial(truth, 0.01, 0.6, steps=100)), noisy(uniaxial(truth, 100.0, 0.6, steps=100))
+    start = {"g1": 0.35, "tau1": 2e-3}
+    one = fit_lab("cfm", [slow], ["g1", "tau1"], start=start)
+    assert any("tau1" in w for w in one.warnings)
+    ci = one.confidence["parameters"]["tau1"]["ci"]
+    assert ci is None or ci[1] / ci[0] > 100.0
+    two = fit_lab("cfm", [slow, fast], ["g1", "tau1"], start=start)
+    assert two.warnings == []
+    for name in ("g1", "tau1"):
+        lo, hi = two.confidence["parameters"][name]["ci"]
+        assert lo <= truth.values[name] <= hi and hi / lo < 1.2
+        assert two.fitted[name] == pytest.approx(truth.values[name], rel=5e-2)
+
+
+def test_correlated_parameters_are_flagged_and_their_intervals_withheld():
+    """Elastic Mooney-Rivlin in small-strain shear only: c10 and c01 enter as c10 + c01."""
+    m = make_material("mooney-rivlin", elastic=True)
+    test = shear(m, 1.0, 0.02, steps=40)
+    result = fit_lab("mooney-rivlin", [test], ["c10", "c01"], start={"c10": 250.0, "c01": 100.0})
+    assert any("c10" in w and "c01" in w for w in result.warnings)
+    assert result.confidence["parameters"]["c10"]["ci"] is None
+
+
+# ----------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize("content, spec, expected", [
+    ("t,stretch,stress\n0,1,0\n0.1,0.9,-1\n0.2,0.8,-2\n0.3,0.7,-3\n0.4,0.6,-4\n", "{f}:uniaxial:7", "rate"),
+    ("t,stretch,stress [kPa]\n0,1,0\n", "{f}:uniaxial:1", "kPa"),
+    ("t,strain,stress\n0,1,0\n", "{f}:uniaxial:1", "stretch"),
+    ("t,stretch,stress\n0,1,0\n0.1,0.9,-1\n0.1,0.8,-2\n0.3,0.7,-3\n0.4,0.6,-4\n", "{f}:uniaxial:1", "line 4"),
+    ("t,stretch,stress\n0,1,0\n0.1,0.9,x\n", "{f}:uniaxial:1", "line 3"),
+    ("t,stretch,stress\n0,1,0\n0.1,0.9,-1\n0.2,0.8,-2\n0.3,0.7,-3\n0.4,0.6,-4\n", "{f}:bending:1", "KIND"),
+    ("t,stretch,stress\n0,1,0\n0.1,1.1,1\n0.2,1.2,2\n0.3,1.3,3\n0.4,1.4,4\n", "{f}:confined:1", "compression"),
+])
+def test_bad_input_exits_2_naming_the_field_and_writes_nothing(tmp_path, capsys, content, spec, expected):
+    f = tmp_path / "t.csv"
+    f.write_text(content)
+    out = tmp_path / "out"
+    rc = main(["fit", "--fit", "k1", "--test", spec.format(f=f), "--quiet", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and expected in err and "Traceback" not in err
+    assert not (out / "fit.json").exists()
+
+
+def test_unknown_parameter_exits_2(tmp_path, capsys):
+    m = make_material("cfm")
+    f = _write(tmp_path / "u.csv", uniaxial(m, 1.0, 0.8, steps=20))
+    rc = main(["fit", "--fit", "k9", "--test", f"{f}:uniaxial:1", "--quiet", "--out", str(tmp_path / "o")])
+    assert rc == 2 and "k9" in capsys.readouterr().err
