@@ -25,7 +25,8 @@ next to the volumetric stiffness; only the Prony recurrence loops over the steps
 
 CSV of a test: lines starting with '#' and blank lines are skipped; the first other line is the
 header, naming ``t`` (s), ``stretch`` (-, all kinds but shear) or ``shear`` (-, kind shear) and
-``stress`` (Pa, the nominal stress of the table above); a name may carry its unit in brackets
+``stress`` (Pa, the nominal stress of the table above; ``nominal_stress`` is read as ``stress``, so
+the output of ``cfm point --uniaxial`` is a valid uniaxial test); a name may carry its unit in brackets
 (``t [s]``, ``stress [Pa]``): another unit (e.g. kPa) is an error. Other columns are ignored.
 """
 
@@ -80,6 +81,7 @@ def _header(path, lineno, line, kind):
     for i, cell in enumerate(line.split(",")):
         name, _, unit = cell.strip().partition("[")
         name, unit = name.strip(), unit.rstrip("]").strip()
+        name = "stress" if name == "nominal_stress" else name  # as ``cfm point --uniaxial`` writes it
         if name in UNITS and unit and unit != UNITS[name]:
             raise InputError(f"test file '{path}', line {lineno}: column '{cell.strip()}' has unit {unit!r}; "
                              f"{name} must be in {UNITS[name]} (convert the column, e.g. kPa x 1000 = Pa).")
