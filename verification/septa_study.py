@@ -88,18 +88,24 @@ def figure(out: Path, rows, calibrated: dict | None) -> None:
     fig = Figure(figsize=(10, 4), dpi=150, layout="constrained")
     FigureCanvasAgg(fig)
     ax1, ax2 = fig.subplots(1, 2)
-    for k2s in sorted({r["k2s"] for r in rows}):
+    colours = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
+    for k2s, colour in zip(sorted({r["k2s"] for r in rows}), colours):
         for h, style in ((0.005, "o-"), (0.008, "s--")):
             pts = sorted((r["k1s"], r["peak_g"]) for r in rows if r["k2s"] == k2s and r["thickness"] == h)
-            ax1.semilogx(*zip(*pts), style, label=f"{1e3 * h:g} mm, k2s = {k2s:g}")
+            if pts:
+                ax1.semilogx(*zip(*pts), style, color=colour, label=f"{1e3 * h:g} mm, k2s = {k2s:g}")
         pts = sorted((r["k1s"], r["early_g"]) for r in rows if r["k2s"] == k2s and r["thickness"] == 0.008)
-        ax2.semilogx(*zip(*pts), "s--", label=f"8 mm, k2s = {k2s:g}")
+        if pts:
+            ax2.semilogx(*zip(*pts), "s--", color=colour, label=f"8 mm, k2s = {k2s:g}")
     for h, p in EXPERIMENT.items():
         ax1.axhline(p, color="0.4", linewidth=0.8, linestyle=":")
         ax1.annotate(f"experiment {1e3 * h:g} mm: {p} g", (1.0, p), xycoords=("axes fraction", "data"), ha="right",
                      va="bottom", fontsize=7)
     if calibrated:
         f = calibrated["fitted"]
+        for h, marker in (("0.005", "*"), ("0.008", "P")):
+            ax1.semilogx([f["k1s"]], [calibrated["peaks_g"][h]], marker, color="k", markersize=10,
+                         label=f"calibrated, {1e3 * float(h):g} mm (k2s = {f['k2s']:.3g})")
         ax1.set_title(f"peak (CFC 600); calibrated: k1s = {f['k1s']:.3g} Pa, k2s = {f['k2s']:.3g}", fontsize=9)
     else:
         ax1.set_title("peak impactor acceleration (CFC 600)", fontsize=9)

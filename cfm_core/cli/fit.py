@@ -37,6 +37,8 @@ def add_parser(sub) -> None:
     p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
     p.add_argument("--max-evaluations", type=int, default=400,
                    help="most residual evaluations of the optimiser (default 400)")
+    p.add_argument("--starts", type=int, default=None,
+                   help="starting points of the optimiser (default 6 when a Prony time is fitted, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument("--out", required=True, help="output directory")
 
@@ -54,7 +56,7 @@ def _cmd_fit(args) -> int:
         say(f"fitting {', '.join(names)} of '{args.material}' to {len(tests)} test(s)")
     t0 = time.perf_counter()
     result = lab_fit.fit_lab(args.material, tests, names, start, fixed, args.moduli, args.elastic,
-                             args.max_evaluations, say)
+                             args.max_evaluations, say, args.starts)
     files = lab_fit.write_lab_fit(out, result, scene, {"total_time": time.perf_counter() - t0})
     conf = result.confidence["parameters"]
     for n, u in zip(result.coords.names, result.coords.units):
