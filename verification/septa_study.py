@@ -80,14 +80,60 @@ def calibrate(out: Path, start: dict, say=None) -> dict:
     return data
 
 
-def figure(out: Path, rows, calibrated: dict | None) -> None:
-    """septa.png: peaks against k1s (5 and 8 mm, one line per k2s) and the early acceleration at 8 mm."""
+def calibrated_runs(cal: dict) -> dict:
+    """Drop tests of the calibrated cfm-septa at 5 and 8 mm: {thickness: (t s, a g, peak g, a(2 ms) g)}."""
+    from cfm_core.studies.sweep import run_case
+
+    scene = load_scene(SCENE)
+    out = {}
+    for h in sorted(EXPERIMENT):
+        r = run_case((scene.with_overrides(thickness=h), cal["fitted"], "numba"))
+        a = r["a_cfc"] / G0
+        out[h] = (r["t"], a, float(r["summary"]["peak_g"]), float(np.interp(T_EARLY, r["t"], a)),
+                  float(r["t"][np.argmax(a)]))
+    return out
+
+
+def calibration_table(rows, runs: dict, cal: dict) -> str:
+    """Markdown: CFM alone, calibrated CFM + septa and the experiment at 5 and 8 mm."""
+    base = {r["thickness"]: r for r in rows if r["k1s"] == min(x["k1s"] for x in rows) and r["k2s"] == 1.0}
+    f = cal["fitted"]
+    def t_peak(r):
+        return 1e3 * float(r["t"][np.argmax(r["a"])])
+
+    lines = ["| model | peak 5 mm (g) | peak 8 mm (g) | a(2 ms), 8 mm (g) | t_peak 5 / 8 mm (ms) |", "|---|---|---|---|---|",
+             f"| CFM, Table 1 (k1s = 0) | {base[0.005]['peak_g']:.1f} | {base[0.008]['peak_g']:.1f} | "
+             f"{base[0.008]['early_g']:.1f} | {t_peak(base[0.005]):.2f} / {t_peak(base[0.008]):.2f} |",
+             f"| CFM + septa, k1s = {f['k1s']:.4g} Pa, k2s = {f['k2s']:.3g} | {runs[0.005][2]:.1f} | {runs[0.008][2]:.1f} | "
+             f"{runs[0.008][3]:.1f} | {1e3 * runs[0.005][4]:.2f} / {1e3 * runs[0.008][4]:.2f} |",
+             f"| experiment (paper, section 4) | {EXPERIMENT[0.005]} | {EXPERIMENT[0.008]} | not stated | not stated |"]
+    return "\n".join(lines) + "\n"
+
+
+def figure(out: Path, rows, calibrated: dict | None, runs: dict | None = None) -> None:
+    """septa.png: peaks against k1s (5 and 8 mm, one line per k2s), the early acceleration at 8 mm, and
+    (with ``runs``) the histories of the CFM alone and the calibrated CFM + septa."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10, 4), dpi=150, layout="constrained")
+    fig = Figure(figsize=(15 if runs else 10, 4), dpi=150, layout="constrained")
     FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(1, 2)
+    axes = fig.subplots(1, 3 if runs else 2)
+    ax1, ax2 = axes[0], axes[1]
+    if runs:
+        ax3 = axes[2]
+        for h, colour in ((0.005, "tab:blue"), (0.008, "tab:orange")):
+            base = next(r for r in rows if r["thickness"] == h and r["k2s"] == 1.0
+                        and r["k1s"] == min(x["k1s"] for x in rows))
+            ax3.plot(1e3 * base["t"], base["a"], "--", color=colour, label=f"CFM (Table 1), {1e3 * h:g} mm")
+            t, a = runs[h][0], runs[h][1]
+            ax3.plot(1e3 * t, a, "-", color=colour, label=f"CFM + septa (calibrated), {1e3 * h:g} mm")
+            ax3.axhline(EXPERIMENT[h], color=colour, linewidth=0.8, linestyle=":")
+        ax3.set_title("impactor acceleration (CFC 600); dotted: experimental peaks", fontsize=9)
+        ax3.set_xlabel("time (ms)")
+        ax3.set_ylabel("acceleration (g)")
+        ax3.legend(fontsize=6)
+        ax3.grid(True, color="0.88", linewidth=0.6)
     colours = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
     for k2s, colour in zip(sorted({r["k2s"] for r in rows}), colours):
         for h, style in ((0.005, "o-"), (0.008, "s--")):
@@ -138,8 +184,12 @@ def main(argv=None) -> int:
         cal = calibrate(out, start, lambda line: print(line, file=sys.stderr, flush=True))
     elif (out / "calibration.json").is_file():
         cal = json.loads((out / "calibration.json").read_text())
-    figure(out, rows, cal)
-    print(f"wrote {out}/sweep.md, septa.png" + (", calibration.json" if cal else ""))
+    runs = None
+    if cal:
+        runs = calibrated_runs(cal)
+        (out / "calibration.md").write_text(calibration_table(rows, runs, cal))
+    figure(out, rows, cal, runs)
+    print(f"wrote {out}/sweep.md, septa.png" + (", calibration.json, calibration.md" if cal else ""))
     return 0
 
 
