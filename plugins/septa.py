@@ -31,9 +31,9 @@ the whole isochoric energy).
 
 from fractions import Fraction
 
-from cfm_core.parameters import positive
-from cfm_core.sym import exp, where
-from cfm_core.terms import isochoric
+from cfm_core.material.parameters import positive
+from cfm_core.material.sym import exp, where
+from cfm_core.material.terms import isochoric
 
 from .cfm import TABLE1_PRONY, circular_fibers, lipid
 from .sphere_quadrature import POINTS, squared_directions
