@@ -52,14 +52,38 @@ K2S = positive("k2s", "-", 1.0, "septa fibre stiffening exponent")
 
 
 def septa_term(degree: int = DEGREE):
-    """The septa-fibre isochoric term integrated with the sphere rule of ``degree`` (11, 15 or 17).
+    """The septa-fibre isochoric term integrated with the sphere rule of ``degree``.
 
-    Returns a :class:`cfm_core.terms.Term` named ``septa-fibers`` (degree 17) or
-    ``septa-fibers-<degree>``; energy in Pa.
+    Parameters
+    ----------
+    degree : int
+        Degree of the octahedral sphere rule, 11, 15 or 17 (50, 86 or 110 directions).
+
+    Returns
+    -------
+    Term
+        Isochoric term named ``septa-fibers`` (degree 17) or ``septa-fibers-<degree>``, parameters
+        k1s (Pa) and k2s (-); energy in Pa (module docstring).
     """
     weights, squares = squared_directions(degree, bits=BITS)
 
     def energy(l1, l2, l3, k1s, k2s):
+        """Mean tension-only exponential fibre energy over the rule's directions.
+
+        Parameters
+        ----------
+        l1, l2, l3 : sympy expression
+            Isochoric principal stretches (-).
+        k1s : sympy expression
+            Fibre stiffness (Pa).
+        k2s : sympy expression
+            Stiffening exponent (-).
+
+        Returns
+        -------
+        sympy expression
+            Energy per reference volume (Pa).
+        """
         total = 0
         for w, row in zip(weights, squares):
             a, b, c = (Fraction(float(x)) for x in row)  # exact: printed as p/q, not as 15 digits

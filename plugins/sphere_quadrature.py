@@ -111,7 +111,18 @@ def squared_directions(degree: int = 17, bits: int | None = None) -> tuple[np.nd
 
 
 def exact_moment(a: int, b: int, c: int) -> float:
-    """Mean of n1^(2a) n2^(2b) n3^(2c) over the unit sphere: (2a-1)!! (2b-1)!! (2c-1)!! / (2(a+b+c)+1)!!."""
+    """Mean of n1^(2a) n2^(2b) n3^(2c) over the unit sphere.
+
+    Parameters
+    ----------
+    a, b, c : int
+        Half exponents (>= 0).
+
+    Returns
+    -------
+    float
+        (2a-1)!! (2b-1)!! (2c-1)!! / (2(a+b+c)+1)!! (-), the exact mean.
+    """
     def dfact(n):
         return math.prod(range(n, 0, -2)) if n > 0 else 1
 
@@ -119,7 +130,22 @@ def exact_moment(a: int, b: int, c: int) -> float:
 
 
 def moment_errors(weights, squares, degree: int) -> np.ndarray:
-    """Rule minus exact mean for every even monomial n1^2a n2^2b n3^2c with 2(a+b+c) <= degree (a>=b>=c)."""
+    """Rule minus exact mean for every even monomial up to ``degree``.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (k,)
+        Weights of the squared triples (-).
+    squares : ndarray, shape (k, 3)
+        Squared direction components (-).
+    degree : int
+        Largest total degree 2(a+b+c) checked (monomials n1^2a n2^2b n3^2c with a >= b >= c).
+
+    Returns
+    -------
+    ndarray
+        Rule minus exact mean (-), one entry per monomial.
+    """
     out = []
     for a in range(degree // 2 + 1):
         for b in range(a + 1):
@@ -133,8 +159,22 @@ def moment_errors(weights, squares, degree: int) -> np.ndarray:
 def solve_rule(kinds, degree: int, tries: int = 400, seed: int = 0):
     """Find orbit weights and parameters of an octahedral rule with the given orbits (how RULES was made).
 
-    Returns ((kind, weight, parameter), ...) or None when no start converged to a rule with positive
-    weights whose moments hold to 1e-13. Takes seconds to minutes.
+    Parameters
+    ----------
+    kinds : sequence of str
+        Orbits ("a1", "a2", "a3", "b", "c"), e.g. ("a1", "a2", "a3", "b") for degree 11.
+    degree : int
+        Polynomial degree the rule must integrate exactly.
+    tries : int
+        Random starts of ``scipy.optimize.least_squares`` at most.
+    seed : int
+        Seed of the random starts.
+
+    Returns
+    -------
+    tuple or None
+        ((kind, weight, parameter), ...) as in :data:`RULES`, or None when no start converged to a rule
+        with positive weights whose moments hold to 1e-13. Takes seconds to minutes.
     """
     from scipy.optimize import least_squares
 

@@ -49,7 +49,23 @@ POOR_STD = 0.5
 
 
 def parse_test_spec(spec: str) -> tuple[str, str, float, float]:
-    """``FILE:KIND:RATE[:WEIGHT]`` -> (file, kind, rate 1/s, weight -); InputError naming the part."""
+    """Split a ``--test`` argument.
+
+    Parameters
+    ----------
+    spec : str
+        ``FILE:KIND:RATE[:WEIGHT]``, e.g. ``comp.csv:uniaxial:0.01`` (rate in 1/s).
+
+    Returns
+    -------
+    tuple
+        (file, kind, rate in 1/s, weight -).
+
+    Raises
+    ------
+    InputError
+        A missing or unknown kind, or a rate or weight that is not a number.
+    """
     parts = str(spec).rsplit(":", 3)
     if len(parts) == 4 and parts[1] in KINDS:
         path, kind, rate, weight = parts
@@ -70,7 +86,23 @@ def parse_test_spec(spec: str) -> tuple[str, str, float, float]:
 
 
 def read_tests(specs) -> list[LabTest]:
-    """The tests of ``--test`` specs, names made unique."""
+    """Read the tests of ``--test`` arguments.
+
+    Parameters
+    ----------
+    specs : list of str
+        ``FILE:KIND:RATE[:WEIGHT]`` each.
+
+    Returns
+    -------
+    list of LabTest
+        In the given order, names made unique.
+
+    Raises
+    ------
+    InputError
+        No tests, or any problem of a file (:func:`cfm_core.studies.lab_tests.read_lab_test`).
+    """
     if not specs:
         raise InputError("give at least one --test FILE:KIND:RATE[:WEIGHT] (columns t s, stretch or shear -, "
                          "stress Pa).")
@@ -84,7 +116,25 @@ def read_tests(specs) -> list[LabTest]:
 
 
 def fit_names(text: str, material: str) -> list[str]:
-    """``c,k1,prony`` -> parameter names of ``material`` (``prony``: every g_i and tau_i)."""
+    """Expand the ``--fit`` list into parameter names.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated names, e.g. ``c,k1,prony`` (``prony``: every g_i and tau_i).
+    material : str
+        Registered material name.
+
+    Returns
+    -------
+    list of str
+        Parameter names in the given order.
+
+    Raises
+    ------
+    InputError
+        An unknown or repeated name, or an empty list.
+    """
     spec = get_material(material)
     known = [p.name for p in spec.parameters]
     prony = [p.name for p in spec.prony.parameters] if spec.prony else []
@@ -104,9 +154,21 @@ def fit_names(text: str, material: str) -> list[str]:
 
 
 def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
-    """(warnings, names whose intervals are withheld) from the confidence dict (module docstring).
+    """Identifiability warnings of a fit (module docstring).
 
-    at_bound: names whose fitted value ended on the search box or the valid range (not determined).
+    Parameters
+    ----------
+    conf : dict
+        From :func:`cfm_core.studies.calibrate.confidence` (``parameters``, ``correlation``).
+    names : list of str
+        Fitted parameter names, in the order of the correlation matrix.
+    at_bound : sequence of str
+        Names whose fitted value ended on the search box or the valid range.
+
+    Returns
+    -------
+    tuple
+        (list of warning texts, set of names whose intervals are withheld).
     """
     pre = [f"{n} ended on the edge of its search range ({conf['parameters'][n]['value']:.6g}): the data do not "
            f"determine it (or the range excludes the best value); its interval is withheld." for n in at_bound]
@@ -167,7 +229,41 @@ def _start_offsets(coords: Coordinates, x0, values: dict, names, starts: int) ->
 
 @dataclass
 class LabFitResult:
-    """What :func:`fit_lab` found (values in SI units; stresses in Pa)."""
+    """What :func:`fit_lab` found.
+
+    Attributes
+    ----------
+    material, moduli : str
+        Material name and moduli convention.
+    elastic : bool
+        Whether the Prony series was off.
+    coords : Coordinates
+        Fitted coordinates (names, units, log flags, search box).
+    tests : list of LabTest
+        The measured curves.
+    start, fitted : dict
+        Every parameter's value at the start and at the end (SI units).
+    P_start, P_fit : list of ndarray
+        Simulated nominal stress per test at the start and at the end (Pa).
+    cost_start, cost : float
+        Objective 1/2 sum r^2 at the start and at the end (-).
+    confidence : dict
+        Standard errors, 95 % intervals (None where withheld), correlation matrix.
+    warnings : list of str
+        Identifiability warnings.
+    withheld : set of str
+        Names whose intervals are withheld.
+    status : str
+        scipy's termination message of the best start.
+    evaluations : int
+        Residual evaluations over all starts (Jacobian columns included).
+    wall : float
+        Optimisation wall time (s).
+    history : list of float
+        Cost of every evaluation (-).
+    tried : list of dict
+        Start, result and cost of every start.
+    """
 
     material: str
     moduli: str
@@ -190,7 +286,18 @@ class LabFitResult:
     tried: list = field(default_factory=list)
 
     def rel_rms(self, which: str = "fit") -> list[float]:
-        """Per test: RMS of (simulated - measured) over the largest |measured| stress (-)."""
+        """Relative RMS error per test.
+
+        Parameters
+        ----------
+        which : str
+            "fit" (the fitted parameters) or "start".
+
+        Returns
+        -------
+        list of float
+            RMS of (simulated - measured) over the largest |measured| stress (-), per test.
+        """
         sims = self.P_fit if which == "fit" else self.P_start
         return [float(np.sqrt(np.mean((s - t.P) ** 2)) / t.scale) for s, t in zip(sims, self.tests)]
 
@@ -217,6 +324,8 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         series is off.
     max_evaluations : int
         Most residual evaluations of the optimiser (per start).
+    progress : callable, optional
+        Receives a line of text every 10 evaluations.
     starts : int, optional
         Number of starting points (:func:`_start_offsets`); default :data:`PRONY_STARTS` when a Prony
         time is fitted (Prony fits have local minima: a time far above the test's duration has no
@@ -309,14 +418,37 @@ def _safe(name: str) -> str:
 
 
 def fitted_scene(result: LabFitResult, scene=None):
-    """A drop-test scene (``scene`` or the built-in one) with the fitted material and every parameter value."""
+    """A drop-test scene with the fitted material.
+
+    Parameters
+    ----------
+    result : LabFitResult
+        The fit.
+    scene : Scene, optional
+        Drop-test scene to start from (default: the built-in one).
+
+    Returns
+    -------
+    Scene
+        The scene with the fitted material name, moduli convention, elastic flag and every parameter value.
+    """
     scene = scene or builtin_scene("drop-test")
     return scene.with_overrides(material=result.material, moduli=result.moduli, elastic=result.elastic,
                                 parameters=None).with_overrides(parameters=result.fitted)
 
 
 def plot_test(path, test: LabTest, P_start, P_fit) -> None:
-    """PNG of a test: measured, start and fitted nominal stress (Pa) against stretch or shear (-)."""
+    """PNG of a test: measured, start and fitted nominal stress (Pa) against stretch or shear (-).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output PNG.
+    test : LabTest
+        The measured curve (against time for a relaxation test).
+    P_start, P_fit : ndarray, shape (n,)
+        Simulated nominal stress at the start and fitted values (Pa).
+    """
     from ..post.plots import _figure, _save
 
     fig, ax = _figure(f"{test.name}: {test.kind}, {test.rate:g} 1/s")
@@ -333,7 +465,26 @@ def plot_test(path, test: LabTest, P_start, P_fit) -> None:
 def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None = None) -> list[Path]:
     """Write fit_<test>.png, fitted-scene.toml and, last, fit.json into ``out`` (fit.json means complete).
 
-    Returns the written paths. A stale fit.json is removed first, so an interrupted run leaves none.
+    Parameters
+    ----------
+    out : str or Path
+        Output directory (created).
+    result : LabFitResult
+        The fit.
+    scene : Scene, optional
+        Drop-test scene fitted-scene.toml starts from (default: built-in).
+    settings : dict, optional
+        Extra entries for fit.json (e.g. total time).
+
+    Returns
+    -------
+    list of Path
+        The written files. A stale fit.json is removed first, so an interrupted run leaves none.
+
+    Raises
+    ------
+    InputError
+        ``out`` exists and is not a directory.
     """
     from ..post.writers import atomic_write, write_json
 

@@ -59,7 +59,27 @@ RATE_TOLERANCE = 0.1
 
 @dataclass(frozen=True)
 class LabTest:
-    """One measured curve: kind, nominal rate (1/s), weight (-), t (s), x (stretch or shear, -), P (Pa)."""
+    """One measured curve.
+
+    Attributes
+    ----------
+    name : str
+        Label of the curve (file stem, made unique).
+    path : str
+        File it was read from.
+    kind : str
+        One of :data:`KINDS`.
+    rate : float
+        Nominal loading rate, engineering strain or shear rate (1/s).
+    weight : float
+        Weight in the objective (-).
+    t : ndarray, shape (n,)
+        Times (s), increasing.
+    x : ndarray, shape (n,)
+        Stretch (-) or, for shear, the shear gamma (-).
+    P : ndarray, shape (n,)
+        Measured nominal stress (Pa).
+    """
 
     name: str
     path: str
@@ -109,6 +129,8 @@ def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str |
         median rate over the loading rows (within :data:`RATE_TOLERANCE`).
     weight : float
         Weight of the curve in the objective (-), > 0.
+    name : str, optional
+        Label of the curve (default: the file stem).
 
     Returns
     -------
@@ -300,10 +322,22 @@ def _diagonal(material, t, axis1, free, guess=None, iterations=100):
 
 
 def simulate(material, test: LabTest, memory: dict | None = None) -> np.ndarray:
-    """Nominal stress (n,) in Pa of ``material`` along the test's deformation history (table above).
+    """Nominal stress of ``material`` along the test's deformation history (table above).
 
-    memory: optional dict kept between calls for the same test (a fit): the last lateral stretches are
-    reused as the next starting guess, which saves most Newton iterations.
+    Parameters
+    ----------
+    material : Material
+        Bound material (its moduli convention and Prony series apply).
+    test : LabTest
+        The test (kind, t in s, x stretch or shear).
+    memory : dict, optional
+        Kept between calls for the same test (a fit): the last lateral stretches are reused as the
+        next starting guess, which saves most Newton iterations.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Nominal stress P11 (P12 for shear) in Pa at the test's rows.
 
     Raises
     ------

@@ -29,7 +29,29 @@ from .sweep import run_case
 
 @dataclass
 class PeakFit:
-    """Result of :func:`fit_peaks`: fitted values (SI), simulated peaks (g), Jacobian, evaluations."""
+    """Result of :func:`fit_peaks`.
+
+    Attributes
+    ----------
+    names : list of str
+        Fitted parameters.
+    fitted, start : dict
+        Fitted and starting values (SI units).
+    targets, peaks : dict
+        {thickness m: target peak g} and {thickness m: simulated peak g at the fitted values}.
+    jacobian : ndarray, shape (targets, parameters)
+        d (peak / target) / d ln p at the fitted values (-).
+    singular_values : list of float
+        Of the Jacobian (-).
+    status : str
+        scipy's termination message.
+    drop_tests : int
+        Drop tests run.
+    wall : float
+        Wall time (s).
+    history : list of dict
+        Parameters and peaks of every evaluation.
+    """
 
     names: list
     fitted: dict
@@ -58,8 +80,16 @@ def fit_peaks(scene, targets: dict, names: list, start: dict | None = None, back
         Parameters to fit (SI units, see ``cfm materials``).
     start : dict, optional
         Starting values (default: the scene's).
+    backend : str
+        Backend of the drop tests (default numba).
+    runner : object, optional
+        Runner of :mod:`cfm_core.studies.dask_runner` (default: serial).
     rel_step : float
         Forward-difference step in ln p (-).
+    max_evaluations : int
+        Most objective evaluations.
+    progress : callable, optional
+        Receives a line of text per evaluation.
 
     Returns
     -------
