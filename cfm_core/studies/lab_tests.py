@@ -255,12 +255,12 @@ def _principal(material, m):
 def _segments(t):
     """(start, stop, dt) of the runs of equal step dt (s); the first row is its own run with dt = 0."""
     dt = np.diff(t)
-    out, a = [(0, 1, 0.0)], 1
-    for b in range(2, t.size + 1):
-        if b == t.size or abs(dt[b - 1] - dt[a - 1]) > 1e-9 * dt[a - 1]:
-            out.append((a, b, float(dt[a - 1])))
-            a = b
-    return out
+    if dt.size == 0:
+        return [(0, 1, 0.0)]
+    change = np.flatnonzero(np.abs(np.diff(dt)) > 1e-9 * dt[:-1]) + 1  # dt[k] differs from dt[k - 1]
+    starts = np.concatenate([[0], change])
+    stops = np.concatenate([change, [dt.size]])
+    return [(0, 1, 0.0)] + [(int(a) + 1, int(b) + 1, float(dt[a])) for a, b in zip(starts, stops)]
 
 
 def _viscous(material, t, S0):
