@@ -45,7 +45,7 @@ MODULES = [
     "cfm_core.simulation.reference_backend",
     "cfm_plugins", "cfm_plugins.cfm", "cfm_plugins.mooney_rivlin", "cfm_plugins.neo_hookean", "cfm_plugins.ogden",
     "cfm_plugins.volumetric", "cfm_plugins.septa", "cfm_plugins.sphere_quadrature",
-    "cfm_core.studies.fit", "cfm_core.studies.lab_tests", "cfm_core.studies.peaks",
+    "cfm_core.studies.fit", "cfm_core.studies.fit_output", "cfm_core.studies.lab_tests", "cfm_core.studies.peaks",
 ]
 
 #: Callables reached from cfm_core.__all__ but defined in modules this change did not document

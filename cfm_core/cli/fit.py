@@ -14,6 +14,7 @@ import time
 from ..errors import InputError
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
+from ..studies import fit_output
 from ..studies.lab_tests import KINDS
 from .options import add_material_options, out_dir, parse_params
 
@@ -57,7 +58,7 @@ def _cmd_fit(args) -> int:
     t0 = time.perf_counter()
     result = lab_fit.fit_lab(args.material, tests, names, start, fixed, args.moduli, args.elastic,
                              args.max_evaluations, say, args.starts)
-    files = lab_fit.write_lab_fit(out, result, scene, {"total_time": time.perf_counter() - t0})
+    files = fit_output.write_lab_fit(out, result, scene, {"total_time": time.perf_counter() - t0})
     conf = result.confidence["parameters"]
     for n, u in zip(result.coords.names, result.coords.units):
         ci = conf[n]["ci"]
