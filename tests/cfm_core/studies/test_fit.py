@@ -169,6 +169,7 @@ def test_correlated_parameters_are_flagged_and_their_intervals_withheld():
     ("t,stretch,stress\n0,1,0\n0.1,0.9,x\n", "{f}:uniaxial:1", "line 3"),
     ("t,stretch,stress\n0,1,0\n0.1,0.9,-1\n0.2,0.8,-2\n0.3,0.7,-3\n0.4,0.6,-4\n", "{f}:bending:1", "KIND"),
     ("t,stretch,stress\n0,1,0\n0.1,1.1,1\n0.2,1.2,2\n0.3,1.3,3\n0.4,1.4,4\n", "{f}:confined:1", "compression"),
+    ("t,stretch,stress\n0,1,0\n0.1,0.9,-1\n0.2,0.8,-2\n0.3,0.9,-1\n0.4,1.0,0\n", "{f}:uniaxial:1", "moves back"),
 ])
 def test_bad_input_exits_2_naming_the_field_and_writes_nothing(tmp_path, capsys, content, spec, expected):
     f = tmp_path / "t.csv"
@@ -178,6 +179,17 @@ def test_bad_input_exits_2_naming_the_field_and_writes_nothing(tmp_path, capsys,
     err = capsys.readouterr().err
     assert rc == 2 and expected in err and "Traceback" not in err
     assert not (out / "fit.json").exists()
+
+
+def test_noisy_measurement_is_accepted(tmp_path):
+    """0.3 % noise on the stretch (it wanders around 1 at the start and back a little in the hold)."""
+    m = make_material("cfm")
+    test = uniaxial(m, 100.0, 0.7, steps=40, hold=0.2, kind="relaxation")
+    rng = np.random.default_rng(3)
+    x = test.x + 0.003 * 0.3 * rng.standard_normal(test.x.size)
+    path = _write(tmp_path / "noisy.csv", LabTest("n", "-", "relaxation", 100.0, 1.0, test.t, x, test.P))
+    rc = main(["fit", "--fit", "k1", "--test", f"{path}:relaxation:100", "--quiet", "--out", str(tmp_path / "o")])
+    assert rc == 0 and (tmp_path / "o" / "fit.json").is_file()
 
 
 def test_unknown_parameter_exits_2(tmp_path, capsys):
