@@ -11,7 +11,6 @@ from __future__ import annotations
 import sys
 import time
 
-from ..errors import InputError
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
 from ..studies import fit_output
