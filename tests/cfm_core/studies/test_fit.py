@@ -197,3 +197,14 @@ def test_unknown_parameter_exits_2(tmp_path, capsys):
     f = _write(tmp_path / "u.csv", uniaxial(m, 1.0, 0.8, steps=20))
     rc = main(["fit", "--fit", "k9", "--test", f"{f}:uniaxial:1", "--quiet", "--out", str(tmp_path / "o")])
     assert rc == 2 and "k9" in capsys.readouterr().err
+
+
+def test_numerical_failure_exits_3_and_leaves_no_fit_json(tmp_path, capsys):
+    """k2 = 400 in tension to 2.5: the fibre exponential overflows; the command says so and writes no fit.json."""
+    m = make_material("cfm")
+    f = _write(tmp_path / "t.csv", uniaxial(m, 1.0, 2.5, steps=20))
+    out = tmp_path / "o"
+    rc = main(["fit", "--fit", "k1", "--param", "k2=400", "--test", f"{f}:uniaxial:1", "--quiet", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 3 and "overflow" in err and "Traceback" not in err
+    assert not (out / "fit.json").exists()
