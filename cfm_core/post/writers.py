@@ -33,7 +33,7 @@ def atomic_write(path, write: Callable[[str], None]) -> Path:
     Parameters
     ----------
     path : str or path-like
-        Final file name; its folder must exist.
+        Final file name; its folder is created if missing.
     write : callable
         ``write(tmp_path: str) -> None`` writes the whole content to ``tmp_path``.
 
@@ -41,8 +41,17 @@ def atomic_write(path, write: Callable[[str], None]) -> Path:
     -------
     pathlib.Path
         ``path``.
+
+    Raises
+    ------
+    InputError
+        The folder of ``path`` cannot be created (a file of that name exists, no permission).
     """
     path = Path(path)
+    try:  # --out dir/file.csv: the folder is made too
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder of {path}: {exc.strerror or exc}; choose another output path.") from None
     # Not mkstemp: its 0600 mode would survive the rename; a random name gives normal permissions.
     tmp = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
     try:
