@@ -62,12 +62,21 @@ def _set(obj, **kw):
 class SceneSettings:
     """[scene]: type ("drop-test" | "single-element" | "relaxation"); name (text, default: the type);
     end_time (s, upper bound; None: automatic, see :attr:`Scene.end_time`);
-    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper)."""
+    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper).
+
+    Run checks (:mod:`cfm_core.simulation.checks`): penetration_tolerance (m, allowed penetration
+    behind a rigid surface or across a symmetry plane; None: 5 % of the smallest element edge);
+    hourglass_limit (-, hourglass / internal energy above which the run stops; None: only a
+    warning above 0.10); energy_limit (-, energy-balance error above which the run stops; None:
+    only a warning above 0.01)."""
 
     type: str
     name: str | None = None
     end_time: float | None = None
     output_rate: float = 50_000.0
+    penetration_tolerance: float | None = None
+    hourglass_limit: float | None = None
+    energy_limit: float | None = None
 
     def __post_init__(self):
         _choice("scene", "type", self.type, SCENE_TYPES)
@@ -76,6 +85,17 @@ class SceneSettings:
             _set(self, end_time=_num("scene", "end_time", self.end_time, "s", 0, 1e4, lo_open=True))
         _set(self, output_rate=_num("scene", "output_rate", self.output_rate, "Hz", 0, 1e9,
                                     lo_open=True))
+        if self.penetration_tolerance is not None:
+            _set(self, penetration_tolerance=_num("scene", "penetration_tolerance", self.penetration_tolerance,
+                                                  "m", 0, 0.1))
+        for key in ("hourglass_limit", "energy_limit"):
+            if getattr(self, key) is not None:
+                _set(self, **{key: _num("scene", key, getattr(self, key), "-", 0, 1e6, lo_open=True)})
+
+    def checks(self) -> dict:
+        """The run-check limits as a dict (model.meta["checks"]); None values mean the defaults."""
+        return {"penetration_tolerance": self.penetration_tolerance, "hourglass_limit": self.hourglass_limit,
+                "energy_limit": self.energy_limit}
 
 
 @functools.lru_cache(maxsize=16)
