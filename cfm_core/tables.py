@@ -165,7 +165,7 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
     p = Path(path)
     units = dict(units or {})
     if not p.is_file():
-        raise InputError(f"{what} '{p}' does not exist (expected a CSV file with the columns "
+        raise InputError(f"{what} '{p}' cannot be read: it does not exist (expected a CSV file with the columns "
                          f"{','.join(columns)}).")
     try:
         raw = p.read_bytes()
@@ -212,6 +212,6 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
         if bad.size:
             k = int(bad[0]) + 1
             word = "increase" if strict else "be in time order"
-            raise InputError(f"'{p}', line {rows[k]}: {time} = {t[k]!r} {units.get(time, 's')} does not follow the "
-                             f"previous row's {t[k - 1]!r}; the rows must {word}.")
+            raise InputError(f"'{p}', line {rows[k]}: {time} = {float(t[k])!r} {units.get(time, 's')} does not follow the "
+                             f"previous row's {float(t[k - 1])!r}; the rows must {word}.")
     return Table(str(p), tuple(names), tuple(hunits), data, rows)

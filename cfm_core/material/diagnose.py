@@ -60,7 +60,9 @@ def nonfinite_term(material, m):
         or "derivative"); None when every term is finite there (then the failure lies in the
         kinematics, e.g. J = 0, or in the sum of finite terms).
     """
-    spec = material.spec
+    spec = getattr(material, "spec", None)
+    if spec is None or not hasattr(material, "values"):
+        return None  # not a Material made of declared terms (e.g. a test stand-in with its own code)
     inp = term_inputs(m)
     terms = list(spec.isochoric) + ([spec.volumetric] if spec.volumetric is not None else [])
     for term in terms:
@@ -103,8 +105,12 @@ def describe_nonfinite(material, m) -> str:
     inp = term_inputs(m)
     ev = ", ".join(f"{v:.4g}" for v in np.asarray(m, dtype=np.float64).reshape(3))
     if found is None:
+        if getattr(material, "spec", None) is None:
+            return (f"the energy derivatives of material '{material.name}' overflow (inf or NaN) at the "
+                    f"eigenvalues of C = ({ev}), J = {inp['J']:.4g}; lower the load or check the parameters")
         return (f"every term of material '{material.name}' is finite at the eigenvalues of C = ({ev}), J = "
-                f"{inp['J']:.4g}, but their combination is not (J or the isochoric split J^(-1/3) overflows)")
+                f"{inp['J']:.4g}, but their combination is not (an overflow in J or the isochoric split J^(-1/3), "
+                f"or in the sum of the terms)")
     term, inputs, what = found
     units = {p.name: p.unit for p in term.parameters}
     args = ", ".join(f"{k} = {v:.4g}" + (f" {units[k]}" if units.get(k) not in (None, "", "-") else "")

@@ -65,7 +65,7 @@ def _drop_test(scene: Scene, material) -> Model:
     sp, imp = scene.specimen, scene.impactor
     quarter = sp.symmetry == "quarter"
     if sp.mesh is not None:
-        nodes, hexes, _ = read_specimen_mesh(sp.mesh)
+        nodes, hexes, _ = read_specimen_mesh(sp.mesh, bool(sp.merge_nodes))
         nodes, hexes = nodes.copy(), hexes.copy()
         grid = None
     else:
