@@ -135,8 +135,8 @@ def _cmd_calibrate(args) -> int:
         print(f"{n:<6} = {result.final.params[n]:<12.6g} {u:<3} start {result.start.params[n]:<10.5g} "
               f"95 % CI {ci_text}")
     for combo in result.confidence.get("identifiability", {}).get("combinations", []):
-        (a, b), (_, k), ci = combo["parameters"], combo["coefficients"], combo["ci"]
-        print(f"determined: {a} + {k:.4g} {b} = {combo['value']:.6g}, 95 % CI [{ci[0]:.5g}, {ci[1]:.5g}]")
+        (a, b), (_, k) = combo["parameters"], combo["coefficients"]
+        print(f"determined (linearised at the fit): {a} + {k:.4g} {b} = {combo['value']:.6g}")
     for text in result.confidence.get("warnings", []):
         print(f"warning: {text}", file=sys.stderr)
     for c, e in zip(result.problem.curves, result.final.rel_l2):

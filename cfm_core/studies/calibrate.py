@@ -272,7 +272,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
         corr = (cov / np.outer(d, d)).tolist()
     bounds = ranges or {n: tuple(float(math.exp(b) if lg else b) for b in (lo, hi))
                         for n, lg, lo, hi in zip(coords.names, coords.log, coords.lower, coords.upper)}
-    ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds)
+    ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds, residual)
     for n in ident["unidentified"]:  # one point of a valley: its own interval would claim too much
         valley = ident["valley"].get(n)
         out[n].update(std=None, ci=valley, withheld="not separately identifiable: " + (

@@ -10,11 +10,15 @@ coordinates x and reports
 - the correlation matrix of the estimates (cov proportional to (J^T J)^-1);
 - the condition number of the column-scaled J^T J (scaling removes the parameters' units);
 - the directions of parameter space the data do not determine: eigenvectors of the scaled
-  J^T J whose eigenvalue is below ``RATIO`` x the largest, or pairs with |correlation| >= ``CORR``;
+  J^T J whose eigenvalue is below ``RATIO`` x the largest, or pairs with |correlation| >= ``CORR``
+  (a warning); their intervals are widened when |correlation| >= ``CORR_WIDEN`` or when the
+  Gauss-Newton step from the fit is longer than the interval's half-width (the fit stopped early
+  along the valley or on a bound: the twin experiment's g2, g3);
 - for each such pair (i, j) the combination the data do determine, linearised at the fit in the
   parameters themselves (SI units): p_i + c p_j, with c from the 2 x 2 block of J^T J in p
   (the direction n = (n_i, n_j) along which the fit does not change gives c = -n_i / n_j), its
-  value, standard error and interval.
+  value, standard error and interval; linearised at the fit, so far along a curved valley the
+  true parameters need not satisfy it to within that interval.
 
 The fitted values of such parameters are one point of a valley: :mod:`cfm_core.studies.calibrate`
 withholds their separate intervals (``ci`` None) and reports the determined combinations instead.
@@ -26,13 +30,18 @@ import math
 
 import numpy as np
 
-#: |correlation| at or above which two parameters are not separately identifiable (-).
+#: |correlation| at or above which two parameters are reported as not separately identifiable (-).
 CORR = 0.99
+#: |correlation| at or above which their separate intervals are replaced by the valley's extent (-).
+#: Equal to CORR: in the twin experiments even the k1-g1 pair (correlation -0.99966, fit converged,
+#: recovered within 0.5 %) had linearised intervals that excluded the truth.
+CORR_WIDEN = 0.99
 #: Eigenvalue of the scaled J^T J below this fraction of the largest: an undetermined direction (-).
 RATIO = 1e-6
 
 
-def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict | None = None) -> dict:
+def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict | None = None,
+            residual=None) -> dict:
     """Identifiability of a fit from its Jacobian.
 
     Parameters
@@ -53,6 +62,10 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
         Fitted parameter values (SI units) by name.
     bounds : dict, optional
         (lower, upper) of each parameter in SI units: the extent of a valley is cut to them.
+    residual : ndarray, shape (m,), optional
+        Residuals at the fit: the Gauss-Newton step -(J^T J)^+ J^T r from the fit says how far
+        the minimum may still be; where it exceeds a parameter's interval half-width (the fit
+        stopped early along a valley, or on a bound), the interval claims more than the fit holds.
 
     Returns
     -------
@@ -86,6 +99,13 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
     corr = corr / np.outer(d, d)
     out["correlation"] = corr.tolist()
     bad = set()
+    unconverged = set()
+    if residual is not None:
+        cov_x = s2 * np.linalg.pinv(jtj)
+        step = -np.linalg.pinv(jtj) @ (jac.T @ np.asarray(residual, dtype=np.float64))
+        half = q * np.sqrt(np.maximum(np.diag(cov_x), 0.0))
+        unconverged = {names[i] for i in range(p) if abs(step[i]) > half[i]}
+        out["gauss_newton_step"] = {n: float(v) for n, v in zip(names, step)}
     for k in np.flatnonzero(w < RATIO * w[-1]):
         vec = v[:, k] / norms  # back to x units
         vec = vec / np.linalg.norm(vec)
@@ -100,7 +120,9 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
         for j in range(i + 1, p):
             if abs(corr[i, j]) < CORR:
                 continue
-            bad.update((names[i], names[j]))
+            widen = abs(corr[i, j]) >= CORR_WIDEN or bool({names[i], names[j]} & unconverged)
+            if widen:
+                bad.update((names[i], names[j]))
             block = jtj_p[np.ix_([i, j], [i, j])]
             ww, vv = np.linalg.eigh(block)
             n_i, n_j = vv[:, 0]
@@ -112,18 +134,27 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
             g[i], g[j] = 1.0, c
             var = s2 * float(g @ np.linalg.pinv(jtj_p) @ g)
             std = math.sqrt(max(var, 0.0))
-            _valley(out["valley"], names[i], names[j], c, value - q * std, value + q * std, bounds or {})
+            if widen:
+                _valley(out["valley"], names[i], names[j], c, value - q * std, value + q * std, bounds or {})
             out["combinations"].append({"parameters": [names[i], names[j]], "coefficients": [1.0, float(c)],
                                         "value": float(value), "std": std,
                                         "ci": [float(value - q * std), float(value + q * std)],
                                         "correlation": float(corr[i, j])})
-            out["warnings"].append(
-                f"{names[i]} and {names[j]} are not separately identifiable from these data (correlation "
-                f"{corr[i, j]:+.5f}): the fit may stop anywhere on a valley where {_combo(names[i], names[j], c)} "
-                f"= {value:.5g} (+- {q * std:.2g}, 95 %) stays the same, so their separate values are one point of "
-                f"that valley: their intervals are widened to the valley within the parameters' bounds "
-                f"({_ranges(out['valley'], names[i], names[j])}); fix one of them, or add data that separate "
-                f"them (e.g. tests at other rates or durations).")
+            combo = _combo(names[i], names[j], c)
+            if widen:
+                out["warnings"].append(
+                    f"{names[i]} and {names[j]} are not separately identifiable from these data (correlation "
+                    f"{corr[i, j]:+.5f}): the fit may stop anywhere on a valley where {combo} (linearised at the "
+                    f"fit) = {value:.5g} stays about the same, so their separate values are one point of that "
+                    f"valley: their intervals are widened to the valley within the parameters' bounds "
+                    f"({_ranges(out['valley'], names[i], names[j])}); fix one of them, or add data that separate "
+                    f"them (e.g. tests at other rates or durations).")
+            else:
+                out["warnings"].append(
+                    f"{names[i]} and {names[j]} are strongly correlated (correlation {corr[i, j]:+.5f}): the data "
+                    f"determine mainly {combo} = {value:.5g} (linearised at the fit); their separate "
+                    f"intervals hold only as far as the linearisation does (the fit converged along the valley "
+                    f"to within them).")
     if out["undetermined"] and not out["combinations"]:
         dirs = "; ".join(", ".join(f"{c:+.3f} {'ln ' if lg else ''}{n}" for (n, c), lg in zip(u["direction"].items(), log)
                                    if abs(c) > 0.1) for u in out["undetermined"])
@@ -132,6 +163,7 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
             f"the parameter direction(s) {dirs}; the intervals of {', '.join(sorted(bad))} are withheld.")
     out["unidentified"] = [n for n in names if n in bad]
     out["identifiable"] = not bad
+    out["strongly_correlated"] = sorted({n for c in out["combinations"] for n in c["parameters"]})
     return out
 
 
