@@ -166,3 +166,16 @@ def test_single_element_inertia_warning():
     inertial = _result(t, None, 5e-6 * np.ones(t.size), ie, ext=ie)  # KE 0.5 % of IE
     w = checks.check_result(m, inertial)
     assert len(w) == 1 and "inertia matters" in w[0]
+
+
+def test_too_low_output_rate_is_refused_before_running(monkeypatch):
+    from cfm_core.errors import InputError
+    from cfm_core.runs import drop_test, pipeline
+    from cfm_core.scene import builtin_scene
+
+    def never(*a, **k):
+        raise AssertionError("the backend must not be started")
+
+    monkeypatch.setattr(pipeline, "run_model", never)
+    with pytest.raises(InputError, match=r"\[scene\] output_rate = 5000 Hz is too low.*6000 Hz"):
+        drop_test(builtin_scene("drop-test").with_overrides(output_rate=5000.0), "numba")
