@@ -103,28 +103,34 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
     if hold > 0:
         t = np.concatenate([t, t_load + np.linspace(0.0, hold, steps + 1)[1:]])
     lam = 1.0 + np.sign(stretch - 1.0) * rate * np.minimum(t, t_load)
-    state = None
-    lat = np.ones_like(t)
-    P = np.zeros_like(t)
-    for n in range(t.size):
-        dt = 0.0 if n == 0 else t[n] - t[n - 1]
+    with np.errstate(all="ignore"):  # failures are reported as NumericalError, not numpy RuntimeWarnings
+        state = None
+        lat = np.ones_like(t)
+        P = np.zeros_like(t)
+        for n in range(t.size):
+            dt = 0.0 if n == 0 else t[n] - t[n - 1]
 
-        def lateral_stress(lt, n=n, dt=dt, keep=False):
-            F = np.diag([lam[n], lt, lt])[None]
-            S_iso, S_vol = ref.pk2_parts(material, F)
-            S, new_state = ref.viscous_step(material, state, dt, S_iso[0], S_vol[0])
-            return (S[1, 1], S, new_state) if keep else S[1, 1]
+            def lateral_stress(lt, n=n, dt=dt, keep=False):
+                F = np.diag([lam[n], lt, lt])[None]
+                S_iso, S_vol = ref.pk2_parts(material, F)
+                S, new_state = ref.viscous_step(material, state, dt, S_iso[0], S_vol[0])
+                return (S[1, 1], S, new_state) if keep else S[1, 1]
 
-        guess = lat[n - 1] if n else 1.0
-        lo, hi = guess, guess
-        for _ in range(200):  # bracket the root: S22 grows with the lateral stretch
-            lo, hi = lo / 1.05, hi * 1.05
-            if lateral_stress(lo) <= 0.0 <= lateral_stress(hi):
-                break
-        else:
-            raise NumericalError(f"uniaxial: no lateral stretch gives zero lateral stress at t = {t[n]:g} s.", time=float(t[n]))
-        lt = brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200) if n else 1.0
-        _, S, state = lateral_stress(lt, keep=True)
-        lat[n] = lt
-        P[n] = lam[n] * S[0, 0]  # P = F S, first component
+            guess = lat[n - 1] if n else 1.0
+            lo, hi = guess, guess
+            for _ in range(200):  # bracket the root: S22 grows with the lateral stretch
+                lo, hi = lo / 1.05, hi * 1.05
+                if lateral_stress(lo) <= 0.0 <= lateral_stress(hi):
+                    break
+            else:
+                raise NumericalError(f"uniaxial: no lateral stretch gives zero lateral stress at t = {t[n]:g} s.", time=float(t[n]))
+            lt = brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200) if n else 1.0
+            _, S, state = lateral_stress(lt, keep=True)
+            lat[n] = lt
+            P[n] = lam[n] * S[0, 0]  # P = F S, first component
+    bad = ~(np.isfinite(P) & np.isfinite(lat))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise NumericalError(f"uniaxial: the stress is not finite at step {k} (t = {t[k]:g} s, stretch {lam[k]:g}).",
+                             time=float(t[k]), element=k, quantity="stress")
     return t, lam, P, lat
