@@ -274,7 +274,7 @@ def _loop(model, mod, prep: Prepared, o: dict, progress, compile_time: float, th
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     start = time.perf_counter()
     while True:
-        rows, code = advance(mod, prep, hist, min(next_progress, next_frame))
+        rows, code = advance(mod, prep, hist, min(next_progress, next_frame, monitor.next))
         chunks.append(hist[:rows].copy())
         if code >= K.R_INVERTED:
             raise _error(code, prep, model)
