@@ -13,14 +13,29 @@ from __future__ import annotations
 
 
 class InputError(ValueError):
-    """A user-facing input problem: the message names the field, the value and what is allowed."""
+    """A user-facing input problem: the message names the field, the value and what is allowed.
+
+    A ``ValueError``; the ``cfm`` command prints its one-paragraph message without a traceback and
+    exits with status 2. Constructed like any exception, from the message alone.
+    """
 
 
 class NumericalError(RuntimeError):
     """A numerical failure during a computation.
 
-    Attributes are optional context for reports: ``time`` (s), ``element`` (index), ``quantity``
-    (what went wrong: "J", "exp argument", "time step", ...).
+    A ``RuntimeError``; the ``cfm`` command prints it and exits with status 3. The keyword
+    arguments are optional context for reports, stored as attributes of the same names.
+
+    Parameters
+    ----------
+    message : str
+        What failed, where (element, node, row) and when (time in s).
+    time : float, optional
+        Simulated time of the failure (s).
+    element : int, optional
+        Index of the element (or material point, row) where it happened.
+    quantity : str, optional
+        What went wrong: ``"J"``, ``"exp argument"``, ``"time step"``, ...
     """
 
     def __init__(self, message: str, *, time: float | None = None, element: int | None = None,

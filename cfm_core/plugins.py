@@ -28,7 +28,23 @@ from .errors import InputError
 @dataclass(frozen=True)
 class Kind:
     """One kind of plugin: its entry-point group, the check an object must pass, and the hint
-    printed when a name is unknown."""
+    printed when a name is unknown.
+
+    Made by :func:`declare_kind`; immutable.
+
+    Attributes
+    ----------
+    name : str
+        Plural name of the kind, e.g. ``"materials"``; the key of every registry function.
+    group : str
+        Entry-point group searched for plugins, e.g. ``"cfm.materials"``.
+    accepts : callable
+        ``accepts(obj) -> bool``: whether a loaded or registered object is a valid plugin.
+    expected : str
+        What ``accepts`` wants, for messages (``"a MaterialSpec"``).
+    hint : str
+        How to add a plugin of this kind, printed with unknown names.
+    """
 
     name: str
     group: str
@@ -56,6 +72,12 @@ def declare_kind(name: str, group: str, accepts: Callable[[object], bool], expec
         What ``accepts`` wants, for messages (``"a MaterialSpec"``).
     hint : str
         How to add a plugin of this kind, printed with unknown names.
+
+    Returns
+    -------
+    Kind
+        The declaration (also stored, so :func:`get`, :func:`register`, ... accept ``name``).
+        Declaring a name again replaces its declaration and keeps its runtime registrations.
     """
     kind = Kind(name, group, accepts, expected, hint)
     _kinds[name] = kind
@@ -103,13 +125,51 @@ def _load(kind: str, name: str):
 
 
 def names(kind: str) -> list[str]:
-    """Names of all registered plugins of a kind (runtime first, then entry points), sorted."""
+    """Names of all registered plugins of a kind: runtime registrations and entry points, sorted.
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"materials"``, ``"terms"``, ``"backends"``, ``"commands"``.
+
+    Returns
+    -------
+    list of str
+        Sorted names, each once (broken plugins included: nothing is loaded here).
+
+    Raises
+    ------
+    InputError
+        ``kind`` was never declared with :func:`declare_kind`.
+    """
     _kind(kind)
     return sorted(set(_runtime[kind]) | set(_entry_point_table(kind)))
 
 
 def entries(kind: str) -> dict[str, tuple[object, str | None]]:
-    """name -> (object or None, error or None) for every plugin of a kind; warns on broken ones."""
+    """Every plugin of a kind, loaded, with the error of each broken one.
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"materials"``.
+
+    Returns
+    -------
+    dict of str to (object or None, str or None)
+        ``name -> (obj, None)`` for a usable plugin, ``name -> (None, error text)`` for one that
+        failed to load or is not of the kind's type; runtime registrations win over entry points.
+
+    Raises
+    ------
+    InputError
+        ``kind`` was never declared.
+
+    Warns
+    -----
+    RuntimeWarning
+        One per broken plugin, naming it and the error.
+    """
     out = {}
     for name in names(kind):
         if name in _runtime[kind]:
@@ -123,13 +183,25 @@ def entries(kind: str) -> dict[str, tuple[object, str | None]]:
 
 
 def get(kind: str, name: str):
-    """The plugin object of a kind by name.
+    """The plugin object of a kind by name (runtime registrations first, then entry points).
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"materials"``.
+    name : str
+        The plugin's name, e.g. ``"cfm"``.
+
+    Returns
+    -------
+    object
+        The registered or loaded object (a MaterialSpec, a Term, a Backend subclass, ...).
 
     Raises
     ------
     InputError
-        Unknown name (the message lists the names that exist and how to add one), or a plugin
-        that is installed but failed to load.
+        Unknown name (the message lists the names that exist and how to add one), a plugin
+        that is installed but failed to load or is of the wrong type, or an undeclared ``kind``.
     """
     if name in _runtime[_kind(kind).name]:
         return _runtime[kind][name]
@@ -143,12 +215,30 @@ def get(kind: str, name: str):
 
 
 def register(kind: str, name: str, obj, overwrite: bool = False):
-    """Register ``obj`` as plugin ``name`` of ``kind`` at run time; returns ``obj``.
+    """Register ``obj`` as plugin ``name`` of ``kind`` at run time (it takes precedence over an
+    entry point of the same name).
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"materials"``.
+    name : str
+        Name to register under.
+    obj : object
+        The plugin; must pass the kind's ``accepts`` check.
+    overwrite : bool
+        Replace an existing registration or shadow an entry point of the same name.
+
+    Returns
+    -------
+    object
+        ``obj`` itself.
 
     Raises
     ------
     InputError
-        ``obj`` is not of the kind's type, or the name is taken and ``overwrite`` is False.
+        ``obj`` is not of the kind's type, the name is taken and ``overwrite`` is False, or an
+        undeclared ``kind``.
     """
     spec = _kind(kind)
     if not spec.accepts(obj):
@@ -160,11 +250,25 @@ def register(kind: str, name: str, obj, overwrite: bool = False):
 
 
 def unregister(kind: str, name: str) -> None:
-    """Remove a runtime registration (no effect on entry points)."""
+    """Remove a runtime registration (no effect on entry points; an unknown name is ignored).
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"backends"``.
+    name : str
+        The registered name.
+
+    Raises
+    ------
+    InputError
+        ``kind`` was never declared.
+    """
     _runtime[_kind(kind).name].pop(name, None)
 
 
 def refresh() -> None:
-    """Forget cached entry points (after installing or removing plugins)."""
+    """Forget cached entry points and loaded plugins of every kind (after installing or removing
+    plugins); runtime registrations are kept."""
     _entry_point_table.cache_clear()
     _load.cache_clear()

@@ -31,7 +31,8 @@ def cmd_compare(args) -> int:
     print(f"reference {ref.label}: peak {p0 / scale:.4g} {shown}, wall {ref.summary.get('wall_time', float('nan')):.3g} s")
     for r in rows:
         ratio = f", {r['wall_ratio']:.3g}x the reference's" if r["wall_ratio"] else ""
-        print(f"{r['run']}: peak {r['peak'] / scale:.4g} {shown} ({100 * r['peak_diff']:+.2f} %), "
+        magnitude = abs(r["peak"]) / abs(p0) - 1.0  # sign-free: + means a larger peak magnitude
+        print(f"{r['run']}: peak {r['peak'] / scale:.4g} {shown} (|peak| {100 * magnitude:+.2f} % of the reference's), "
               f"t_peak {1e3 * r['t_peak_diff']:+.3f} ms, rel L2 {100 * r['rel_l2']:.2f} %, "
               f"wall {r['wall_time'] if r['wall_time'] is not None else float('nan'):.3g} s{ratio}")
     if args.json:

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 from .. import plugins
 from ..errors import InputError
 from ..material.registry import make_material
+from ..post.plots import plot_uniaxial
 from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
@@ -50,11 +52,19 @@ def _cmd_point(args) -> int:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")
         if args.rate is None or args.stretch is None:
             raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
-        if args.backend not in (None, "numpy"):
-            raise InputError(f"--uniaxial runs on the numpy reference only; drop --backend {args.backend}.")
         t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        source = "numpy reference"
+        if args.backend not in (None, "numpy"):
+            P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
+            source = f"backend {args.backend} along the reference's path (lateral stress {residual:.1e} of the axial)"
         write_csv(args.out, point.UNIAXIAL_HEADER, [t, lam, P, lat])
-        print(f"wrote {args.out}: {t.size} rows (t s, stretch -, nominal stress Pa, lateral stretch -)")
+        written = [str(args.out)]
+        if not args.no_plot:
+            png = Path(args.out).with_suffix(".png")
+            plot_uniaxial(png, lam, P, f"{material.name} ({'elastic' if material.elastic else material.moduli}), "
+                                       f"uniaxial stress at {args.rate:g} /s, {source.split(' along')[0]}")
+            written.append(str(png))
+        print(f"wrote {', '.join(written)}: {t.size} rows (t s, stretch -, nominal stress Pa, lateral stretch -), {source}")
         return 0
     if not args.history:
         raise InputError("give --history F.csv (header t,F11,...,F33) or --uniaxial --rate R --stretch L.")
@@ -73,13 +83,15 @@ def add_parser(sub) -> None:
     sub.add_parser("backends", help="list backends: kind and availability")
     p = sub.add_parser("point", help="material-point driver: Cauchy stress along F(t), or uniaxial stress")
     add_material_options(p)
-    p.add_argument("--backend", default=None, help="backend for --history (default: numpy reference)")
+    p.add_argument("--backend", default=None, help="backend evaluating the stress (default: the numpy reference); "
+                                                    "with --uniaxial, along the reference's uniaxial path")
     p.add_argument("--history", help="CSV with header t,F11,F12,F13,F21,F22,F23,F31,F32,F33 (t in s)")
     p.add_argument("--uniaxial", action="store_true", help="uniaxial stress, lateral tractions zero")
     p.add_argument("--rate", type=float, help="engineering strain rate for --uniaxial, 1/s")
     p.add_argument("--stretch", type=float, help="final stretch for --uniaxial, dimensionless (e.g. 0.5)")
     p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
     p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
+    p.add_argument("--no-plot", action="store_true", help="--uniaxial: do not write the stress-stretch PNG next to --out")
     p.add_argument("--out", required=True, help="output CSV (t,s11,s22,s33,s12,s23,s13 in s and Pa; or t,stretch,nominal_stress,lateral_stretch)")
 
 

@@ -46,9 +46,9 @@ def out_dir(args) -> Path:
 class Progress:
     """Progress of a run in simulated time (a tqdm bar on stderr).
 
-    Called with the simulated time t (s). Off when ``enabled`` is False (``--quiet``); when stderr
-    is not a terminal, tqdm still writes a line now and then (every 10 % at most) so logs show
-    progress.
+    Called with the simulated time t (s). Off when ``enabled`` is False (``--quiet``) or when
+    stderr is not a terminal. A drop test ends at separation, before the scene's end time:
+    :meth:`finish` then marks the bar complete at the time reached.
     """
 
     def __init__(self, end_time: float, label: str, enabled: bool = True):
@@ -57,9 +57,8 @@ class Progress:
         self.end = float(end_time)
         self.bar = None
         if enabled:
-            tty = sys.stderr.isatty()
             self.bar = tqdm(total=round(1e3 * self.end, 3), desc=label, unit="ms", file=sys.stderr,
-                            mininterval=0.2 if tty else 5.0, ncols=90 if tty else None, leave=True,
+                            disable=None, mininterval=0.2, ncols=90, leave=True,
                             bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms "
                                        "[{elapsed}<{remaining}]")
 
@@ -69,6 +68,13 @@ class Progress:
             if n > self.bar.n:
                 self.bar.update(n - self.bar.n)
 
+    def finish(self) -> None:
+        """The run ended normally: show the bar complete at the simulated time reached."""
+        if self.bar is not None and not self.bar.disable:
+            self.bar.total = self.bar.n
+            self.bar.refresh()
+
     def close(self) -> None:
+        """Close the bar (also after a failure: then it stays where the run stopped)."""
         if self.bar is not None:
             self.bar.close()

@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 
 from ..errors import InputError
-from ..post import plots, writers
 from ..runs import pipeline
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from .options import Progress, add_material_options, out_dir, parse_params
@@ -25,6 +24,12 @@ def add_parser(sub) -> None:
     p.add_argument("--thickness", type=float, help="specimen thickness, m (paper: 0.0048 .. 0.0083; default 0.008)")
     p.add_argument("--element-size", type=float, help="hexahedron edge, m (default 0.001)")
     p.add_argument("--velocity", type=float, help="impact speed, m/s (default 1.0)")
+    p.add_argument("--mass", type=float, help="impactor mass, kg (default 0.220; 220 g is 0.220, not 220)")
+    p.add_argument("--radius", type=float, help="impactor (hemisphere) radius, m (default 0.055)")
+    p.add_argument("--width", type=float, help="specimen width (square), m (default 0.050)")
+    p.add_argument("--density", type=float, help="specimen density, kg/m^3 (default 950, an assumption)")
+    p.add_argument("--mesh", help="hexahedral specimen mesh file read with meshio, coordinates in m "
+                                  "(replaces the structured mesh; width and thickness come from it)")
     p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
     p.add_argument("--symmetry", choices=["quarter", "none"], help="quarter model (default) or full specimen")
     add_material_options(p, default_material=None)
@@ -38,7 +43,8 @@ def add_parser(sub) -> None:
 def scene_from_args(args):
     """The scene of ``cfm drop-test`` with the command-line overrides applied."""
     scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
-    return _apply_overrides(scene, args, ("thickness", "element_size", "velocity", "friction", "symmetry"))
+    return _apply_overrides(scene, args, ("thickness", "element_size", "velocity", "mass", "radius", "width", "density", "mesh",
+                                         "friction", "symmetry"))
 
 
 def _apply_overrides(scene, args, keys=()):
@@ -64,30 +70,28 @@ def _backend_options(args) -> dict:
     return options
 
 
-def _drop_test(args, scene, backend: str) -> int:
-    """Run a drop-test scene and write acceleration.csv, summary.json (last) and the plot."""
-    out = out_dir(args)
-    progress = Progress(scene.end_time, f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})",
-                        enabled=not args.quiet)
+def _with_progress(args, run, scene, backend: str, label: str):
+    """``run(scene, backend, progress=..., **options)`` with a progress bar unless ``--quiet``."""
+    progress = Progress(scene.end_time, label, enabled=not args.quiet)
     try:
-        outcome = pipeline.drop_test(scene, backend, progress=progress, **_backend_options(args))
+        outcome = run(scene, backend, progress=progress, **_backend_options(args))
+        progress.finish()
     finally:
         progress.close()
-    (out / "summary.json").unlink(missing_ok=True)  # an earlier success must not survive a failure
-    out.mkdir(parents=True, exist_ok=True)
-    if getattr(args, "vtu", False):
-        writers.write_vtu_series(out, outcome.model.nodes, outcome.model.hexes, outcome.result.frames)
-    if not args.no_plot:
-        s = outcome.summary
-        title = (f"Drop test, {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, {s['material']} "
-                 f"({s['moduli']}), {s['backend']}")
-        plots.plot_acceleration(out / "acceleration.png", outcome.t, outcome.a_raw, outcome.a_cfc, title)
-    writers.write_drop_test(out, outcome.t, outcome.a_raw, outcome.a_cfc, outcome.summary)  # summary.json last
+    return outcome
+
+
+def _drop_test(args, scene, backend: str) -> int:
+    """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
+    out = out_dir(args)
+    outcome = _with_progress(args, pipeline.drop_test, scene, backend,
+                             f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})")
+    outcome.save(out, plot=not args.no_plot, vtu=getattr(args, "vtu", False))
     s = outcome.summary
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
           f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
           f"hourglass/internal {100 * s.get('hourglass_ratio', math.nan):.2f} %")
-    print(f"wrote {out}/acceleration.csv, summary.json" + ("" if args.no_plot else ", acceleration.png"))
+    print(f"wrote {out}/acceleration.csv, scene.toml, summary.json" + ("" if args.no_plot else ", acceleration.png"))
     return 0
 
 
@@ -131,22 +135,13 @@ def _cmd_run(args) -> int:
     if scene.type == "drop-test":
         return _drop_test(args, scene, backend)
     out = out_dir(args)
-    progress = Progress(scene.end_time, f"{scene.type} ({backend})", enabled=not args.quiet)
-    try:
-        outcome = pipeline.reaction_test(scene, backend, progress=progress, **_backend_options(args))
-    finally:
-        progress.close()
-    (out / "summary.json").unlink(missing_ok=True)
-    out.mkdir(parents=True, exist_ok=True)
+    outcome = _with_progress(args, pipeline.reaction_test, scene, backend, f"{scene.type} ({backend})")
+    outcome.save(out, plot=not args.no_plot)
     s = outcome.summary
-    if not args.no_plot:
-        title = (f"{scene.type}, stretch {s['stretch']:g}, {s['material']} ({s['moduli']}), {s['backend']}")
-        plots.plot_reaction(out / "reaction.png", outcome.t, outcome.force, title)
-    writers.write_reaction(out, outcome.t, outcome.stretch, outcome.force, outcome.nominal, s)
     print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "
           f"{s['final_force']:.4g} N ({100 * s['final_over_peak']:.2f} % of it); {s['steps']} steps, "
           f"{s['wall_time']:.2f} s solver")
-    print(f"wrote {out}/reaction.csv, summary.json" + ("" if args.no_plot else ", reaction.png"))
+    print(f"wrote {out}/reaction.csv, scene.toml, summary.json" + ("" if args.no_plot else ", reaction.png"))
     return 0
 
 

@@ -18,7 +18,20 @@ from . import codegen
 
 
 def cache_dir(*parts: str) -> Path:
-    """The cache folder (created), optionally a subfolder; the temporary folder if home is read-only."""
+    """The cache folder (created), optionally a subfolder; the temporary folder if home is read-only.
+
+    Parameters
+    ----------
+    *parts : str
+        Subfolder names below the cache root (``$CFM_CACHE_DIR`` or ``~/.cache/cfm``), e.g.
+        ``"codegen"``.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder, created and probed writable; if the root is not writable,
+        ``<tempdir>/cfm-cache/<parts>`` instead.
+    """
     root = Path(os.environ.get("CFM_CACHE_DIR") or Path.home() / ".cache" / "cfm")
     path = root.joinpath(*parts)
     try:
@@ -43,7 +56,21 @@ def _file_text(func) -> str | None:
 
 
 def spec_fingerprint(spec) -> str | None:
-    """Hash identifying the generated code of a material spec, or None if it cannot be cached."""
+    """Hash identifying the generated code of a material spec, or None if it cannot be cached.
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The spec; each term's kind, name, parameters, energy qualname and closure values, the full
+        text of the file defining each energy and the text of :mod:`cfm_core.material.codegen`
+        enter the hash.
+
+    Returns
+    -------
+    str or None
+        24 hexadecimal characters (SHA-256 prefix), or None when a term's energy has no source
+        file (defined interactively), so its code must not be cached.
+    """
 
     h = hashlib.sha256()
     h.update(Path(codegen.__file__).read_bytes())
@@ -59,7 +86,24 @@ def spec_fingerprint(spec) -> str | None:
 
 
 def codegen_cache(spec, dialect: str, generate) -> str:
-    """Return the cached source for (spec, dialect) or generate, store and return it."""
+    """Return the cached source for (spec, dialect) or generate, store and return it.
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The spec the source is generated from (keyed by :func:`spec_fingerprint`).
+    dialect : str
+        ``"math"``, ``"numpy"`` or ``"torch"``; part of the file name.
+    generate : callable
+        ``generate() -> str``, called on a cache miss, when ``CFM_NO_CODEGEN_CACHE`` is set or
+        when the spec cannot be cached.
+
+    Returns
+    -------
+    str
+        Python source of the generated module. A new entry is written to a temporary file and
+        renamed into place (atomic), under ``cache_dir("codegen")/<fingerprint>-<dialect>.py``.
+    """
     key = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else spec_fingerprint(spec)
     if key is None:
         return generate()

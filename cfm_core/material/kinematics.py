@@ -26,7 +26,24 @@ THETA_TOL = 1e-4  # relative eigenvalue gap below which theta uses the symmetric
 
 
 def as_batch(F) -> np.ndarray:
-    """F as a float64 array of shape (n, 3, 3); checks shape, finiteness and det F > 0."""
+    """F as a float64 array of shape (n, 3, 3); checks shape, finiteness and det F > 0.
+
+    Parameters
+    ----------
+    F : array_like, shape (..., 3, 3)
+        Deformation gradients (-); leading axes are flattened.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        float64 copy or view of ``F``, n the product of the leading axes (1 for a single F).
+
+    Raises
+    ------
+    InputError
+        The last two axes are not (3, 3), an entry is NaN or infinite, or det F <= 0 (inverted
+        or degenerate); the message names the index of the first bad F.
+    """
     F = np.asarray(F, dtype=np.float64)
     if F.shape[-2:] != (3, 3):
         raise InputError(f"deformation gradient must have shape (..., 3, 3), got {F.shape}.")
@@ -42,7 +59,27 @@ def as_batch(F) -> np.ndarray:
 
 
 def principal(F):
-    """(m, Q, J): eigenvalues m (n, 3) of C, eigenvectors as columns of Q (n, 3, 3), J (n,)."""
+    """Principal values of C = F^T F, by a symmetric eigen-decomposition (``numpy.linalg.eigh``).
+
+    Parameters
+    ----------
+    F : array_like, shape (..., 3, 3)
+        Deformation gradients (-), checked by :func:`as_batch`.
+
+    Returns
+    -------
+    m : ndarray, shape (n, 3)
+        Eigenvalues of C (squared principal stretches, -), ascending.
+    Q : ndarray, shape (n, 3, 3)
+        Orthonormal eigenvectors N_a as columns (``Q[:, :, a]``).
+    J : ndarray, shape (n,)
+        det F (-).
+
+    Raises
+    ------
+    InputError
+        From :func:`as_batch`: wrong shape, non-finite entry or det F <= 0.
+    """
     F = as_batch(F)
     C = np.einsum("nki,nkj->nij", F, F)
     m, Q = np.linalg.eigh(C)
@@ -50,7 +87,20 @@ def principal(F):
 
 
 def from_principal(values, Q) -> np.ndarray:
-    """Tensor Q diag(values) Q^T, batched: values (n, 3), Q (n, 3, 3) -> (n, 3, 3)."""
+    """Tensor Q diag(values) Q^T = sum_a values_a N_a (x) N_a, batched.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n, 3)
+        Principal values (any unit, e.g. 2 psi_a in Pa for the second Piola-Kirchhoff stress).
+    Q : ndarray, shape (n, 3, 3)
+        Principal directions as columns, from :func:`principal`.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        The symmetric tensors, in the unit of ``values``.
+    """
     return np.einsum("nia,na,nja->nij", Q, values, Q)
 
 
@@ -66,7 +116,29 @@ def _theta(m, g, h):
 
 
 def tangent_from_principal(m, Q, g, h) -> np.ndarray:
-    """Material tangent CC = 2 dS/dC (n, 3, 3, 3, 3) in Pa from psi gradient g and Hessian h."""
+    """Material tangent CC = 2 dS/dC (n, 3, 3, 3, 3) in Pa from psi gradient g and Hessian h.
+
+    In the principal basis CC_aabb = 4 psi_ab and CC_abab = CC_abba = 2 theta_ab (a != b), with
+    theta_ab = (psi_a - psi_b) / (m_a - m_b), or (psi_aa + psi_bb) / 2 - psi_ab when the relative
+    gap is below ``THETA_TOL`` (the exact limit at repeated eigenvalues, error O(gap^2)); then
+    rotated with Q (module docstring; docs/conventions.md section 2, numerical care).
+
+    Parameters
+    ----------
+    m : ndarray, shape (n, 3)
+        Eigenvalues of C (-).
+    Q : ndarray, shape (n, 3, 3)
+        Eigenvectors of C as columns.
+    g : ndarray, shape (n, 3)
+        d psi / d m_a (Pa).
+    h : ndarray, shape (n, 6)
+        d2 psi / d m_a d m_b in the order 11, 22, 33, 12, 23, 13 (Pa).
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3, 3, 3)
+        CC_ijkl in the reference (global) basis, Pa, with both minor symmetries and the major one.
+    """
     n = m.shape[0]
     Cp = np.zeros((n, 3, 3, 3, 3))
     hmat = np.empty((n, 3, 3))
@@ -85,12 +157,34 @@ def tangent_from_principal(m, Q, g, h) -> np.ndarray:
 
 
 def to_voigt(T) -> np.ndarray:
-    """Symmetric tensors (n, 3, 3) -> (n, 6) in the order 11, 22, 33, 12, 23, 13."""
+    """Symmetric tensors in Voigt order 11, 22, 33, 12, 23, 13 (no factor 2 on shear terms).
+
+    Parameters
+    ----------
+    T : ndarray, shape (n, 3, 3)
+        Symmetric tensors (any unit); only the upper triangle is read.
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+        Components in the unit of ``T``.
+    """
     return np.stack([T[:, a, b] for a, b in VOIGT], axis=1)
 
 
 def from_voigt(v) -> np.ndarray:
-    """(n, 6) in the order 11, 22, 33, 12, 23, 13 -> symmetric tensors (n, 3, 3)."""
+    """Symmetric tensors from Voigt order 11, 22, 33, 12, 23, 13 (inverse of :func:`to_voigt`).
+
+    Parameters
+    ----------
+    v : ndarray, shape (..., 6)
+        Components (any unit).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        Symmetric float64 tensors in the unit of ``v``.
+    """
     T = np.empty(v.shape[:-1] + (3, 3))
     for k, (a, b) in enumerate(VOIGT):
         T[..., a, b] = v[..., k]
@@ -99,6 +193,19 @@ def from_voigt(v) -> np.ndarray:
 
 
 def cauchy_from_pk2(F, S) -> np.ndarray:
-    """sigma = J^-1 F S F^T (n, 3, 3), Pa."""
+    """Cauchy stress sigma = J^-1 F S F^T from the second Piola-Kirchhoff stress.
+
+    Parameters
+    ----------
+    F : ndarray, shape (n, 3, 3)
+        Deformation gradients (-), det F > 0 (not checked here; see :func:`as_batch`).
+    S : ndarray, shape (n, 3, 3)
+        Second Piola-Kirchhoff stress (Pa).
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        Cauchy stress (Pa).
+    """
     J = np.linalg.det(F)
     return np.einsum("nik,nkl,njl->nij", F, S, F) / J[:, None, None]

@@ -17,11 +17,27 @@ from ..errors import InputError
 class Parameter:
     """Declaration of one scalar material parameter.
 
-    name: identifier used in energies, scene files and ``--param NAME=VALUE``.
-    unit: SI unit as text ("Pa", "s", "-"). default: value in that unit.
-    low, high: bounds of the valid range; ``low_open``/``high_open`` exclude the bound itself;
-    ``nonzero`` excludes 0 (e.g. an Ogden exponent).
-    description: one line for ``cfm materials``.
+    Parameters
+    ----------
+    name : str
+        Identifier used in energies, scene files and ``--param NAME=VALUE``.
+    unit : str
+        SI unit as text (``"Pa"``, ``"s"``, ``"-"``).
+    default : float
+        Default value, in ``unit``; must lie in the valid range.
+    low, high : float
+        Bounds of the valid range, in ``unit`` (default: unbounded).
+    low_open, high_open : bool
+        Exclude the bound itself (e.g. ``low=0, low_open=True`` for a positive modulus).
+    description : str
+        One line for ``cfm materials`` and error messages.
+    nonzero : bool
+        Exclude 0 (e.g. an Ogden exponent).
+
+    Raises
+    ------
+    InputError
+        ``name`` is not a Python identifier, or ``default`` is outside the valid range.
     """
 
     name: str
@@ -40,14 +56,40 @@ class Parameter:
         self.check(self.default, context="default of")
 
     def range_text(self) -> str:
-        """The valid range in interval notation, e.g. ``(0, inf) Pa``."""
+        """The valid range in interval notation, without the unit.
+
+        Returns
+        -------
+        str
+            E.g. ``"(0, inf)"``, ``"[0, 1)"``, ``"[-50, 50] without 0"``.
+        """
         lo = "(" if self.low_open or math.isinf(self.low) else "["
         hi = ")" if self.high_open or math.isinf(self.high) else "]"
         text = f"{lo}{self.low:g}, {self.high:g}{hi}"
         return text + " without 0" if self.nonzero else text
 
     def check(self, value, *, context: str = "parameter") -> float:
-        """Return ``value`` as a float if it is finite and inside the range, else raise InputError."""
+        """Return ``value`` as a float if it is finite and inside the range, else raise InputError.
+
+        Parameters
+        ----------
+        value : float or str
+            The value in the parameter's unit; anything ``float()`` accepts.
+        context : str
+            Words before the parameter name in messages, e.g. ``"material 'cfm' parameter"``.
+
+        Returns
+        -------
+        float
+            ``float(value)``.
+
+        Raises
+        ------
+        InputError
+            ``value`` is not a number, not finite, outside ``[low, high]`` (open bounds
+            excluded) or zero when ``nonzero``; the message names the parameter, the value, the
+            unit and the allowed range.
+        """
         try:
             x = float(value)
         except (TypeError, ValueError):
@@ -68,10 +110,54 @@ class Parameter:
 
 
 def positive(name: str, unit: str, default: float, description: str = "") -> Parameter:
-    """A parameter that must be strictly positive and finite."""
+    """A parameter that must be strictly positive and finite: range (0, inf).
+
+    Parameters
+    ----------
+    name : str
+        Identifier (see :class:`Parameter`).
+    unit : str
+        SI unit as text, e.g. ``"Pa"``.
+    default : float
+        Default value in ``unit``, > 0.
+    description : str
+        One line for ``cfm materials``.
+
+    Returns
+    -------
+    Parameter
+        The declaration.
+
+    Raises
+    ------
+    InputError
+        Invalid name or a default <= 0.
+    """
     return Parameter(name, unit, default, low=0.0, low_open=True, description=description)
 
 
 def nonnegative(name: str, unit: str, default: float, description: str = "") -> Parameter:
-    """A parameter that must be zero or positive and finite."""
+    """A parameter that must be zero or positive and finite: range [0, inf).
+
+    Parameters
+    ----------
+    name : str
+        Identifier (see :class:`Parameter`).
+    unit : str
+        SI unit as text, e.g. ``"Pa"``.
+    default : float
+        Default value in ``unit``, >= 0.
+    description : str
+        One line for ``cfm materials``.
+
+    Returns
+    -------
+    Parameter
+        The declaration.
+
+    Raises
+    ------
+    InputError
+        Invalid name or a negative default.
+    """
     return Parameter(name, unit, default, low=0.0, description=description)

@@ -28,36 +28,144 @@ def _evaluate(material, m, *names):
 
 
 def energy(material, F) -> np.ndarray:
-    """Instantaneous strain energy per reference volume (n,), Pa = J/m^3."""
+    """Instantaneous strain energy per reference volume psi = W(l1, l2, l3) + U(J)
+    (docs/conventions.md section 2; for the CFM paper Eq. 1-7).
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (n, 3, 3) or (3, 3)
+        Deformation gradients (-), det F > 0.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        psi in Pa = J/m^3 (isochoric part with the material's moduli factor s_iso).
+
+    Raises
+    ------
+    InputError
+        ``F`` has the wrong shape, a non-finite entry or det F <= 0.
+    NumericalError
+        The generated energy or its derivatives are not finite at a point (e.g. the fibre
+        exponential overflows float64); names the point (``element``) and the eigenvalues of C.
+    """
     m, _, _ = kin.principal(F)
     (e,) = _evaluate(material, m, "psi_energy")
     return e[:, 0] + e[:, 1]
 
 
 def pk2_parts(material, F):
-    """(S0_iso, S_vol): isochoric (instantaneous) and volumetric second Piola-Kirchhoff stress (n,3,3), Pa."""
+    """Isochoric (instantaneous) and volumetric second Piola-Kirchhoff stress, S = 2 d psi / d C.
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (n, 3, 3) or (3, 3)
+        Deformation gradients (-), det F > 0.
+
+    Returns
+    -------
+    S0_iso : ndarray, shape (n, 3, 3)
+        Instantaneous isochoric part (Pa), the input of the Prony recurrence.
+    S_vol : ndarray, shape (n, 3, 3)
+        Volumetric part (Pa), elastic.
+
+    Raises
+    ------
+    InputError
+        ``F`` has the wrong shape, a non-finite entry or det F <= 0.
+    NumericalError
+        The generated energy or its derivatives are not finite at a point (e.g. the fibre
+        exponential overflows float64); names the point (``element``) and the eigenvalues of C.
+    """
     m, Q, _ = kin.principal(F)
     (g,) = _evaluate(material, m, "psi_grad")
     return kin.from_principal(2.0 * g[:, :3], Q), kin.from_principal(2.0 * g[:, 3:], Q)
 
 
 def pk2(material, F) -> np.ndarray:
-    """Instantaneous second Piola-Kirchhoff stress S = 2 d psi / d C (n, 3, 3), Pa."""
+    """Instantaneous second Piola-Kirchhoff stress S = 2 d psi / d C.
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (n, 3, 3) or (3, 3)
+        Deformation gradients (-), det F > 0.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        S (Pa), isochoric plus volumetric part.
+
+    Raises
+    ------
+    InputError
+        ``F`` has the wrong shape, a non-finite entry or det F <= 0.
+    NumericalError
+        The generated energy or its derivatives are not finite at a point (e.g. the fibre
+        exponential overflows float64); names the point (``element``) and the eigenvalues of C.
+    """
     S_iso, S_vol = pk2_parts(material, F)
     return S_iso + S_vol
 
 
 def cauchy(material, F) -> np.ndarray:
-    """Instantaneous Cauchy stress (n, 3, 3), Pa."""
+    """Instantaneous Cauchy stress sigma = J^-1 F S F^T.
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (n, 3, 3) or (3, 3)
+        Deformation gradients (-), det F > 0.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        sigma (Pa).
+
+    Raises
+    ------
+    InputError
+        ``F`` has the wrong shape, a non-finite entry or det F <= 0.
+    NumericalError
+        The generated energy or its derivatives are not finite at a point (e.g. the fibre
+        exponential overflows float64); names the point (``element``) and the eigenvalues of C.
+    """
     F = kin.as_batch(F)
     return kin.cauchy_from_pk2(F, pk2(material, F))
 
 
 def tangent(material, F, iso_factor: float = 1.0) -> np.ndarray:
-    """Material tangent CC = 2 dS/dC = dS/dE (n, 3, 3, 3, 3), Pa.
+    """Material tangent CC = 2 dS/dC = dS/dE, from principal-stretch derivatives
+    (:func:`cfm_core.material.kinematics.tangent_from_principal`).
 
-    iso_factor multiplies the isochoric part: 1 for the instantaneous response, the Prony
-    series' :func:`cfm_core.material.prony.effective_factor` for the consistent viscoelastic tangent.
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (n, 3, 3) or (3, 3)
+        Deformation gradients (-), det F > 0.
+    iso_factor : float
+        Factor on the isochoric part (-): 1 for the instantaneous response, the Prony series'
+        :func:`cfm_core.material.prony.effective_factor` for the consistent viscoelastic tangent.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3, 3, 3)
+        CC_ijkl (Pa).
+
+    Raises
+    ------
+    InputError
+        ``F`` has the wrong shape, a non-finite entry or det F <= 0.
+    NumericalError
+        The generated energy or its derivatives are not finite at a point (e.g. the fibre
+        exponential overflows float64); names the point (``element``) and the eigenvalues of C.
     """
     m, Q, _ = kin.principal(F)
     g, h = _evaluate(material, m, "psi_grad", "psi_hess")
@@ -67,10 +175,28 @@ def tangent(material, F, iso_factor: float = 1.0) -> np.ndarray:
 
 
 def viscous_step(material, state, dt: float, S0_iso, S_vol):
-    """One Prony step at a material point: returns (S, new_state); ``state`` is not modified.
+    """One Prony step at a material point (:func:`cfm_core.material.prony.update`); ``state`` is
+    not modified.
 
-    state: None (undeformed, relaxed) or (H (k, 3, 3), S0_old (3, 3)); dt in s (0 = jump);
-    S0_iso, S_vol: (3, 3) instantaneous isochoric and volumetric second Piola-Kirchhoff stress, Pa.
+    Parameters
+    ----------
+    material : Material
+        A bound material; an elastic one (no Prony terms) returns S0_iso + S_vol and no state.
+    state : tuple of (ndarray, ndarray) or None
+        None (undeformed, relaxed) or ``(H, S0_old)``: history stresses H, shape (k, 3, 3), and
+        the previous instantaneous isochoric stress S0_old, shape (3, 3), both Pa.
+    dt : float
+        Step (s); 0 = instantaneous jump.
+    S0_iso, S_vol : ndarray, shape (3, 3)
+        Instantaneous isochoric and volumetric second Piola-Kirchhoff stress at the end of the
+        step (Pa).
+
+    Returns
+    -------
+    S : ndarray, shape (3, 3)
+        Viscoelastic second Piola-Kirchhoff stress (Pa).
+    new_state : tuple of (ndarray, ndarray) or None
+        ``(H_new, S0_iso)`` for the next step; None for an elastic material.
     """
     gammas, taus = material.prony_arrays()
     if gammas.size == 0:
@@ -81,10 +207,33 @@ def viscous_step(material, state, dt: float, S0_iso, S_vol):
 
 
 def stress_history(material, t, F) -> np.ndarray:
-    """Cauchy stress (n, 3, 3), Pa, along a deformation history with Prony viscoelasticity.
+    """Cauchy stress along a deformation history with Prony viscoelasticity.
 
-    t: (n,) non-decreasing times in s; F: (n, 3, 3). The material is undeformed and relaxed before
-    t[0]; a deformation already present at t[0] is applied as a jump (instantaneous response).
+    The material is undeformed and relaxed before t[0]; a deformation already present at t[0] is
+    applied as a jump (instantaneous response). Exact exponential recurrence per step
+    (docs/conventions.md section 2).
+
+    Parameters
+    ----------
+    material : Material
+        A bound material (elastic or viscoelastic).
+    t : array_like, shape (n,)
+        Non-decreasing times (s).
+    F : array_like, shape (n, 3, 3)
+        Deformation gradients at those times (-), det F > 0.
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        Cauchy stress (Pa).
+
+    Raises
+    ------
+    InputError
+        ``t`` is not 1-D, its length differs from the number of F, the times decrease (the
+        message names the index), or an F is invalid (shape, non-finite, det F <= 0).
+    NumericalError
+        Non-finite generated derivatives at a point (fibre exponential overflow).
     """
     t = np.asarray(t, dtype=np.float64)
     F = kin.as_batch(F)

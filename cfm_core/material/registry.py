@@ -23,6 +23,16 @@ plugins.declare_kind(
 def get_material(name: str) -> MaterialSpec:
     """The :class:`~cfm_core.material.MaterialSpec` registered as ``name``.
 
+    Parameters
+    ----------
+    name : str
+        Registered material name, e.g. ``"cfm"`` (``cfm materials`` lists them).
+
+    Returns
+    -------
+    MaterialSpec
+        The declaration, no values bound (see :meth:`MaterialSpec.bind`).
+
     Raises
     ------
     InputError
@@ -32,7 +42,23 @@ def get_material(name: str) -> MaterialSpec:
 
 
 def get_term(name: str) -> Term:
-    """The :class:`~cfm_core.material.Term` registered as ``name`` (InputError if unknown)."""
+    """The :class:`~cfm_core.material.Term` registered as ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Registered term name, e.g. ``"lipid"``, ``"ogden-volumetric"``.
+
+    Returns
+    -------
+    Term
+        The energy term.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the registered terms) or a broken plugin.
+    """
     return plugins.get("terms", name)
 
 
@@ -51,6 +77,11 @@ def make_material(name: str, parameters: dict | None = None, moduli: str | None 
     elastic : bool
         Switch the Prony series off.
 
+    Returns
+    -------
+    Material
+        The bound material (values in SI units).
+
     Raises
     ------
     InputError
@@ -61,6 +92,20 @@ def make_material(name: str, parameters: dict | None = None, moduli: str | None 
 
 def register_material(spec: MaterialSpec, name: str | None = None, overwrite: bool = False) -> MaterialSpec:
     """Register a :class:`MaterialSpec` at run time; it is checked now (isotropy, stress-free C = I).
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        Terms composed with ``&``, e.g. ``lipid & circular_fibers & ogden_volumetric``.
+    name : str, optional
+        Name to register under; default ``spec.name`` (the spec is renamed to it otherwise).
+    overwrite : bool
+        Replace an existing registration of that name.
+
+    Returns
+    -------
+    MaterialSpec
+        The registered spec (under ``name``).
 
     Raises
     ------
@@ -78,7 +123,27 @@ def register_material(spec: MaterialSpec, name: str | None = None, overwrite: bo
 
 
 def register_term(term: Term, name: str | None = None, overwrite: bool = False) -> Term:
-    """Register an energy :class:`Term` at run time (InputError if it is not a Term or the name is taken)."""
+    """Register an energy :class:`Term` at run time.
+
+    Parameters
+    ----------
+    term : Term
+        A term made with ``@isochoric`` or ``@volumetric``.
+    name : str, optional
+        Name to register under; default ``term.name``.
+    overwrite : bool
+        Replace an existing registration of that name.
+
+    Returns
+    -------
+    Term
+        ``term`` itself.
+
+    Raises
+    ------
+    InputError
+        ``term`` is not a Term, or the name is taken and ``overwrite`` is False.
+    """
     if not isinstance(term, Term):
         raise InputError(f"register_term expects a Term (use @isochoric or @volumetric), got {term!r}.")
     return plugins.register("terms", name or term.name, term, overwrite)

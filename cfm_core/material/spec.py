@@ -31,11 +31,30 @@ _RESERVED = {"m1", "m2", "m3", "p", "J", "s_iso", "zero_", "math", "numpy", "tor
 
 @dataclass(frozen=True)
 class Term:
-    """One energy term.
+    """One energy term (made by the ``@isochoric`` / ``@volumetric`` decorators).
 
-    kind: "isochoric" (energy of l1, l2, l3) or "volumetric" (energy of J).
-    energy: the author's function; called once with sympy symbols.
-    parameters: declarations of the keyword arguments after the kinematic ones.
+    Terms compose with ``&`` into a :class:`MaterialSpec` (``lipid & circular_fibers``).
+
+    Parameters
+    ----------
+    name : str
+        Registry name, e.g. ``"lipid"``.
+    kind : {"isochoric", "volumetric"}
+        "isochoric": energy of the isochoric principal stretches l1, l2, l3 (-); "volumetric":
+        energy of J (-).
+    energy : callable
+        The author's function ``f(l1, l2, l3, *params)`` or ``U(J, *params)`` returning the
+        energy per reference volume (Pa); called once with sympy symbols.
+    parameters : tuple of Parameter
+        Declarations of the arguments after the kinematic ones, in the same order.
+    description : str
+        One line for ``cfm materials``.
+
+    Raises
+    ------
+    InputError
+        ``kind`` is neither "isochoric" nor "volumetric", or the energy's arguments are not the
+        kinematic ones followed by the declared parameters in order (unless it takes ``*params``).
     """
 
     name: str
@@ -66,7 +85,27 @@ class Term:
 
 @dataclass(frozen=True)
 class MaterialSpec:
-    """Declaration of a material: energy terms, Prony series and defaults (no values bound)."""
+    """Declaration of a material: energy terms, Prony series and defaults (no values bound).
+
+    Built by composing with ``&`` (a Term, another term, a :class:`PronySeries`); composing a
+    second volumetric term or a second Prony series raises InputError. Two specs are equal only
+    if they are the same object.
+
+    Parameters
+    ----------
+    name : str
+        Registry name, e.g. ``"cfm"``.
+    isochoric : tuple of Term
+        Isochoric terms, summed (W in psi = W + U).
+    volumetric : Term or None
+        At most one volumetric term U(J).
+    prony : PronySeries or None
+        Viscoelasticity on the isochoric stress (docs/conventions.md section 2).
+    description : str
+        One line for ``cfm materials``.
+    default_moduli : {"long-term", "instantaneous"}
+        Moduli convention used when :meth:`bind` is given none.
+    """
 
     name: str
     isochoric: tuple = ()
@@ -77,7 +116,30 @@ class MaterialSpec:
 
     @classmethod
     def compose(cls, name, terms, prony=None, description=""):
-        """Build a spec from a sequence of terms (at most one volumetric)."""
+        """Build a spec from a sequence of terms (at most one volumetric).
+
+        Parameters
+        ----------
+        name : str
+            Registry name of the spec.
+        terms : iterable of Term or PronySeries
+            Composed in order with ``&``.
+        prony : PronySeries, optional
+            Prony series of the spec.
+        description : str
+            One line for ``cfm materials``.
+
+        Returns
+        -------
+        MaterialSpec
+            The composed spec (not yet traced or checked).
+
+        Raises
+        ------
+        InputError
+            Two volumetric terms, two Prony series, or an object that is neither a Term nor a
+            PronySeries.
+        """
         spec = cls(name=name, description=description, prony=prony)
         for t in terms:
             spec = spec & t
@@ -100,12 +162,33 @@ class MaterialSpec:
         raise InputError(f"cannot compose material '{self.name}' with {other!r}: expected a Term or PronySeries.")
 
     def named(self, name: str, description: str = "") -> "MaterialSpec":
-        """The same spec under another name (and description)."""
+        """The same spec under another name (and description).
+
+        Parameters
+        ----------
+        name : str
+            New name.
+        description : str
+            New description; empty keeps the current one.
+
+        Returns
+        -------
+        MaterialSpec
+            A new spec with the same terms and Prony series.
+        """
         return _replace(self, name=name, description=description or self.description)
 
     @functools.cached_property
     def energy_parameters(self) -> tuple[Parameter, ...]:
-        """Parameters of the energy terms, each name once, in order of appearance."""
+        """Parameters of the energy terms, each name once, in order of appearance (the order of
+        the parameter vector ``p`` of the generated code, before s_iso).
+
+        Raises
+        ------
+        InputError
+            A parameter name is reserved by the generated code (``m1``, ``J``, ``p``, ``s_iso``,
+            ...), or one name is declared by two terms with different unit, default or range.
+        """
         seen: dict[str, Parameter] = {}
         for term in self.isochoric + ((self.volumetric,) if self.volumetric else ()):
             for p in term.parameters:
@@ -125,7 +208,28 @@ class MaterialSpec:
         return self.energy_parameters + (self.prony.parameters if self.prony else ())
 
     def bind(self, parameters: dict | None = None, moduli: str | None = None, elastic: bool = False) -> "Material":
-        """A :class:`Material` with defaults overridden by ``parameters`` (name -> value, SI units)."""
+        """A :class:`Material` with defaults overridden by ``parameters`` (name -> value, SI units).
+
+        Parameters
+        ----------
+        parameters : dict of str to float, optional
+            Overrides in SI units (Pa, s, -); the other parameters keep their defaults.
+        moduli : {"long-term", "instantaneous"}, optional
+            Moduli convention (docs/conventions.md section 2); default ``default_moduli``.
+        elastic : bool
+            Switch the Prony series off; always True for a spec without one.
+
+        Returns
+        -------
+        Material
+            The bound material.
+
+        Raises
+        ------
+        InputError
+            ``moduli`` not allowed, an unknown parameter name (the message lists the spec's
+            parameters), a value outside its range, or Prony coefficients summing to 1 or more.
+        """
         moduli = self.default_moduli if moduli is None else moduli
         if moduli not in MODULI:
             raise InputError(f"moduli = {moduli!r} is not allowed; use one of {', '.join(MODULI)}.")
@@ -142,7 +246,9 @@ class MaterialSpec:
 
     @functools.cached_property
     def symbolic(self):
-        """(psi_iso, psi_vol, parameter names) as sympy expressions in m1, m2, m3."""
+        """(psi_iso, psi_vol, parameter names): the energies (Pa) as sympy expressions in m1, m2,
+        m3 and the names of the parameter vector (energy parameters, then ``s_iso``); traced once
+        per spec (:func:`cfm_core.material.codegen.energies`, InputError if untraceable)."""
         names = [p.name for p in self.energy_parameters] + ["s_iso"]
         syms = {n: sp.Symbol(n, real=True) for n in names}
         iso, vol = codegen.energies(self.isochoric, self.volumetric, syms)
@@ -150,7 +256,8 @@ class MaterialSpec:
 
     @functools.cached_property
     def derivatives(self):
-        """Dict of generated-function name -> sympy expressions (see :mod:`cfm_core.material.codegen`)."""
+        """Dict of generated-function name -> sympy expressions, Pa (see
+        :func:`cfm_core.material.codegen.derivative_table`)."""
         iso, vol, _ = self.symbolic
         return codegen.derivative_table(iso, vol)
 
@@ -160,12 +267,47 @@ class MaterialSpec:
 
         Sources are cached on disk (see :mod:`cfm_core.material.cache`) under a fingerprint of the terms'
         code, so sympy differentiates a material once per machine, not once per run.
+
+        Parameters
+        ----------
+        dialect : {"math", "numpy", "torch"}
+            Target of the generated code.
+
+        Returns
+        -------
+        str
+            Module source defining psi_energy, psi_grad, psi_hess_diag, psi_hess and
+            psi_grad_hess_diag (see :mod:`cfm_core.material.codegen`).
+
+        Raises
+        ------
+        InputError
+            An energy cannot be traced symbolically (names the term).
         """
         return codegen_cache(self, dialect, lambda: codegen.module_source(self.derivatives, self.symbolic[2], dialect))
 
     @functools.lru_cache(maxsize=None)
     def kernels(self, dialect: str):
-        """Namespace with psi_energy, psi_grad, psi_hess_diag, psi_hess compiled from ``source``."""
+        """Namespace with psi_energy, psi_grad, psi_hess_diag, psi_hess compiled from ``source``.
+
+        Parameters
+        ----------
+        dialect : {"math", "numpy", "torch"}
+            Target of the generated code; the first "numpy" compilation also runs
+            :func:`check_spec`.
+
+        Returns
+        -------
+        namespace
+            Attribute access to the generated functions ``f(m1, m2, m3, p)`` (also
+            psi_grad_hess_diag), cached per spec and dialect.
+
+        Raises
+        ------
+        InputError
+            An energy cannot be traced, or (numpy) the spec is not isotropic or its reference
+            state is not stress-free.
+        """
         src = self.source(dialect)
         namespace: dict = {}
         code = compile(src, f"<cfm material {self.name} ({dialect})>", "exec")
@@ -176,7 +318,13 @@ class MaterialSpec:
         return kernels
 
     def fingerprint(self) -> str:
-        """Hash of the generated scalar code (identifies compiled kernels in caches)."""
+        """Hash of the generated scalar code (identifies compiled kernels in caches).
+
+        Returns
+        -------
+        str
+            16 hexadecimal characters (SHA-256 prefix of ``source("math")``).
+        """
         return hashlib.sha256(self.source("math").encode()).hexdigest()[:16]
 
     def __hash__(self):
@@ -200,8 +348,22 @@ class _Kernels:
 def check_spec(spec: MaterialSpec, kernels) -> None:
     """Check a spec against what every backend assumes: isotropy and a stress-free reference.
 
-    The energy must be symmetric in the principal stretches, and its gradient must vanish at
-    C = I for the default parameters. Raises InputError naming the material.
+    The energy must be symmetric in the principal stretches (checked by swapping them at two
+    sample states), and its gradient must vanish at C = I for the default parameters (below 1e-8
+    times the largest Hessian entry there, or 1e-8 Pa).
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The spec to check (its default parameter values, s_iso = 1).
+    kernels : namespace
+        Its numpy kernels (psi_energy, psi_grad, psi_hess).
+
+    Raises
+    ------
+    InputError
+        The energy changes when two stretches are swapped (not isotropic), or d psi / d m at
+        C = I is not zero or not finite (a volumetric term needs U'(1) = 0); names the material.
     """
     p = np.array([q.default for q in spec.energy_parameters] + [1.0])
     m = np.array([[1.3, 0.8, 1.1], [0.7, 1.2, 0.95]])

@@ -23,6 +23,20 @@ def where(condition, if_true, if_false):
     """``if_true`` where ``condition`` holds, else ``if_false`` (a sympy Piecewise).
 
     Both branches are evaluated by array backends, so each must be finite on the whole domain.
+    Used for the tension-only fibres of paper Eq. 3-6 (docs/conventions.md section 2).
+
+    Parameters
+    ----------
+    condition : sympy relational
+        E.g. ``x >= 1`` with ``x`` an expression of the energy's arguments.
+    if_true, if_false : sympy.Expr or number
+        The two branches (energy per reference volume, Pa, inside an energy term).
+
+    Returns
+    -------
+    sympy.Piecewise
+        ``Piecewise((if_true, condition), (if_false, True))``; printed as a conditional
+        expression (math) or ``where`` (numpy, torch) in the generated code.
     """
     return sp.Piecewise((if_true, condition), (if_false, True))
 

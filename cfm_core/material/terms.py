@@ -49,7 +49,27 @@ def isochoric(*parameters: Parameter, name: str | None = None, description: str 
 
     l1, l2, l3 are the isochoric principal stretches (J^(-1/3) lambda_a, dimensionless); the
     function returns energy per reference volume in Pa. The energy must be symmetric in l1, l2, l3
-    (isotropy); this is checked when a material is built.
+    (isotropy); this is checked when a material is built (or registered).
+
+    Parameters
+    ----------
+    *parameters : Parameter
+        Declarations of the function's arguments after l1, l2, l3, in the same order.
+    name : str, optional
+        Registry name; default the function name with ``_`` replaced by ``-``.
+    description : str, optional
+        One line for ``cfm materials``; default the first line of the function's docstring.
+
+    Returns
+    -------
+    callable
+        Decorator ``f -> Term`` (kind "isochoric").
+
+    Raises
+    ------
+    InputError
+        Now, if a declaration is not a :class:`Parameter`; when decorating, if the function's
+        arguments are not ``(l1, l2, l3, *declared names)``.
     """
     return _term_decorator("isochoric", parameters, name, description)
 
@@ -57,6 +77,27 @@ def isochoric(*parameters: Parameter, name: str | None = None, description: str 
 def volumetric(*parameters: Parameter, name: str | None = None, description: str | None = None):
     """Decorator: turn ``U(J, *params)`` into a volumetric :class:`Term` (energy in Pa).
 
-    U must satisfy U(1) = 0 and U'(1) = 0 (stress-free reference state); checked at build time.
+    U should satisfy U(1) = 0 and must satisfy U'(1) = 0 (stress-free reference state; U'(1) is
+    checked when a material is built or registered). Example: paper Eq. 7, Ogden with beta = 9.
+
+    Parameters
+    ----------
+    *parameters : Parameter
+        Declarations of the function's arguments after J, in the same order.
+    name : str, optional
+        Registry name; default the function name with ``_`` replaced by ``-``.
+    description : str, optional
+        One line for ``cfm materials``; default the first line of the function's docstring.
+
+    Returns
+    -------
+    callable
+        Decorator ``U -> Term`` (kind "volumetric").
+
+    Raises
+    ------
+    InputError
+        Now, if a declaration is not a :class:`Parameter`; when decorating, if the function's
+        arguments are not ``(J, *declared names)``.
     """
     return _term_decorator("volumetric", parameters, name, description)

@@ -65,9 +65,26 @@ def _check_rate(cfc: float, sample_rate: float) -> None:
 def cfc_coefficients(cfc: float, sample_rate: float) -> tuple[float, float, float, float, float]:
     """Coefficients (a0, a1, a2, b1, b2) (dimensionless) of the J211/1 2-pole stage, equation (C1).
 
-    cfc: channel frequency class (Hz), e.g. 60, 180, 600, 1000; sample_rate: samples per second
-    (Hz), at least 10 x CFC. In scipy's convention the stage is ``b = [a0, a1, a2]``,
+    SAE J211/1 Appendix C (module docstring): bilinear transform with pre-warping at the design
+    frequency 2.0775 CFC. In scipy's convention the stage is ``b = [a0, a1, a2]``,
     ``a = [1, -b1, -b2]``.
+
+    Parameters
+    ----------
+    cfc : float
+        Channel frequency class (Hz), e.g. 60, 180, 600, 1000; finite, > 0.
+    sample_rate : float
+        Samples per second (Hz), finite and at least 10 x CFC.
+
+    Returns
+    -------
+    a0, a1, a2, b1, b2 : float
+        The coefficients of (C1) (-).
+
+    Raises
+    ------
+    InputError
+        ``cfc`` or ``sample_rate`` is not a finite positive number, or ``sample_rate`` < 10 x CFC.
     """
     cfc = _positive_finite("cfc", cfc, "Hz")
     sample_rate = _positive_finite("sample_rate", sample_rate, "Hz")
@@ -86,18 +103,52 @@ def cfc_coefficients(cfc: float, sample_rate: float) -> tuple[float, float, floa
 
 
 def pad_length(cfc: float, sample_rate: float) -> int:
-    """Number of padding samples on each side: ceil(PAD_PERIODS / CFC * sample_rate) (-)."""
+    """Number of padding samples on each side: ceil(PAD_PERIODS / CFC * sample_rate) (-).
+
+    Parameters
+    ----------
+    cfc : float
+        Channel frequency class (Hz), > 0 (not checked here).
+    sample_rate : float
+        Samples per second (Hz).
+
+    Returns
+    -------
+    int
+        Samples of padding per side (417 for CFC 600 at 50 kHz).
+    """
     return int(math.ceil(PAD_PERIODS / cfc * sample_rate))
 
 
 def cfc_filter(x, sample_rate: float, cfc: float = 600.0, pad: str = "zero") -> np.ndarray:
     """Filter the uniformly sampled history ``x`` with SAE J211/1 CFC ``cfc``; same shape and unit.
 
-    x: 1-D array (any unit, e.g. m/s^2) sampled at ``sample_rate`` (Hz, >= 10 x CFC);
-    cfc: channel frequency class (Hz); pad: "zero" (default: the history is zero before its first
-    and after its last sample) or "edge" (the end values are held). Returns a new float64 array.
-    Forward pass of (C1) over the padded data, then the same recursion over the reversed output,
-    then the padding is cut away. Raises InputError on non-finite data or invalid parameters.
+    Forward pass of (C1) (SAE J211/1 Appendix C) over the padded data, then the same recursion
+    over the reversed output (phaseless, 4-pole), then the padding is cut away.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Non-empty, finite history (any unit, e.g. m/s^2) sampled at ``sample_rate``.
+    sample_rate : float
+        Samples per second (Hz), >= 10 x CFC (50 kHz in the drop test).
+    cfc : float
+        Channel frequency class (Hz); 600 for the drop test's accelerations.
+    pad : {"zero", "edge"}
+        "zero" (default: the history is zero before its first and after its last sample) or
+        "edge" (the end values are held); ``PAD_PERIODS / cfc`` seconds on each side.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        New float64 array, filtered, in the unit of ``x``.
+
+    Raises
+    ------
+    InputError
+        ``pad`` is not "zero" or "edge"; ``cfc`` or ``sample_rate`` is not a finite positive
+        number or ``sample_rate`` < 10 x CFC; ``x`` is not a non-empty 1-D array or has a
+        non-finite sample (the message names the first one).
     """
     if pad not in ("zero", "edge"):
         raise InputError(f"pad = {pad!r} is not allowed: use 'zero' (history starts and ends at 0) or 'edge'.")

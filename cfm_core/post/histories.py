@@ -37,8 +37,7 @@ def _positive(name: str, value, unit: str) -> float:
 def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[np.ndarray, np.ndarray]:
     """Impactor acceleration on a uniform grid, box-averaged from the impulse (no aliasing).
 
-    mass: impactor mass (kg, full model); rate: samples per second (Hz). Returns (t, a_raw):
-    t_k = k h (s), h = 1/rate, k = 0 .. floor(t_end / h), t_end the last recorded time; and::
+    With t_k = k h (s), h = 1/rate, k = 0 .. floor(t_end / h), t_end the last recorded time::
 
         a_raw(t_k) = [I(t_k + h/2) - I(t_k - h/2)] / (h mass)        (m/s^2)
 
@@ -46,8 +45,33 @@ def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[
     ``result.impulse`` linearly interpolated in ``result.t``, 0 for t < 0, held after t_end (and
     ramped linearly from (0, 0) if the record starts after t = 0). If ``result.impulse`` is None,
     I is the trapezoid-rule integral of ``result.contact_force`` (N). Summing a_raw h mass gives
-    back the total impulse. Raises InputError (bad mass, rate, times or missing histories) or
-    NumericalError (non-finite histories).
+    back the total impulse.
+
+    Parameters
+    ----------
+    result : Result
+        A backend's histories: ``t`` (s) and ``impulse`` (N s) or ``contact_force`` (N), shape
+        (m,), full model.
+    mass : float
+        Impactor mass (kg, full model), > 0.
+    rate : float
+        Samples per second (Hz), > 0; 50 kHz as in the paper.
+
+    Returns
+    -------
+    t : ndarray, shape (k,)
+        Uniform times (s), from 0.
+    a_raw : ndarray, shape (k,)
+        Acceleration (m/s^2), positive when the impactor decelerates.
+
+    Raises
+    ------
+    InputError
+        ``mass`` or ``rate`` not finite and > 0; ``result.t`` not 1-D with at least 2 times,
+        starting before 0 or decreasing; neither impulse nor contact_force recorded; or a history
+        whose shape differs from ``result.t``.
+    NumericalError
+        A non-finite value in ``result.t``, the impulse or the contact force (names the first).
     """
     mass = _positive("mass", mass, "kg")
     rate = _positive("rate", rate, "Hz")
@@ -85,7 +109,35 @@ def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[
 def acceleration_histories(result, mass: float, rate: float = 50_000.0, cfc: float = 600.0):
     """(t (s), a_raw (m/s^2), a_cfc (m/s^2)): :func:`resample_acceleration` then CFC filtering.
 
-    mass (kg); rate (Hz); cfc (Hz). The filter pads with zeros (history zero outside the record).
+    The filter (SAE J211/1 Appendix C, :func:`cfm_core.post.filters.cfc_filter`) pads with zeros
+    (the history is zero outside the record).
+
+    Parameters
+    ----------
+    result : Result
+        A backend's histories (see :func:`resample_acceleration`).
+    mass : float
+        Impactor mass (kg, full model).
+    rate : float
+        Samples per second of the uniform grid (Hz), >= 10 x ``cfc``.
+    cfc : float
+        Channel frequency class (Hz); 600 as in the paper.
+
+    Returns
+    -------
+    t : ndarray, shape (k,)
+        Uniform times (s).
+    a_raw : ndarray, shape (k,)
+        Box-averaged acceleration (m/s^2), positive when decelerating.
+    a_cfc : ndarray, shape (k,)
+        ``a_raw`` filtered with CFC ``cfc`` (m/s^2).
+
+    Raises
+    ------
+    InputError
+        Bad mass, rate, cfc or times, or missing histories.
+    NumericalError
+        Non-finite histories.
     """
     t, a_raw = resample_acceleration(result, mass, rate)
     return t, a_raw, cfc_filter(a_raw, rate, cfc=cfc, pad="zero")
@@ -94,9 +146,31 @@ def acceleration_histories(result, mass: float, rate: float = 50_000.0, cfc: flo
 def reaction_histories(result, model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Histories of a prescribed-motion scene (single element, relaxation), at the result's times.
 
-    Returns t (s), stretch (-) = 1 + u(t) / size of the prescribed face, reaction force (N, the
-    z force on the prescribed face, negative in compression) and nominal stress (Pa) = force /
-    size^2 (the undeformed face area). NumericalError on a non-finite history.
+    Parameters
+    ----------
+    result : Result
+        A backend's histories with ``t`` (s) and ``reaction_force`` (N), shape (m,).
+    model : Model
+        The model that ran: its ``prescribed`` motion and ``meta["size"]`` (m).
+
+    Returns
+    -------
+    t : ndarray, shape (m,)
+        Times (s).
+    stretch : ndarray, shape (m,)
+        1 + u(t) / size of the prescribed face (-).
+    force : ndarray, shape (m,)
+        Reaction force (N): the z force on the prescribed face, negative in compression.
+    nominal : ndarray, shape (m,)
+        Nominal stress force / size^2 (Pa), on the undeformed face area.
+
+    Raises
+    ------
+    InputError
+        The result has no reaction force or the model no prescribed motion (not a
+        single-element or relaxation scene).
+    NumericalError
+        A non-finite time or reaction force (names the first).
     """
     if result.reaction_force is None or model.prescribed is None:
         raise InputError(f"scene '{model.name}' has no prescribed motion, so no reaction force; "

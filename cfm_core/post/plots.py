@@ -14,6 +14,52 @@ from .writers import _finite_array, atomic_write
 _COLOURS = ["#1f4e9c", "#c0392b", "#27864a", "#8e44ad", "#d68910", "#17879b", "#555555", "#b03a7a"]
 
 
+#: Units shown scaled in figures (files keep SI): SI unit -> (factor, shown unit).
+DISPLAY_UNITS = {"m": (1e3, "mm"), "kg": (1e3, "g"), "s": (1e3, "ms"), "Pa": (1e-3, "kPa")}
+
+
+def display(unit: str) -> tuple[float, str]:
+    """(factor, unit text) to show a quantity in ``unit`` (SI) in a figure: lengths in mm, masses
+    in g, times in ms, stresses in kPa; dimensionless ("-") shows no unit.
+
+    Parameters
+    ----------
+    unit : str
+        SI unit of the quantity, e.g. ``"m"``, ``"Pa"``, ``"-"``.
+
+    Returns
+    -------
+    factor : float
+        Multiply the SI value by it to get the shown value.
+    shown : str
+        The shown unit (``"mm"``, ``"kPa"``, ...); empty for ``"-"`` or ``""``; other units are
+        shown as given with factor 1.
+    """
+    return DISPLAY_UNITS.get(unit, (1.0, "" if unit in ("-", "") else unit))
+
+
+def display_text(name: str, value: float, unit: str) -> str:
+    """``name = value unit`` for a legend, in the units of :func:`display` (``k2 = 1.66``,
+    ``thickness = 5 mm``).
+
+    Parameters
+    ----------
+    name : str
+        Quantity name.
+    value : float
+        Value in ``unit`` (SI).
+    unit : str
+        SI unit, e.g. ``"m"``; ``"-"`` for dimensionless.
+
+    Returns
+    -------
+    str
+        The text, value formatted with ``:g`` in the shown unit.
+    """
+    factor, shown = display(unit)
+    return f"{name} = {value * factor:g}{' ' + shown if shown else ''}"
+
+
 def _figure(title: str):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -36,8 +82,27 @@ def _save(fig, path) -> None:
 def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
     """Save a PNG of one history: raw (thin grey) and CFC 600 (bold) acceleration against time.
 
-    t (s); a_raw, a_cfc (m/s^2, positive decelerating); plotted in ms and g. The peak of the
-    filtered curve is marked and labelled.
+    Plotted in ms and g (9.80665 m/s^2), as the paper's Figure 3. The peak of the filtered curve
+    is marked and labelled. Written atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The PNG file.
+    t : array_like, shape (n,)
+        Times (s).
+    a_raw, a_cfc : array_like, shape (n,)
+        Box-averaged and SAE J211/1 CFC 600 filtered impactor acceleration (m/s^2, positive
+        decelerating).
+    title : str
+        Figure title.
+
+    Raises
+    ------
+    InputError
+        An input that is not 1-D.
+    NumericalError
+        A non-finite input value; no file is written.
     """
     t = _finite_array("t", t, ndim=1)
     a_raw = _finite_array("a_raw", a_raw, ndim=1)
@@ -58,11 +123,29 @@ def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
 
 
 def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = None) -> None:
-    """Save a PNG of several filtered histories on one axes.
+    """Save a PNG of several filtered histories on one axes (ms and g); written atomically.
 
-    curves: list of (label, t (s), a_cfc (m/s^2)); reference_peaks: optional {label: peak
-    acceleration in m/s^2} drawn as dashed horizontal lines (e.g. experimental peaks, 52.5 g =
-    52.5 * 9.80665 m/s^2); a line whose label equals a curve's label takes that curve's colour.
+    More than four curves put the legend beside the axes.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The PNG file.
+    curves : list of (str, array_like, array_like)
+        ``(label, t (s) shape (n,), a_cfc (m/s^2) shape (n,))`` per curve.
+    title : str
+        Figure title.
+    reference_peaks : dict of str to float, optional
+        ``{label: peak acceleration in m/s^2}`` drawn as dashed horizontal lines (e.g.
+        experimental peaks, 52.5 g = 52.5 * 9.80665 m/s^2, paper section 4); a line whose label
+        equals a curve's label takes that curve's colour.
+
+    Raises
+    ------
+    InputError
+        An input that is not 1-D.
+    NumericalError
+        A non-finite input value; no file is written.
     """
     fig, ax = _figure(title)
     colour_of = {}
@@ -84,16 +167,36 @@ def plot_overlay(path, curves: list, title: str, reference_peaks: dict | None = 
     if t_max > 0.0:
         ax.set_xlim(0.0, t_max)
     ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]), top=1.25 * top if top > 0.0 else None)
-    if curves:
-        ax.legend(loc="upper left", fontsize=8, framealpha=0.95, edgecolor="0.8", ncols=min(len(curves), 4))
+    if len(curves) > 4:  # a long legend goes beside the axes (constrained layout makes room for it)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+    elif curves:
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.95, edgecolor="0.8")
     _save(fig, path)
 
 
 def plot_reaction(path, t, force, title: str) -> None:
-    """Save a PNG of a reaction-force history: t (s), force (N), plotted in ms and N.
+    """Save a PNG of a reaction-force history, plotted in ms and N; written atomically.
 
     When the history spans more than three decades of time after its first sample (a relaxation
     hold of seconds after a load of milliseconds), the time axis is logarithmic.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The PNG file.
+    t : array_like, shape (n,)
+        Times (s).
+    force : array_like, shape (n,)
+        Reaction force (N).
+    title : str
+        Figure title.
+
+    Raises
+    ------
+    InputError
+        An input that is not 1-D.
+    NumericalError
+        A non-finite input value; no file is written.
     """
     t = _finite_array("t", t, ndim=1)
     force = _finite_array("reaction_force", force, ndim=1)
@@ -108,5 +211,38 @@ def plot_reaction(path, t, force, title: str) -> None:
     ax.plot(ms, force, color=_COLOURS[0], linewidth=2.0,
             label=f"largest |F| = {abs(force[k]):.4g} N at {ms[k]:.3g} ms; final {force[-1]:.4g} N")
     ax.plot(ms[k], force[k], "o", color=_COLOURS[0], markersize=4)
+    ax.legend(loc="best", fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def plot_uniaxial(path, stretch, nominal, title: str) -> None:
+    """Save a PNG of a uniaxial test: nominal stress (Pa, shown in kPa) against stretch (-).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The PNG file (written atomically).
+    stretch : array_like, shape (n,)
+        Stretch (-).
+    nominal : array_like, shape (n,)
+        Nominal stress (Pa).
+    title : str
+        Figure title.
+
+    Raises
+    ------
+    InputError
+        An input that is not 1-D.
+    NumericalError
+        A non-finite input value; no file is written.
+    """
+    stretch = _finite_array("stretch", stretch, ndim=1)
+    nominal = _finite_array("nominal_stress", nominal, ndim=1)
+    fig, ax = _figure(title)
+    ax.set_xlabel("Stretch (-)")
+    ax.set_ylabel("Nominal stress (kPa)")
+    ax.plot(stretch, 1e-3 * nominal, color=_COLOURS[0], linewidth=2.0)
+    ax.plot(stretch[-1], 1e-3 * nominal[-1], "o", color=_COLOURS[0], markersize=4,
+            label=f"{1e-3 * nominal[-1]:.3g} kPa at stretch {stretch[-1]:.3g}")
     ax.legend(loc="best", fontsize=8, frameon=False)
     _save(fig, path)

@@ -27,7 +27,20 @@ REACTION_COLUMN_UNITS = {"t": "s", "stretch": "-", "reaction_force": "N", "nomin
 def atomic_write(path, write: Callable[[str], None]) -> Path:
     """Call ``write(tmp_path)`` on a temporary file next to ``path``, then rename it to ``path``.
 
-    On any exception the temporary file is removed and ``path`` is left as it was.
+    On any exception the temporary file is removed and ``path`` is left as it was. The file is
+    fsynced before the rename (``os.replace``, atomic on POSIX and Windows).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Final file name; its folder must exist.
+    write : callable
+        ``write(tmp_path: str) -> None`` writes the whole content to ``tmp_path``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
     """
     path = Path(path)
     # Not mkstemp: its 0600 mode would survive the rename; a random name gives normal permissions.
@@ -68,6 +81,31 @@ def write_csv(path, header: list[str], columns: list, comments: list[str] = ()) 
 
     The header is the first line unless ``comments`` are given, which then precede it as lines
     starting with ``"# "``. Values are written with Python's shortest round-trip repr (exact).
+    Written atomically (:func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file.
+    header : list of str
+        Column names, without commas or line breaks (units belong in the name or the summary).
+    columns : list of array_like, each shape (n,)
+        The data, finite, in SI units.
+    comments : list of str
+        Lines written before the header, each prefixed with ``"# "``; no line breaks.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        A name with a comma or line break, a comment with a line break, not one name per
+        column, a column that is not 1-D, or columns of different lengths.
+    NumericalError
+        A non-finite value (names the column and the first index); nothing is written.
     """
     header = [_check_line("column name", h) for h in header]
     if any("," in h for h in header):
@@ -105,7 +143,29 @@ def _json_default(o):
 
 
 def write_json(path, data) -> Path:
-    """Write ``data`` as indented JSON; NaN or inf anywhere raises NumericalError, nothing written."""
+    """Write ``data`` as indented JSON; NaN or inf anywhere raises NumericalError, nothing written.
+
+    numpy scalars and arrays and paths are converted to plain JSON values. Written atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The JSON file.
+    data : dict or list
+        JSON-able content.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    NumericalError
+        NaN or inf anywhere in ``data``.
+    InputError
+        An object that cannot be written as JSON.
+    """
     try:
         text = json.dumps(data, indent=2, allow_nan=False, default=_json_default)
     except ValueError as exc:  # raised by allow_nan=False
@@ -123,10 +183,33 @@ def write_json(path, data) -> Path:
 def write_history(out_dir, filename: str, column_units: dict, columns: list, summary: dict) -> Path:
     """Write ``filename`` (CSV, header = the keys of column_units) then ``summary.json`` in out_dir.
 
-    columns: equal-length 1-D arrays in the order of column_units ({name: SI unit}); summary is a
-    JSON-able dict, to which the column units are added under "units". Both are checked before
-    the disk is touched; a stale summary.json is removed first and the new one is written last,
-    so its presence means the run's output is complete. Returns out_dir.
+    Both are checked before the disk is touched; a stale summary.json is removed first and the
+    new one is written last, so its presence means the run's output is complete.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Output folder (created).
+    filename : str
+        Name of the CSV file in ``out_dir``.
+    column_units : dict of str to str
+        Column name -> SI unit, in column order.
+    columns : list of array_like, each shape (n,)
+        The data, in the order of ``column_units``.
+    summary : dict
+        JSON-able summary; the column units are added under ``"units"`` (its own units win).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir``.
+
+    Raises
+    ------
+    InputError
+        A column that is not 1-D or columns of different lengths.
+    NumericalError
+        A non-finite value in a column or in the summary; nothing is written.
     """
     out = Path(out_dir)
     arrays = [_finite_array(n, a, ndim=1) for n, a in zip(column_units, columns)]
@@ -145,22 +228,99 @@ def write_history(out_dir, filename: str, column_units: dict, columns: list, sum
 
 def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
     """``acceleration.csv`` (``t,a_raw,a_cfc600``: s, m/s^2, m/s^2) and summary.json; see
-    :func:`write_history`."""
+    :func:`write_history`.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Output folder (created).
+    t : array_like, shape (n,)
+        Times (s).
+    a_raw, a_cfc : array_like, shape (n,)
+        Impactor acceleration (m/s^2), box-averaged and SAE J211/1 CFC 600 filtered.
+    summary : dict
+        JSON-able summary (see :func:`cfm_core.post.summarize`).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir``.
+
+    Raises
+    ------
+    InputError
+        A column that is not 1-D or columns of different lengths.
+    NumericalError
+        A non-finite value in a column or in the summary; nothing is written.
+    """
     return write_history(out_dir, "acceleration.csv", DROP_TEST_COLUMN_UNITS, [t, a_raw, a_cfc], summary)
 
 
 def write_reaction(out_dir, t, stretch, force, nominal, summary: dict) -> Path:
     """``reaction.csv`` (``t,stretch,reaction_force,nominal_stress``: s, -, N, Pa) of a
-    prescribed-motion scene and summary.json; see :func:`write_history`."""
+    prescribed-motion scene and summary.json; see :func:`write_history`.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Output folder (created).
+    t : array_like, shape (n,)
+        Times (s).
+    stretch : array_like, shape (n,)
+        Stretch of the loaded face (-).
+    force : array_like, shape (n,)
+        Reaction force (N).
+    nominal : array_like, shape (n,)
+        Nominal stress (Pa).
+    summary : dict
+        JSON-able summary (see :func:`cfm_core.post.summarize_reaction`).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir``.
+
+    Raises
+    ------
+    InputError
+        A column that is not 1-D or columns of different lengths.
+    NumericalError
+        A non-finite value in a column or in the summary; nothing is written.
+    """
     return write_history(out_dir, "reaction.csv", REACTION_COLUMN_UNITS, [t, stretch, force, nominal], summary)
 
 
 def write_vtu_series(out_dir, nodes, hexes, frames) -> Path:
     """Write ``specimen_XXXX.vtu`` per frame and the ParaView collection ``specimen.pvd``.
 
-    nodes: (n, 3) reference coordinates (m); hexes: (m, 8) node indices (VTK hexahedron order);
-    frames: list of (t (s), displacement (n, 3) in m), stored as point data "displacement" on the
-    reference mesh (use ParaView's "Warp By Vector"). The .pvd is written last. Returns its path.
+    Displacements are stored as point data "displacement" on the reference mesh (use ParaView's
+    "Warp By Vector"). Every frame is checked before anything is written; each file is written
+    atomically and the .pvd last.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Output folder (created).
+    nodes : array_like, shape (n, 3)
+        Reference coordinates (m).
+    hexes : array_like, shape (m, 8)
+        Integer node indices (VTK hexahedron order).
+    frames : list of (float, array_like)
+        ``(t (s), displacement (n, 3) in m)`` per frame.
+
+    Returns
+    -------
+    pathlib.Path
+        The path of ``specimen.pvd``.
+
+    Raises
+    ------
+    InputError
+        ``nodes`` not (n, 3), ``hexes`` not an integer (m, 8) array or referring to missing
+        nodes, or a displacement whose shape differs from ``nodes``.
+    NumericalError
+        A non-finite coordinate, frame time or displacement (names the frame); nothing is
+        written.
     """
     import meshio
 

@@ -1,73 +1,81 @@
-"""Run a scene on a backend and post-process it: scene -> model -> backend.run -> outputs.
+"""Run a scene end to end: scene -> model -> backend.run -> post-processing -> outcome.
 
-Backends never post-process; post-processing never knows the backend (docs/conventions.md section 3).
+Backends never post-process; post-processing never knows the backend (docs/conventions.md
+section 3). The outcome keeps the resolved scene, so that what it writes can be run again.
 """
 
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from typing import Callable
 
-import numpy as np
-
-from .. import post as postprocess
+from .. import post
+from ..errors import InputError
 from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
-from ..errors import InputError
+from ..scene.scene import Scene, scene_to_dict
 from ..simulation import checks
-from ..simulation.registry import get_backend
+from ..simulation.registry import backend_for
+from .outcomes import DropTestOutcome, ReactionOutcome
+
+#: Run statistics a backend may report that are copied into the summary.
+_RESULT_INFO = ("compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio")
 
 
-@dataclass
-class DropTestOutcome:
-    """A finished drop test: the model, the raw result, the 50 kHz histories and the summary.
-
-    t (s, from first contact), a_raw and a_cfc (m/s^2, positive decelerating, CFC 600).
-    """
-
-    model: object
-    result: object
-    t: np.ndarray
-    a_raw: np.ndarray
-    a_cfc: np.ndarray
-    summary: dict
-
-
-@dataclass
-class ReactionOutcome:
-    """A finished prescribed-motion run (single element, relaxation): the model, the raw result,
-    t (s), stretch (-), reaction force (N, negative in compression), nominal stress (Pa) and
-    the summary."""
-
-    model: object
-    result: object
-    t: np.ndarray
-    stretch: np.ndarray
-    force: np.ndarray
-    nominal: np.ndarray
-    summary: dict
-
-
-def default_backend(scene) -> str:
-    """The backend a scene runs on when none is named: 'skfem' for quasi-static scenes
-    (relaxation: no inertia, holds of seconds), 'numba' otherwise."""
+def default_backend(scene: Scene) -> str:
+    """The backend a scene runs on when none is named: the first quasi-static-capable backend
+    ('skfem') for scenes without inertia (relaxation), 'numba' otherwise."""
     return "skfem" if scene.type == "relaxation" else "numba"
 
 
-def backend_for(name: str):
-    """An available backend instance, or InputError naming why it cannot run here."""
-    backend = get_backend(name)
-    ok, why = backend.available()
-    if not ok:
-        raise InputError(f"backend '{name}' is not available: {why}.")
-    return backend
+def _progress(progress, scene: Scene, label: str):
+    """A progress callback from the ``progress`` argument: None/False (none), True (a tqdm bar on
+    stderr), or a callable taking the simulated time in s."""
+    if progress is True:
+        from tqdm import tqdm
+
+        bar = tqdm(total=round(1e3 * scene.end_time, 3), desc=label, unit="ms", file=sys.stderr,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
+
+        def update(t: float) -> None:
+            n = round(1e3 * min(max(t, 0.0), scene.end_time), 3)
+            if n > bar.n:
+                bar.update(n - bar.n)
+
+        update.close = bar.close
+        return update
+    return progress or None
 
 
-def run_model(model, backend: str = "numba", progress=None, **options):
-    """Run a built :class:`~cfm_core.scene.Model` on a backend; returns its Result.
+def run_model(model, backend: str = "numba", progress: Callable[[float], None] | None = None, **options):
+    """Run a built :class:`~cfm_core.scene.Model` on a backend, with the end-of-run physics checks.
 
-    The end-of-run physics checks (:func:`cfm_core.simulation.checks.check_result`) run here for
-    every backend: a failed check raises NumericalError, warnings go to ``result.info["warnings"]``.
+    The checks (:func:`cfm_core.simulation.checks.check_result`) run here for every backend; the
+    backends run the state checks (:class:`cfm_core.simulation.checks.Monitor`) during the run.
+
+    Parameters
+    ----------
+    model : Model
+        From :func:`cfm_core.build_model`.
+    backend : str
+        Registered backend name (``cfm backends``).
+    progress : callable, optional
+        Called with the simulated time (s) from time to time.
+    **options
+        The backend's options (``cfm backends --options``).
+
+    Returns
+    -------
+    Result
+        Raw histories (no post-processing); ``info["warnings"]``: the checks' warnings (text).
+
+    Raises
+    ------
+    InputError
+        Unknown or unavailable backend, bad options, a model the backend cannot run.
+    NumericalError
+        The run failed or its physics broke (penetration, bottoming out, folded element, contact
+        at the automatic end time, a stop limit): names where and when.
     """
     result = backend_for(backend).run(model, progress=progress, **options)
     result.info["warnings"] = checks.check_result(model, result)
@@ -75,14 +83,34 @@ def run_model(model, backend: str = "numba", progress=None, **options):
 
 
 def report_warnings(summary: dict, stream=None) -> None:
-    """Print a summary's run-check warnings, one line each, on ``stream`` (default stderr)."""
+    """Print a summary's run-check warnings on stderr.
+
+    Parameters
+    ----------
+    summary : dict
+        A run summary; its ``"warnings"`` (list of text), if any, are printed one per line.
+    stream : file, optional
+        Where to print (default ``sys.stderr``).
+    """
     for text in summary.get("warnings", []):
         print(f"warning: {text}", file=stream or sys.stderr)
 
 
-def check_output_rate(scene, cfc: float = 600.0) -> None:
-    """InputError naming [scene] output_rate (Hz) when it is below what the CFC filter needs
-    (SAE J211/1: at least 10 x CFC), raised before anything is run."""
+def check_output_rate(scene: Scene, cfc: float = 600.0) -> None:
+    """Refuse a drop-test scene whose output rate is too low for the CFC filter, before running.
+
+    Parameters
+    ----------
+    scene : Scene
+        The drop-test scene ([scene] output_rate in Hz).
+    cfc : float
+        Channel frequency class of the filter (Hz, default 600).
+
+    Raises
+    ------
+    InputError
+        output_rate below 10 x CFC (SAE J211/1), naming [scene] output_rate.
+    """
     rate = float(scene.settings.output_rate)
     if rate < MIN_RATE_OVER_CFC * cfc:
         raise InputError(
@@ -91,50 +119,110 @@ def check_output_rate(scene, cfc: float = 600.0) -> None:
             f"Use output_rate >= {MIN_RATE_OVER_CFC * cfc:g} Hz (the paper's 50 000 Hz is the default).")
 
 
-def drop_test(scene, backend: str = "numba", progress=None, **options) -> DropTestOutcome:
-    """Run a drop-test scene and post-process it (SAE J211 CFC 600 at 50 kHz by default)."""
+def _run(scene: Scene, backend: str, progress, label: str, options: dict):
+    model = build_model(scene)
+    callback = _progress(progress, scene, label)
+    try:
+        result = run_model(model, backend, callback, **options)
+    finally:
+        if hasattr(callback, "close"):
+            callback.close()
+    return model, result
+
+
+def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) -> DropTestOutcome:
+    """Run a drop-test scene and post-process it (SAE J211/1 CFC 600 at the scene's output rate).
+
+    Parameters
+    ----------
+    scene : Scene
+        A ``drop-test`` scene, e.g. ``cfm.builtin_scene("drop-test").with_overrides(thickness=0.005)``
+        (SI units).
+    backend : str
+        ``"numba"`` (default), ``"torch"``, ``"skfem"`` or any registered backend.
+    progress : bool or callable, optional
+        True for a progress bar on stderr, or a callable taking the simulated time (s).
+    **options
+        Backend options (``cfm backends --options``), e.g. ``device="cuda"`` for torch.
+
+    Returns
+    -------
+    DropTestOutcome
+        Histories (t s, a_raw and a_cfc m/s^2), summary (``peak_g``, ``t_peak`` s, ``duration``
+        s, ...), ``to_dataframe()``, ``save(dir)``.
+
+    Raises
+    ------
+    InputError
+        Not a drop-test scene, unknown backend, bad options.
+    NumericalError
+        The run failed or its physics broke (names where and when).
+    """
     if scene.type != "drop-test":
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
     check_output_rate(scene)
-    model = build_model(scene)
-    result = run_model(model, backend, progress, **options)
+    label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
+    model, result = _run(scene, backend, progress, label, options)
     rate = float(scene.settings.output_rate)
-    t, a_raw, a_cfc = postprocess.acceleration_histories(result, model.mass_full, rate=rate)
+    t, a_raw, a_cfc = post.acceleration_histories(result, model.mass_full, rate=rate)
     info = {
-        "impactor_mass": model.mass_full, "sample_rate": rate, "elements": model.n_elements * int(model.symmetry_factor),
-        "elements_modelled": model.n_elements,
-        "thickness": model.meta["thickness"], "element_size": model.meta["element_size"],
+        "scene_name": scene.settings.name or "",
+        "impactor_mass": model.mass_full, "impactor_radius": scene.impactor.radius, "sample_rate": rate,
+        "elements": model.n_elements * int(model.symmetry_factor), "elements_modelled": model.n_elements,
+        "thickness": model.meta["thickness"], "width": scene.specimen.width, "element_size": model.meta["element_size"],
+        "density": scene.specimen.density, "friction": scene.contact.friction, "mesh": scene.specimen.mesh or "",
         "velocity": model.meta["velocity"], "symmetry": model.meta["symmetry"],
         "material": model.material.name, "moduli": model.material.moduli, "elastic": model.material.elastic,
-        "parameters": dict(model.material.values),
-        "units": {"thickness": "m", "element_size": "m", "velocity": "m/s", "elements_modelled": "-",
-                  "parameters": "SI (Pa, s, -)"},
+        "parameters": dict(model.material.values), "scene": scene_to_dict(scene),
+        "units": {"thickness": "m", "width": "m", "element_size": "m", "velocity": "m/s", "elements_modelled": "-",
+                  "impactor_radius": "m", "density": "kg/m^3", "friction": "-", "parameters": "SI (Pa, s, -)",
+                  "scene": "SI (as in scene.toml)"},
     }
-    for key in ("compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio"):
-        if key in result.info:
-            info[key] = result.info[key]
+    info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
     info["warnings"] = list(result.info.get("warnings", []))
-    summary = postprocess.summarize(result, info)
+    summary = post.summarize(result, info)
     report_warnings(summary)
-    return DropTestOutcome(model, result, t, a_raw, a_cfc, summary)
+    return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
 
-def reaction_test(scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:
-    """Run a single-element or relaxation scene; reaction-force histories and their summary."""
+def reaction_test(scene: Scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:
+    """Run a single-element or relaxation scene: reaction-force histories and their summary.
+
+    Parameters
+    ----------
+    scene : Scene
+        A ``single-element`` or ``relaxation`` scene (SI units).
+    backend : str, optional
+        Backend name; default :func:`default_backend` (skfem for relaxation, numba otherwise).
+    progress, **options
+        As for :func:`drop_test`.
+
+    Returns
+    -------
+    ReactionOutcome
+        t (s), stretch (-), force (N), nominal stress (Pa), summary; ``to_dataframe()``, ``save(dir)``.
+
+    Raises
+    ------
+    InputError
+        Wrong scene type, unknown backend, a quasi-static scene on an explicit backend.
+    NumericalError
+        The run failed (names where and when).
+    """
     if scene.type not in ("single-element", "relaxation"):
         raise InputError(f"scene type is '{scene.type}'; reaction_test needs a 'single-element' or "
                          f"'relaxation' scene (drop tests: drop_test).")
     backend = backend or default_backend(scene)
-    model = build_model(scene)
-    result = run_model(model, backend, progress, **options)
-    t, stretch, force, nominal = postprocess.reaction_histories(result, model)
+    model, result = _run(scene, backend, progress, f"{scene.type} ({backend})", options)
+    t, stretch, force, nominal = post.reaction_histories(result, model)
     meta = model.meta
     info = {k: meta[k] for k in ("scene_type", "size", "stretch", "load_time", "hold", "rate", "lateral")
             if k in meta}
-    info.update(material=model.material.name, moduli=model.material.moduli, elastic=model.material.elastic,
-                parameters=dict(model.material.values), elements=model.n_elements)
-    info["units"] = {"parameters": "SI (Pa, s, -)"}
+    info.update(scene_name=scene.settings.name or "", material=model.material.name, moduli=model.material.moduli,
+                elastic=model.material.elastic, parameters=dict(model.material.values), elements=model.n_elements,
+                scene=scene_to_dict(scene))
+    info["units"] = {"parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
     info["warnings"] = list(result.info.get("warnings", []))
-    summary = postprocess.summarize_reaction(result, t, force, info)
+    summary = post.summarize_reaction(result, t, force, info)
     report_warnings(summary)
-    return ReactionOutcome(model, result, t, stretch, force, nominal, summary)
+    return ReactionOutcome(scene, model, result, t, stretch, force, nominal, summary)

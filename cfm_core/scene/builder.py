@@ -20,9 +20,34 @@ from ..material.registry import make_material
 def build_model(scene: Scene, material=None) -> Model:
     """Build the model of a validated scene.
 
-    material: an already bound :class:`cfm_core.material.Material` to use instead of the one the
-    scene names (for tests and studies); default: ``cfm_core.material.make_material(name,
-    parameters, moduli, elastic)`` from the scene's [material] section.
+    Only what the scene needs is built (docs/conventions.md section 4). Drop test: the specimen
+    z in [0, thickness] on the rigid plane z = 0, the rigid sphere touching its top at the
+    centre moving down at the impact speed; with quarter symmetry only x, y >= 0 is meshed
+    (u_x = 0 on x = 0, u_y = 0 on y = 0), the sphere carries a quarter of the mass and
+    ``symmetry_factor`` is 4. Single element / relaxation: one cube of edge ``size`` with a
+    prescribed top-face displacement ramp to (stretch - 1) size, then a hold; relaxation has no
+    inertia (density 0, ``meta["quasi_static"]``).
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene.
+    material : Material, optional
+        An already bound :class:`cfm_core.material.Material` to use instead of the one the scene
+        names (for tests and studies); default: ``cfm_core.material.make_material(name,
+        parameters, moduli, elastic)`` from the scene's [material] section.
+
+    Returns
+    -------
+    Model
+        The backend-neutral model: nodes (n, 3) in m, hexes (e, 8), rigid bodies, boundary
+        conditions, end time and output interval (s), ``meta`` with the scene's values.
+
+    Raises
+    ------
+    InputError
+        The scene's material is unknown or its parameters are invalid, or its specimen mesh
+        file cannot be read.
     """
     if material is None:
 

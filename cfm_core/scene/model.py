@@ -20,8 +20,16 @@ if TYPE_CHECKING:  # pragma: no cover
 class RigidSphere:
     """Rigid spherical impactor moving along z only (one translational degree of freedom).
 
-    radius (m); mass (kg) of the *modelled part* (a quarter model carries a quarter of the mass);
-    center (m) at t = 0; velocity (m/s) along z at t = 0 (negative: moving down onto the specimen).
+    Parameters
+    ----------
+    radius : float
+        Sphere radius (m).
+    mass : float
+        Mass of the *modelled part* (kg): a quarter model carries a quarter of the mass.
+    center : tuple of float, shape (3,)
+        Centre at t = 0 (m).
+    velocity : float
+        Velocity along z at t = 0 (m/s); negative: moving down onto the specimen.
     """
 
     radius: float
@@ -32,7 +40,13 @@ class RigidSphere:
 
 @dataclass(frozen=True)
 class RigidPlane:
-    """Rigid fixed plane z = ``z`` (m) with normal +z; the specimen lies above it."""
+    """Rigid fixed plane z = ``z`` (m) with normal +z; the specimen lies above it.
+
+    Parameters
+    ----------
+    z : float
+        Height of the plane (m).
+    """
 
     z: float = 0.0
 
@@ -41,8 +55,19 @@ class RigidPlane:
 class Prescribed:
     """Prescribed displacement history of some nodes along one direction.
 
-    nodes: node indices; dof: 0, 1 or 2 (x, y, z); times (s) and values (m): piecewise-linear
-    displacement u(t) added to the reference coordinate. Reaction force is reported for these nodes.
+    Reaction force is reported for these nodes.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (k,)
+        Node indices (int).
+    dof : int
+        Direction: 0, 1 or 2 (x, y, z).
+    times : ndarray, shape (p,)
+        Increasing times of the breakpoints (s), starting at 0.
+    values : ndarray, shape (p,)
+        Displacement u at those times (m), added to the reference coordinate; piecewise linear
+        in between, held after the last time.
     """
 
     nodes: np.ndarray
@@ -51,11 +76,33 @@ class Prescribed:
     values: np.ndarray
 
     def displacement(self, t: float) -> float:
-        """Displacement (m) at time t (s), piecewise linear, held constant after the last time."""
+        """Displacement (m) at time t (s), piecewise linear, held constant after the last time.
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+
+        Returns
+        -------
+        float
+            u(t) (m); ``values[0]`` before the first time.
+        """
         return float(np.interp(t, self.times, self.values))
 
     def velocity(self, t: float) -> float:
-        """Velocity (m/s) at time t (s): slope of the segment containing t (zero after the end)."""
+        """Velocity (m/s) at time t (s): slope of the segment containing t (zero after the end).
+
+        Parameters
+        ----------
+        t : float
+            Time (s); at a breakpoint the slope of the segment that starts there.
+
+        Returns
+        -------
+        float
+            du/dt (m/s); 0 before the first and from the last time on.
+        """
         i = int(np.searchsorted(self.times, t, side="right")) - 1
         if i < 0 or i >= len(self.times) - 1:
             return 0.0
@@ -64,16 +111,46 @@ class Prescribed:
 
 @dataclass(frozen=True)
 class Model:
-    """Everything a backend needs to run one scene.
+    """Everything a backend needs to run one scene (made by :func:`cfm_core.scene.build_model`).
 
-    nodes: (n, 3) reference coordinates (m). hexes: (e, 8) connectivity in meshio/VTK hexahedron
-    order (bottom face counter-clockwise seen from above, then top face). density (kg/m^3).
-    material: a bound :class:`cfm_core.material.Material`. fixed_dofs: (k, 2) pairs (node, dof)
-    whose velocity is held at zero (symmetry planes, clamps). sphere_nodes / plane_nodes: nodes
-    that may touch the sphere / the plane. friction: Coulomb coefficient (-) on both contacts.
-    end_time (s); output_interval (s): histories are recorded at least this often.
-    symmetry_factor: full-model force = factor x modelled force (4 for a quarter model).
-    mass_full (kg): the real impactor mass, for acceleration = full contact force / mass_full.
+    Parameters
+    ----------
+    name : str
+        Scene name, for messages and outputs.
+    nodes : ndarray, shape (n, 3)
+        Reference coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity in meshio/VTK hexahedron order (bottom face counter-clockwise seen from
+        above, then top face).
+    density : float
+        Mass density (kg/m^3); 0 for a quasi-static scene.
+    material : Material
+        A bound :class:`cfm_core.material.Material`.
+    end_time : float
+        Simulated end time (s).
+    output_interval : float
+        Histories are recorded at least this often (s).
+    fixed_dofs : ndarray, shape (k, 2)
+        (node, dof) pairs whose velocity is held at zero (symmetry planes, clamps).
+    prescribed : Prescribed, optional
+        Imposed boundary motion; None when there is none.
+    sphere, plane : RigidSphere, RigidPlane, optional
+        Rigid bodies; None when absent.
+    sphere_nodes, plane_nodes : ndarray, shape (k,)
+        Nodes that may touch the sphere / the plane.
+    friction : float
+        Coulomb coefficient (-) on both contacts.
+    symmetry_factor : float
+        Full-model force = factor x modelled force (4 for a quarter model).
+    mass_full : float, optional
+        The real impactor mass (kg), for acceleration = full contact force / mass_full.
+    gravity : float
+        Gravitational acceleration on the impactor (m/s^2); its magnitude acts along -z. 0 in
+        the built-in scenes.
+    stop_after_separation : bool
+        End the run once the impactor has left the specimen.
+    meta : dict
+        The scene's values for summaries (scene_type, thickness in m, ...; ``quasi_static``).
     """
 
     name: str
@@ -98,8 +175,10 @@ class Model:
 
     @property
     def n_nodes(self) -> int:
+        """Number of nodes n."""
         return int(self.nodes.shape[0])
 
     @property
     def n_elements(self) -> int:
+        """Number of hexahedra e."""
         return int(self.hexes.shape[0])

@@ -53,7 +53,31 @@ _OVERRIDES = {
 
 @dataclass(frozen=True)
 class Scene:
-    """A validated scene. Sections a scene type does not use are None (and not allowed)."""
+    """A validated scene (docs/conventions.md section 4). Sections a scene type does not use are
+    None (and not allowed); a used section left out gets its defaults. Immutable: change it with
+    :meth:`with_overrides`.
+
+    Parameters
+    ----------
+    settings : SceneSettings
+        The [scene] section: type ("drop-test", "single-element", "relaxation"), name, end_time
+        (s), output_rate (Hz).
+    material : MaterialSettings
+        The [material] section: registered name, moduli, elastic, parameter overrides (SI).
+    specimen, impactor, contact : Specimen, Impactor, Contact, optional
+        Drop test only: specimen geometry (m), density (kg/m^3), mesh; rigid hemisphere radius
+        (m), mass (kg), velocity (m/s); friction (-).
+    element : ElementTest, optional
+        Single element only: size (m), stretch (-), rate (1/s), hold (s), density (kg/m^3).
+    relaxation : RelaxationTest, optional
+        Relaxation only: size (m), stretch (-), load_time (s), hold (s), lateral.
+
+    Raises
+    ------
+    InputError
+        ``settings`` is not a SceneSettings, a section the scene type does not use is given, or a
+        section is not of its class.
+    """
 
     settings: SceneSettings
     material: MaterialSettings = field(default_factory=MaterialSettings)
@@ -82,6 +106,7 @@ class Scene:
 
     @property
     def type(self) -> str:
+        """The scene type: "drop-test", "single-element" or "relaxation"."""
         return self.settings.type
 
     @property
@@ -107,7 +132,29 @@ class Scene:
         Keys are the TOML keys of the scene's sections (``material`` sets the material name);
         ``parameters`` are merged into the existing overrides; None restores a default
         (``end_time=None``: automatic; ``mesh=None``: structured mesh with default geometry;
-        ``parameters=None``: no parameter overrides).
+        ``parameters=None``: no parameter overrides). Giving ``mesh`` drops width, thickness and
+        element_size unless they are given too (they come from the mesh).
+
+        Parameters
+        ----------
+        **kw
+            Any of: ``name``, ``end_time`` (s), ``output_rate`` (Hz), ``material``, ``moduli``,
+            ``elastic``, ``parameters`` (dict, SI); drop test: ``width``, ``thickness``,
+            ``element_size`` (m), ``density`` (kg/m^3), ``symmetry``, ``mesh`` (path), ``radius``
+            (m), ``mass`` (kg), ``velocity`` (m/s), ``friction`` (-); single element: ``size``
+            (m), ``stretch`` (-), ``rate`` (1/s), ``hold`` (s), ``density`` (kg/m^3); relaxation:
+            ``size`` (m), ``stretch`` (-), ``load_time`` (s), ``hold`` (s), ``lateral``.
+
+        Returns
+        -------
+        Scene
+            A new scene; this one is unchanged.
+
+        Raises
+        ------
+        InputError
+            A key the scene type does not have (the message lists the allowed ones),
+            ``parameters`` that is not a dict, or a value the section rejects.
         """
         allowed = _OVERRIDES[self.type]
         d = scene_to_dict(self)
@@ -136,7 +183,24 @@ class Scene:
 def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
     """Validate a nested dict (as read from TOML) into a :class:`Scene`.
 
-    base_dir: folder that a relative [specimen] mesh path is taken from (default: the current one).
+    Parameters
+    ----------
+    d : mapping
+        ``{"scene": {"type": ..., ...}, "<section>": {key: value (SI)}, ...}``.
+    base_dir : str or path-like, optional
+        Folder that a relative [specimen] mesh path is taken from (default: the current one).
+
+    Returns
+    -------
+    Scene
+        The validated scene.
+
+    Raises
+    ------
+    InputError
+        ``d`` is not a table, no [scene] section with a type, an unknown scene type, section or
+        key, a section that is not a table, or a value outside what its section allows (the
+        message names section, key, value, unit and what is allowed).
     """
     if not isinstance(d, Mapping):
         raise InputError(f"a scene must be a table of sections, got {type(d).__name__}.")
@@ -170,7 +234,24 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
 
 
 def load_scene(path) -> Scene:
-    """Read and validate a TOML scene file (SI units); errors name the file."""
+    """Read and validate a TOML scene file (SI units); errors name the file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.toml`` file; a relative ``mesh`` in it is taken from the file's folder.
+
+    Returns
+    -------
+    Scene
+        The validated scene.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not valid TOML, or does not validate
+        (:func:`scene_from_dict`); the message starts with the file name.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -191,12 +272,35 @@ def _scenes_dir() -> Path:
 
 
 def builtin_scenes() -> list[str]:
-    """Names of the built-in scenes shipped in ``cfm_core/scenes``."""
+    """Names of the built-in scenes shipped in ``cfm_core/scene/scenes``.
+
+    Returns
+    -------
+    list of str
+        Sorted names, e.g. ``["drop-test", "relaxation", "single-element"]``.
+    """
     return sorted(p.stem for p in _scenes_dir().glob("*.toml"))
 
 
 def builtin_scene(name: str) -> Scene:
-    """A built-in scene by name ("drop-test", "single-element", "relaxation")."""
+    """A built-in scene by name ("drop-test", "single-element", "relaxation").
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`builtin_scenes`.
+
+    Returns
+    -------
+    Scene
+        The validated scene (SI units), e.g. the paper's drop test: 50 x 50 x 8 mm specimen,
+        0.220 kg hemisphere of radius 55 mm at 1 m/s (docs/conventions.md section 4).
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the built-in scenes).
+    """
     if name not in builtin_scenes():
         raise InputError(f"unknown built-in scene {name!r}; available: "
                          f"{', '.join(builtin_scenes())}.")
@@ -216,6 +320,17 @@ def scene_to_dict(scene: Scene) -> dict:
 
     Automatic values are left out (end_time when None; width, thickness and element_size when
     they come from a mesh).
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene.
+
+    Returns
+    -------
+    dict
+        ``{"scene": {...}, "<section>": {key: value (SI)}, ...}``; ``None`` values and empty
+        parameter tables are left out.
     """
     out = {}
     for key in _LAYOUT[scene.type]:
@@ -252,7 +367,19 @@ def _toml_value(v) -> str:
 
 
 def scene_to_toml(scene: Scene) -> str:
-    """The scene as TOML text (SI units, commented); :func:`load_scene` reads it back equal."""
+    """The scene as TOML text (SI units, commented); :func:`load_scene` reads it back equal.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene.
+
+    Returns
+    -------
+    str
+        TOML with a header comment, one table per section, the unit of each key as a comment
+        and material parameter overrides as ``[material.parameters]``.
+    """
     lines = [f"# {scene.type} scene written by cfm_core.scene.scene_to_toml (SI units)"]
     for section, table in scene_to_dict(scene).items():
         params = table.pop("parameters", None)

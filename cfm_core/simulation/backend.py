@@ -15,11 +15,26 @@ from ..errors import InputError
 
 
 class Backend:
-    """Base class of solver backends.
+    """Base class of solver backends (constructed without arguments).
 
-    Class attributes: ``name``; ``kind`` ("reference", "explicit" or "implicit");
-    ``description``; ``needs_tangent`` (uses the consistent tangent); ``devices``; ``dtypes``;
-    ``requires``: import names that must be importable for the backend to be available.
+    Attributes
+    ----------
+    name : str
+        Registry name, e.g. ``"numba"``.
+    kind : {"reference", "explicit", "implicit"}
+        Solver family (docs/conventions.md section 5).
+    description : str
+        One line for ``cfm backends``.
+    needs_tangent : bool
+        Whether it uses the consistent material tangent.
+    devices : tuple of str
+        Devices it runs on, e.g. ``("cpu", "cuda")``.
+    dtypes : tuple of str
+        Floating-point types it supports, e.g. ``("float64", "float32")``.
+    requires : tuple of str
+        Import names that must be importable for the backend to be available.
+    quasi_static : bool
+        Whether it can run scenes without inertia (``model.meta["quasi_static"]``).
     """
 
     name: str = ""
@@ -32,7 +47,15 @@ class Backend:
     quasi_static: bool = False  # can run scenes without inertia (model.meta["quasi_static"])
 
     def available(self) -> tuple[bool, str]:
-        """(True, "") when usable here, else (False, reason). Checks imports without importing."""
+        """Whether the backend is usable here; checks ``requires`` without importing them.
+
+        Returns
+        -------
+        ok : bool
+            True when every required package can be found.
+        reason : str
+            Empty when usable, else which package is missing and how to install it.
+        """
         import importlib.util
 
         for mod in self.requires:
@@ -46,6 +69,17 @@ class Backend:
         Explicit backends need inertia: a quasi-static scene (``model.meta["quasi_static"]``, or
         density 0) has no stable time step, and its hold times (up to tens of seconds at
         relaxation times of 10 s) would take billions of explicit steps.
+
+        Parameters
+        ----------
+        model : Model
+            The model to run.
+
+        Raises
+        ------
+        InputError
+            The model is quasi-static (or has density <= 0) and the backend is not
+            ``quasi_static``; the message names the scene and suggests an implicit backend.
         """
         inertia_free = bool(model.meta.get("quasi_static")) or not model.density > 0.0
         if inertia_free and not self.quasi_static:
@@ -56,16 +90,54 @@ class Backend:
                 f"'skfem' (cfm run --scene ... --backend skfem).")
 
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
-        """Cauchy stress (n, 6) in Pa, order s11, s22, s33, s12, s23, s13, along a history.
+        """Cauchy stress along a deformation history at one material point.
 
-        t: (n,) times in s; F: (n, 3, 3) deformation gradients. Viscoelastic history starts from
-        the undeformed, relaxed state at t[0].
+        Viscoelastic history starts from the undeformed, relaxed state at t[0] (a deformation
+        present at t[0] is a jump).
+
+        Parameters
+        ----------
+        material : Material
+            A bound material.
+        t : ndarray, shape (n,)
+            Non-decreasing times (s).
+        F : ndarray, shape (n, 3, 3)
+            Deformation gradients (-), det F > 0.
+
+        Returns
+        -------
+        ndarray, shape (n, 6)
+            Cauchy stress (Pa), order s11, s22, s33, s12, s23, s13.
+
+        Raises
+        ------
+        NotImplementedError
+            In the base class: the backend has no material-point driver.
         """
         raise NotImplementedError(f"backend '{self.name}' has no material-point driver")
 
     def run(self, model, *, progress: Callable[[float], None] | None = None, **options):
         """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
-        progress, if given, is called with the simulated time (s) from time to time.
+        Parameters
+        ----------
+        model : Model
+            The backend-neutral model (SI units).
+        progress : callable, optional
+            Called with the simulated time (s) from time to time.
+        **options
+            The backend's typed options (``cfm backends --options``), e.g. ``device="cuda"``.
+
+        Returns
+        -------
+        Result
+            Raw histories of the full model (no post-processing).
+
+        Raises
+        ------
+        NotImplementedError
+            In the base class: the backend cannot run scenes. Implementations raise InputError
+            for bad options or a model they cannot run (:meth:`check_model`) and NumericalError
+            when the run fails (naming element and time).
         """
         raise NotImplementedError(f"backend '{self.name}' cannot run scenes")

@@ -85,6 +85,29 @@ def run_history(material, t, F, backend=None) -> np.ndarray:
     return out
 
 
+def uniaxial_on_backend(material, backend, t, stretch, lateral):
+    """Nominal stress (Pa) of a backend along a uniaxial path found with the numpy reference.
+
+    The reference solves the lateral stretch for zero lateral stress (:func:`uniaxial`); the
+    backend's ``point`` driver then evaluates the Cauchy stress along F = diag(l, lt, lt), and the
+    nominal stress is P11 = J sigma11 / l. Its lateral stress, relative to the axial one, shows
+    how far the backend's material is from the reference's (round-off when they agree).
+
+    Returns
+    -------
+    nominal : ndarray, shape (n,)
+        P11 of the backend, Pa.
+    lateral_residual : float
+        max |sigma22| / max |sigma11| of the backend along the path (-).
+    """
+    F = np.zeros((t.size, 3, 3))
+    F[:, 0, 0], F[:, 1, 1], F[:, 2, 2] = stretch, lateral, lateral
+    sigma = run_history(material, t, F, backend)
+    J = stretch * lateral**2
+    scale = max(float(np.max(np.abs(sigma[:, 0]))), 1e-300)
+    return J * sigma[:, 0] / stretch, float(np.max(np.abs(sigma[:, 1])) / scale)
+
+
 def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: float = 0.0):
     """Uniaxial stress at constant engineering strain rate (1/s) to a final stretch (-).
 

@@ -14,6 +14,17 @@ plugins.declare_kind(
 def get_backend(name: str) -> Backend:
     """A new instance of the backend registered as ``name``.
 
+    Parameters
+    ----------
+    name : str
+        Registered backend name, e.g. ``"numba"``, ``"torch"``, ``"skfem"``, ``"numpy"``
+        (``cfm backends`` lists them).
+
+    Returns
+    -------
+    Backend
+        A new instance; it may not be usable here (see :func:`backend_for`).
+
     Raises
     ------
     InputError
@@ -24,6 +35,16 @@ def get_backend(name: str) -> Backend:
 
 def backend_for(name: str) -> Backend:
     """An instance of backend ``name`` that can run here.
+
+    Parameters
+    ----------
+    name : str
+        Registered backend name.
+
+    Returns
+    -------
+    Backend
+        A new instance whose required libraries are installed.
 
     Raises
     ------
@@ -39,7 +60,27 @@ def backend_for(name: str) -> Backend:
 
 
 def register_backend(cls: type, name: str | None = None, overwrite: bool = False) -> type:
-    """Register a :class:`Backend` subclass at run time (InputError if not one or the name is taken)."""
+    """Register a :class:`Backend` subclass at run time.
+
+    Parameters
+    ----------
+    cls : type
+        A subclass of :class:`Backend` (the class, not an instance).
+    name : str, optional
+        Name to register under; default ``cls.name``.
+    overwrite : bool
+        Replace an existing registration or shadow an installed backend of that name.
+
+    Returns
+    -------
+    type
+        ``cls`` itself.
+
+    Raises
+    ------
+    InputError
+        ``cls`` is not a Backend subclass, or the name is taken and ``overwrite`` is False.
+    """
     if not (isinstance(cls, type) and issubclass(cls, Backend)):
         raise InputError(f"register_backend expects a Backend subclass, got {cls!r}.")
     return plugins.register("backends", name or cls.name, cls, overwrite)

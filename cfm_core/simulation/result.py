@@ -1,4 +1,4 @@
-"""Result of a backend run: histories only, no post-processing (that lives in postprocess.py).
+"""Result of a backend run: histories only, no post-processing (that lives in :mod:`cfm_core.post`).
 
 All arrays are sampled at the same times ``t`` (s). Forces and energies are for the *full* model
 (already multiplied by the model's symmetry factor).
@@ -13,18 +13,42 @@ import numpy as np
 
 @dataclass
 class Result:
-    """Histories of one run.
+    """Histories of one run, all sampled at the times ``t``; forces and energies of the full model.
 
-    t (s); contact_force (N): force of the specimen on the impactor along +z (positive when it
-    decelerates a downward-moving impactor); impulse (N s): time integral of contact_force from
-    t = 0, exact for the solver's steps (post-processing resamples from it without aliasing);
-    acceleration (m/s^2) = contact_force / impactor mass;
-    impactor_z (m), impactor_v (m/s): impactor centre position and velocity along z;
-    reaction_force (N): sum of z reaction forces at prescribed nodes (scenes with prescribed
-    motion); energies (J): 'kinetic', 'internal', 'hourglass', 'contact', 'external' each an array
-    over t; steps: number of time steps; wall_time (s, solver only); dt_min, dt_max (s);
-    frames: optional list of (t, nodal displacement (n, 3) in m) for visualisation;
-    backend: name of the backend that ran; info: free-form diagnostics (str -> JSON-able value).
+    Histories a scene does not have are None (contact for prescribed-motion scenes, reaction
+    force for the drop test).
+
+    Parameters
+    ----------
+    t : ndarray, shape (m,)
+        Output times (s).
+    backend : str
+        Name of the backend that ran.
+    steps : int
+        Number of time steps.
+    wall_time : float
+        Solver wall-clock time (s), solver only.
+    contact_force : ndarray, shape (m,), optional
+        Force of the specimen on the impactor along +z (N), positive when it decelerates a
+        downward-moving impactor.
+    impulse : ndarray, shape (m,), optional
+        Time integral of contact_force from t = 0 (N s), exact for the solver's steps
+        (post-processing resamples from it without aliasing).
+    acceleration : ndarray, shape (m,), optional
+        contact_force / impactor mass (m/s^2).
+    impactor_z, impactor_v : ndarray, shape (m,), optional
+        Impactor centre position (m) and velocity (m/s) along z.
+    reaction_force : ndarray, shape (m,), optional
+        Sum of z reaction forces at the prescribed nodes (N), scenes with prescribed motion.
+    energies : dict of str to ndarray, shape (m,)
+        ``"kinetic"``, ``"internal"``, ``"hourglass"``, ``"contact"``, ``"external"`` (J); empty
+        when not recorded.
+    dt_min, dt_max : float
+        Smallest and largest time step (s); NaN when not recorded.
+    frames : list of (float, ndarray)
+        Optional ``(t (s), nodal displacement (n, 3) in m)`` for visualisation.
+    info : dict
+        Free-form diagnostics (str -> JSON-able value).
     """
 
     t: np.ndarray
@@ -46,8 +70,14 @@ class Result:
     def energy_error(self) -> float:
         """Largest relative energy-balance error over the run (-).
 
-        balance(t) = kinetic + internal + hourglass + contact - external - (kinetic + internal)(0);
-        divided by the largest of kinetic+internal energy and external work seen during the run.
+        With total(t) = kinetic + internal + hourglass + contact - external, the error is
+        max_t |total(t) - total(0)| divided by the largest of kinetic + internal energy and
+        |external work| seen during the run (docs/conventions.md section 5).
+
+        Returns
+        -------
+        float
+            The relative error (-); NaN when no energies were recorded.
         """
         e = self.energies
         if not e:
@@ -57,7 +87,14 @@ class Result:
         return float(np.max(np.abs(total - total[0])) / scale)
 
     def hourglass_ratio(self) -> float:
-        """Final hourglass energy over peak internal energy (-)."""
+        """Largest hourglass energy over the largest |internal energy| of the run (-).
+
+        Returns
+        -------
+        float
+            The ratio (-); NaN when no energies were recorded, 0 when the internal energy
+            stays 0.
+        """
         e = self.energies
         if not e:
             return float("nan")

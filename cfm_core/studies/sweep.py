@@ -23,9 +23,7 @@ only, with the InputError's text in the table.
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import itertools
 import json
 import math
@@ -34,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from .dask_runner import SerialRunner, error_text
 from ..errors import InputError
@@ -43,7 +42,7 @@ from ..post.writers import atomic_write, write_drop_test, write_json
 from ..material.registry import get_material
 from ..runs import pipeline as simulate
 from ..post import SUMMARY_UNITS
-from ..post.plots import _COLOURS, _figure, _save
+from ..post.plots import _COLOURS, _figure, _save, display, display_text
 
 #: Scene keys a sweep can vary (SI units, see cfm_core/scene/scenes/drop-test.toml).
 SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius", "density", "friction")
@@ -233,42 +232,48 @@ def columns(axes: list[Axis]) -> list[tuple[str, str]]:
             + [(k, f"{k} [{units.get(k, '-')}]") for k in SUMMARY_COLUMNS])
 
 
-def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
-    """Write sweep.csv (and sweep.parquet if pyarrow is importable) atomically; returns the paths."""
+TEXT_COLUMNS = ("run_id", "status", "error")
+
+
+def table_frame(rows: list, axes: list[Axis]) -> pd.DataFrame:
+    """The sweep table as a DataFrame: one row per run, columns ``name [unit]`` (SI units),
+    text columns run_id, status, error; numbers as float (NaN where a run has no value)."""
     cols = columns(axes)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow([h for _, h in cols])
-    for r in rows:
-        w.writerow(["" if r[k] is None else (repr(r[k]) if isinstance(r[k], float) else r[k]) for k, _ in cols])
-    text = buf.getvalue()
+    data = {h: [r[k] for r in rows] for k, h in cols}
+    frame = pd.DataFrame(data, columns=[h for _, h in cols])
+    for k, h in cols:
+        frame[h] = frame[h].astype("string") if k in TEXT_COLUMNS else pd.to_numeric(frame[h], errors="coerce")
+    return frame
 
-    def write_csv(tmp):
-        with open(tmp, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
 
+def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
+    """Write sweep.csv and, with pyarrow installed, sweep.parquet atomically; returns the paths.
+
+    Both hold the same table (:func:`table_frame`); ``pandas.read_csv(path)`` and
+    ``pandas.read_parquet(path)`` read it back. Floats are written with 17 significant digits
+    (exact round trip)."""
+    frame = table_frame(rows, axes)
     out.mkdir(parents=True, exist_ok=True)
-    files = [atomic_write(out / "sweep.csv", write_csv)]
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+    files = [atomic_write(out / "sweep.csv", lambda tmp: frame.to_csv(tmp, index=False, float_format="%.17g",
+                                                                        lineterminator="\n"))]
+    try:  # parquet needs pyarrow (in the 'dask' and 'all' extras); the CSV is the complete record
+        files.append(atomic_write(out / "sweep.parquet", lambda tmp: frame.to_parquet(tmp, index=False)))
     except ImportError:
-        return files
-    text_keys = ("run_id", "status", "error")
-    table = pa.table({h: pa.array([r[k] for r in rows], pa.string() if k in text_keys else pa.float64())
-                      for k, h in cols})
-    files.append(atomic_write(out / "sweep.parquet", lambda tmp: pq.write_table(table, tmp)))
+        pass
     return files
 
 
 def read_table(path) -> list[dict]:
     """Rows of a sweep.csv as dicts keyed by header; numbers as floats, empty cells as None."""
-    with open(path, encoding="utf-8", newline="") as f:
-        rows = list(csv.DictReader(f))
+    frame = pd.read_csv(path, dtype={c: "string" for c in ("run_id", "status", "error")}, keep_default_na=False,
+                        na_values={c: [""] for c in pd.read_csv(path, nrows=0).columns if c not in TEXT_COLUMNS})
+    rows = frame.to_dict("records")
     for r in rows:
         for k, v in r.items():
-            if k not in ("run_id", "status", "error"):
-                r[k] = float(v) if v != "" else None
+            if k not in TEXT_COLUMNS:
+                r[k] = None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v)
+            else:
+                r[k] = str(v)
     return rows
 
 
@@ -277,15 +282,16 @@ def plot_peaks(path, rows: list, axes: list[Axis], title: str) -> None:
 
     first, others = axes[0], axes[1:]
     fig, ax = _figure(f"Peak acceleration, {title}")
-    ax.set_xlabel(f"{first.name} ({first.unit})")
+    xfactor, xunit = display(first.unit)
+    ax.set_xlabel(f"{first.name} ({xunit})" if xunit else first.name)
     ax.set_ylabel("Peak impactor acceleration, CFC 600 (g)")
     groups: dict = {}
     for r in rows:
         groups.setdefault(tuple(r[a.name] for a in others), []).append(r)
     for j, (key, group) in enumerate(groups.items()):
-        x = np.array([r[first.name] for r in group])
+        x = xfactor * np.array([r[first.name] for r in group])
         y = np.array([r["peak_g"] if r["status"] == "ok" else math.nan for r in group])
-        label = ", ".join(f"{a.name} = {v:g} {a.unit}" for a, v in zip(others, key)) or None
+        label = ", ".join(display_text(a.name, v, a.unit) for a, v in zip(others, key)) or None
         ax.plot(x, y, "o-", color=_COLOURS[j % len(_COLOURS)], linewidth=1.5, markersize=4, label=label)
     if others and len(groups) <= 16:
         ax.legend(fontsize=7, frameon=False, ncols=1 + len(groups) // 9)

@@ -149,3 +149,18 @@ def test_listing_commands(capsys):
     assert "cfm:" in text and "kappa" in text and "666100" in text and "Pa" in text
     assert main(["backends"]) == 0
     assert "numpy" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("backend", ["numba", "torch", "skfem"])
+def test_uniaxial_on_a_backend_follows_the_reference_and_draws_a_plot(tmp_path, backend):
+    """cfm point --uniaxial --backend B: B's stress along the reference's uniaxial path equals the
+    reference's own nominal stress (the backends share no stress code with the reference except
+    skfem, whose point driver is the reference itself) and its lateral stress is ~0."""
+    ref_out, out = tmp_path / "ref.csv", tmp_path / f"{backend}.csv"
+    args = ["point", "--material", "cfm", "--uniaxial", "--rate", "100", "--stretch", "0.6", "--steps", "40"]
+    assert main(args + ["--out", str(ref_out)]) == 0
+    assert main(args + ["--backend", backend, "--out", str(out)]) == 0
+    ref = np.loadtxt(ref_out, delimiter=",", skiprows=1)
+    got = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert np.abs(got[:, 2] - ref[:, 2]).max() < 1e-9 * np.abs(ref[:, 2]).max()
+    assert out.with_suffix(".png").stat().st_size > 10_000

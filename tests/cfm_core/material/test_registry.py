@@ -135,3 +135,34 @@ def test_plugin_breaking_the_specification_is_rejected_with_its_name():
 
     with pytest.raises(InputError, match="'prestressed-material'.*not stress-free"):
         (fine & prestressed).named("prestressed-material").bind().kernels("numpy")
+
+
+@pytest.mark.parametrize("body, words", [
+    ("a * math.exp(l1**2 + l2**2 + l3**2 - 3)", "cannot be traced symbolically"),
+    ("a * np.exp(l1**2 + l2**2 + l3**2 - 3)", "cannot be traced symbolically"),
+    ("a * (l1 - 1) if l1 > 1 else 0", "Python if/else"),
+])
+def test_energy_written_with_math_or_numpy_is_refused_at_registration_with_a_hint(body, words):
+    import math  # noqa: F401  (used by the energy bodies)
+
+    from cfm_plugins.volumetric import ogden_volumetric
+
+    namespace = {"math": math, "np": np}
+    exec(f"def energy(l1, l2, l3, a):\n    return {body}\n", namespace)
+    term = isochoric(positive("a", "Pa", 1.0), name="traced")(namespace["energy"])
+    with pytest.raises(InputError, match=words) as err:
+        register_material((term & ogden_volumetric).named("untraceable"))
+    assert "cfm.sym.exp" in str(err.value) and "'traced'" in str(err.value)
+    assert "untraceable" not in plugins.names("materials")
+
+
+def test_asymmetric_energy_is_refused_at_registration_not_first_use():
+    from cfm_plugins.volumetric import ogden_volumetric
+
+    @isochoric(positive("a", "Pa", 1.0))
+    def lopsided(l1, l2, l3, a):
+        return a * (l1**2 - 1) ** 2
+
+    with pytest.raises(InputError, match="not symmetric in the principal stretches"):
+        register_material((lopsided & ogden_volumetric).named("lopsided"))
+    assert "lopsided" not in plugins.names("materials")
