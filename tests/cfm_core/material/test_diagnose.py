@@ -15,7 +15,7 @@ from cfm_core.material.registry import make_material
 from cfm_core.simulation import point
 from cfm_core.simulation.registry import backend_for
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = Path(__file__).resolve().parents[2] / "data"
 OVERFLOW = DATA / "F_dilatation_overflow.csv"  # rows t = 0, 1e-3, 2e-3 s; J = 1, 0.5, 1e-32
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from cfm_core.studies import calibrate, identifiability
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "calibrate-unidentifiable"
+DATA = Path(__file__).resolve().parents[2] / "data" / "calibrate-unidentifiable"
 
 
 def _coords(names, log=None, lower=0.0, upper=1.0):
