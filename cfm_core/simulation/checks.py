@@ -179,18 +179,55 @@ class Monitor:
         self.worst = {"plate": 0.0, "sphere": 0.0, "symmetry": 0.0, "corner_jacobian_ratio": 1.0}
 
     def due(self, t: float) -> bool:
-        """True when a check is due at time t (s)."""
+        """Whether a check is due.
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s).
+
+        Returns
+        -------
+        bool
+            True once t has reached the next check time (``self.next``, s).
+        """
         return t >= self.next
 
     def check(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
-        """Check the state at time t (s): positions x (n, 3) in m (modelled part), impactor centre
-        z (m) when the model has a sphere. Raises NumericalError on a violation."""
+        """Check the state and schedule the next check.
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s).
+        x : ndarray, shape (n, 3)
+            Current nodal positions (m) of the modelled part.
+        impactor_z : float, optional
+            Current z of the impactor's centre (m), for models with a sphere.
+
+        Raises
+        ------
+        NumericalError
+            Penetration, symmetry plane crossed, bottoming out or a folded corner (see the module
+            docstring), naming node or element, time and quantity.
+        """
         self.calls += 1
         self.next = (math.floor(t / self.interval) + 1) * self.interval if self.interval > 0 else math.inf
         self.inspect(t, x, impactor_z)
 
     def inspect(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
-        """The checks of :meth:`check` without the bookkeeping of when the next one is due."""
+        """The checks of :meth:`check` without the bookkeeping of when the next one is due.
+
+        Parameters
+        ----------
+        t, x, impactor_z
+            As for :meth:`check` (s, m, m).
+
+        Raises
+        ------
+        NumericalError
+            As for :meth:`check`.
+        """
         x = np.asarray(x, dtype=np.float64)
         m, tol = self.model, self.tol
         if not np.isfinite(x).all():
@@ -242,7 +279,18 @@ class Monitor:
                     time=t, element=e, quantity="corner Jacobian")
 
     def final(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
-        """The check of the last state (always run)."""
+        """The check of the last state (always run).
+
+        Parameters
+        ----------
+        t, x, impactor_z
+            As for :meth:`check` (s, m, m).
+
+        Raises
+        ------
+        NumericalError
+            As for :meth:`check`.
+        """
         self.check(t, x, impactor_z)
 
     def report(self) -> dict:

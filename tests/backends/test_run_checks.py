@@ -43,9 +43,10 @@ def test_an_impactor_of_220_kg_stops_the_run_on_every_backend(backend):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_the_checks_pass_a_paper_drop_test_and_change_no_number(backend, monkeypatch):
     _available(backend)
-    scene = coarse(end_time=0.002)  # the first 2 ms of the 5 mm test: still in contact at the end
+    # the first 2 ms of the 5 mm test (1 ms on the slower implicit backend): still in contact at the end
+    scene = coarse(end_time=0.001 if backend == "skfem" else 0.002)
     checked = drop_test(scene, backend)
-    assert checked.result.info["checks"]["monitor_calls"] >= 20  # every ~1 % of the end time (or step)
+    assert checked.result.info["checks"]["monitor_calls"] >= 10  # every ~1 % of the end time (or step)
     w = checked.summary["warnings"]
     assert len(w) == 1 and "still in contact" in w[0]  # a chosen end time: warned, not stopped
     monkeypatch.setattr(checks.Monitor, "inspect", lambda self, *a, **k: None)  # same schedule, no checks
