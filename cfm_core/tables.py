@@ -51,8 +51,18 @@ _SAVE_UTF8 = ("Save it as comma-separated values in UTF-8 (Excel: File > Save As
 class Table:
     """A numeric table read from a CSV file.
 
-    path: the file; columns: names without units; units: the unit each column's header gave
-    ("" when none); data: (rows, columns) float64; lines: (rows,) 1-based line numbers in the file.
+    Attributes
+    ----------
+    path : str
+        The file.
+    columns : tuple of str
+        Column names without units.
+    units : tuple of str
+        The unit each column's header gave ("" when none).
+    data : ndarray, shape (rows, columns)
+        The values (float64, in the units read).
+    lines : ndarray, shape (rows,)
+        1-based line number of each row in the file.
     """
 
     path: str
@@ -62,7 +72,18 @@ class Table:
     lines: np.ndarray
 
     def column(self, name: str) -> np.ndarray:
-        """The values (rows,) of the column ``name``."""
+        """The values of one column.
+
+        Parameters
+        ----------
+        name : str
+            Column name (without unit).
+
+        Returns
+        -------
+        ndarray, shape (rows,)
+            Its values.
+        """
         return self.data[:, self.columns.index(name)]
 
 
@@ -73,7 +94,26 @@ def _same_unit(given: str, expected: str) -> bool:
 
 
 def decode(path, raw: bytes) -> str:
-    """Text of a CSV file's bytes: UTF-8 with an optional BOM; InputError for any other encoding."""
+    """Text of a CSV file's bytes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (for messages).
+    raw : bytes
+        Its content.
+
+    Returns
+    -------
+    str
+        The text, a UTF-8 byte-order mark removed.
+
+    Raises
+    ------
+    InputError
+        UTF-16 / UTF-32 (with or without BOM) or bytes that are not UTF-8 (Latin-1, Windows-1252),
+        naming the line and how to save the file.
+    """
     if raw.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
         enc = "UTF-32"
     elif raw.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
@@ -103,7 +143,27 @@ def _cells(line: str) -> list[str]:
 
 
 def parse_header(path, lineno: int, line: str) -> tuple[list[str], list[str]]:
-    """(names, units) of a header line; ``t [s]`` and ``t (s)`` give name t and unit s."""
+    """Column names and units of a header line: ``t [s]`` and ``t (s)`` give name t and unit s.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (for messages).
+    lineno : int
+        The header's line number (1-based).
+    line : str
+        The header line.
+
+    Returns
+    -------
+    names, units : list of str
+        One per column ("" where no unit is given).
+
+    Raises
+    ------
+    InputError
+        A cell that is not a name with an optional bracketed unit.
+    """
     names, units = [], []
     for cell in _cells(line):
         m = _HEADER_CELL.match(cell)

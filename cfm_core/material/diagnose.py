@@ -34,7 +34,19 @@ def _term_functions(term):
 
 
 def term_inputs(m) -> dict:
-    """Kinematic inputs of the terms at eigenvalues m (3,) of C: J (-) and isochoric stretches (-)."""
+    """Kinematic inputs of the energy terms at a point.
+
+    Parameters
+    ----------
+    m : array_like, shape (3,)
+        Eigenvalues of C (-).
+
+    Returns
+    -------
+    dict
+        ``J`` = sqrt(m1 m2 m3) (-) and ``stretches``: the isochoric principal stretches
+        sqrt(m_a) J^(-1/3) (-), a 3-tuple.
+    """
     m = np.asarray(m, dtype=np.float64).reshape(3)
     with np.errstate(all="ignore"):
         J = float(np.sqrt(m[0]) * np.sqrt(m[1]) * np.sqrt(m[2]))

@@ -113,6 +113,25 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     merged when ``merge`` is True and refused otherwise; disconnected parts are refused.
     Every element must have a positive Jacobian at its centre and its 8 corners (VTK node order);
     otherwise an InputError names the first bad element. Coordinates are taken as metres.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mesh file meshio reads (.vtu, .msh, .inp, ...).
+    merge : bool
+        Merge coincident nodes the elements do not share (default: refuse such a mesh).
+
+    Returns
+    -------
+    nodes : ndarray, shape (n, 3)
+        Coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, int64, VTK order.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, other cell types, a mesh that is not one body, a bad Jacobian.
     """
     import meshio
 
@@ -157,7 +176,20 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
 
 
 def coincident_nodes(nodes: np.ndarray, tol: float) -> np.ndarray:
-    """For each node the index of the first node within ``tol`` (m) of it (itself when none), (n,) int64."""
+    """Groups of coincident nodes.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    tol : float
+        Distance (m) below which two nodes are the same.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        For each node the smallest index of its group (itself when it has no twin), int64.
+    """
     from scipy.spatial import cKDTree
 
     nodes = np.asarray(nodes, dtype=np.float64)
@@ -184,7 +216,20 @@ def coincident_nodes(nodes: np.ndarray, tol: float) -> np.ndarray:
 
 
 def connected_parts(hexes: np.ndarray, n_nodes: int) -> np.ndarray:
-    """Label (e,) of the connected part each element belongs to (elements sharing a node are connected)."""
+    """Connected parts of a mesh (elements sharing a node are connected).
+
+    Parameters
+    ----------
+    hexes : ndarray, shape (e, 8)
+        Connectivity.
+    n_nodes : int
+        Number of nodes.
+
+    Returns
+    -------
+    ndarray, shape (e,)
+        Label of the part each element belongs to (0, 1, ...).
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 

@@ -60,9 +60,15 @@ INERTIA_WARN = 1e-3     # (-) kinetic / internal energy above which a single-ele
 class Limits:
     """Limits of the run checks (SI units).
 
-    tolerance (m): allowed penetration behind a rigid surface or across a symmetry plane, None
-    for 5 % of the smallest edge; hourglass_limit / energy_limit (-): stop limits of the
-    hourglass ratio and the energy-balance error (None: warn only, at 10 % and 1 %).
+    Attributes
+    ----------
+    tolerance : float or None
+        Allowed penetration behind a rigid surface or across a symmetry plane (m); None for 5 %
+        of the smallest element edge.
+    hourglass_limit : float or None
+        Hourglass / internal energy above which the run stops (-); None: warn only (above 0.10).
+    energy_limit : float or None
+        Energy-balance error above which the run stops (-); None: warn only (above 0.01).
     """
 
     tolerance: float | None = None
@@ -71,6 +77,18 @@ class Limits:
 
     @classmethod
     def of(cls, model) -> "Limits":
+        """The limits a model carries.
+
+        Parameters
+        ----------
+        model : cfm_core.scene.Model
+            Its ``meta["checks"]`` (from the scene's [scene] section) holds the limits.
+
+        Returns
+        -------
+        Limits
+            Those limits; defaults where the model has none.
+        """
         d = dict(getattr(model, "meta", {}).get("checks") or {})
         return cls(tolerance=d.get("penetration_tolerance"), hourglass_limit=d.get("hourglass_limit"),
                    energy_limit=d.get("energy_limit"))
@@ -91,10 +109,22 @@ _NEIGHBOURS = _corner_neighbours()
 
 
 def corner_volumes(x: np.ndarray, hexes: np.ndarray) -> np.ndarray:
-    """(e, 8) triple products (m^3) of the three edges leaving each corner, in xi, eta, zeta order.
+    """Triple products of the three edges leaving each element corner (xi, eta, zeta order).
 
     The Jacobian of the trilinear map at corner a is this product times -(s1 s2 s3) / 8 (s = the
     corner's natural coordinates), so its ratio to the reference value is the Jacobian's ratio.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Nodal positions (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, VTK hexahedron order.
+
+    Returns
+    -------
+    ndarray, shape (e, 8)
+        Triple products (m^3); <= 0 where the element is folded at that corner.
     """
     X = np.asarray(x, dtype=np.float64)[np.asarray(hexes)]          # (e, 8, 3)
     e1 = X[:, _NEIGHBOURS[0]] - X
@@ -104,7 +134,20 @@ def corner_volumes(x: np.ndarray, hexes: np.ndarray) -> np.ndarray:
 
 
 def smallest_edge(nodes: np.ndarray, hexes: np.ndarray) -> float:
-    """Smallest edge length (m) of the hexahedra (the 12 edges of each element)."""
+    """Smallest edge length of the hexahedra (the 12 edges of each element).
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, VTK hexahedron order.
+
+    Returns
+    -------
+    float
+        The smallest edge (m); 0 without elements.
+    """
     x = np.asarray(nodes, dtype=np.float64)[np.asarray(hexes)]
     pairs = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
                       [0, 4], [1, 5], [2, 6], [3, 7]])
@@ -113,7 +156,20 @@ def smallest_edge(nodes: np.ndarray, hexes: np.ndarray) -> float:
 
 
 def tolerance(model, limits: Limits | None = None) -> float:
-    """Penetration tolerance (m) of a model: the scene's, or 5 % of the smallest edge."""
+    """Penetration tolerance of a model: the scene's, or 5 % of the smallest edge.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model (reference mesh in m, ``meta["checks"]``).
+    limits : Limits, optional
+        Its limits (default: :meth:`Limits.of` the model).
+
+    Returns
+    -------
+    float
+        Tolerance (m).
+    """
     limits = limits or Limits.of(model)
     if limits.tolerance is not None:
         return float(limits.tolerance)
@@ -121,10 +177,20 @@ def tolerance(model, limits: Limits | None = None) -> float:
 
 
 def symmetry_planes(model) -> list[tuple[int, float, float]]:
-    """(axis, coordinate (m), side +1/-1) of each plane of fixed normal displacement.
+    """The planes of fixed normal displacement (symmetry planes, clamped faces) of a model.
 
     A fixed dof d counts when all nodes fixed in d share one coordinate x_d = c and the whole
-    mesh lies on one side of it (symmetry planes, clamped bottoms); side is the sign of that side.
+    mesh lies on one side of it; side is the sign of that side.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        Reference nodes (n, 3) in m and fixed_dofs (k, 2) pairs (node, dof).
+
+    Returns
+    -------
+    list of tuple
+        (axis 0-2, coordinate (m), side +1.0 or -1.0) per plane.
     """
     fixed = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
     nodes = np.asarray(model.nodes, dtype=np.float64)
@@ -294,8 +360,14 @@ class Monitor:
         self.check(t, x, impactor_z)
 
     def report(self) -> dict:
-        """What the monitor saw (for Result.info["checks"]): calls, tolerance (m), worst values
-        (plate / sphere / symmetry depths in m, smallest corner-Jacobian ratio (-))."""
+        """What the monitor saw, for ``Result.info["checks"]``.
+
+        Returns
+        -------
+        dict
+            monitor_calls (-), tolerance (m), worst_plate / worst_sphere / worst_symmetry (largest
+            depths seen, m) and worst_corner_jacobian_ratio (smallest ratio to the reference, -).
+        """
         return {"monitor_calls": self.calls, "tolerance": self.tol,
                 **{f"worst_{k}": v for k, v in self.worst.items()}}
 

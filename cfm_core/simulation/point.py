@@ -60,9 +60,29 @@ def read_history(path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_history(material, t, F, backend=None) -> np.ndarray:
-    """Cauchy stress (n, 6) in Pa (order s11, s22, s33, s12, s23, s13) along the history.
+    """Cauchy stress along a deformation history.
 
-    backend: None for the numpy reference, else a Backend instance whose ``point`` is used.
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material.
+    t : ndarray, shape (n,)
+        Times (s).
+    F : ndarray, shape (n, 3, 3)
+        Deformation gradients (-).
+    backend : Backend, optional
+        None for the numpy reference, else a backend whose ``point`` is used.
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+        Cauchy stress (Pa), order s11, s22, s33, s12, s23, s13.
+
+    Raises
+    ------
+    NumericalError
+        A non-finite stress, naming the row, its time (s) and the material's term that failed
+        (:mod:`cfm_core.material.diagnose`); no numpy RuntimeWarning is shown.
     """
     t = np.asarray(t, dtype=np.float64)
     try:

@@ -208,10 +208,25 @@ def connect(address: str, timeout: float = 30.0, worker_timeout: float = WORKER_
 def open_runner(scheduler: str | None = None, workers: int | None = None, worker_timeout: float | None = None):
     """Context manager yielding a runner (see the module docstring); closes what it started.
 
-    scheduler: None (local cluster), "none"/"serial" (this process) or a Dask address.
-    workers: processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
-    worker_timeout: seconds a Dask run waits with no worker left before the tasks left fail with
-    a message (default :data:`WORKER_LOST`).
+    Parameters
+    ----------
+    scheduler : str, optional
+        None (local cluster), "none"/"serial" (this process) or a Dask address.
+    workers : int, optional
+        Processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
+    worker_timeout : float, optional
+        Seconds a Dask run waits with no worker left before the tasks left fail with a message
+        (default :data:`WORKER_LOST`, 30 s).
+
+    Yields
+    ------
+    SerialRunner or DaskRunner
+        Its ``map(fn, items)`` yields :class:`Done` per item.
+
+    Raises
+    ------
+    InputError
+        Bad workers or worker_timeout, Dask missing, scheduler unreachable or without workers.
     """
     if worker_timeout is None:
         worker_timeout = WORKER_LOST
