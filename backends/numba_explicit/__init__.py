@@ -94,9 +94,9 @@ class NumbaExplicitBackend(Backend):
             raise NumericalError(f"point {i} (t = {t[i]:.6g} s): det F = {J:.4g} <= 0 (inverted).",
                                  time=float(t[i]), element=int(i), quantity="J")
         if status != 0:
+            from cfm_core.material.diagnose import describe_nonfinite
+
             raise NumericalError(
-                f"point {i} (t = {t[i]:.6g} s): non-finite stress of material '{material.name}' at the "
-                f"eigenvalues of C = ({m0:.4g}, {m1:.4g}, {m2:.4g}), typically an exp overflow in the "
-                f"energy derivative.", time=float(t[i]), element=int(i),
-                quantity="exp overflow in the material energy derivative")
+                f"point {i} (t = {t[i]:.6g} s): non-finite stress: {describe_nonfinite(material, (m0, m1, m2))}.",
+                time=float(t[i]), element=int(i), quantity=f"non-finite energy derivative of material '{material.name}'")
         return out

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
+from cfm_core.material.diagnose import describe_nonfinite
+from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
 from . import codegen, geometry
@@ -179,11 +181,9 @@ def _error(code: int, prep: Prepared, model) -> NumericalError:
     if code == K.R_NONFINITE:
         m = (sc[K.S_ERRM0], sc[K.S_ERRM1], sc[K.S_ERRM2])
         return NumericalError(
-            f"non-finite stress in element {e} at t = {t:.6g} s: the energy derivatives of material "
-            f"'{name}' (psi_grad / psi_hess_diag) are inf or NaN at the eigenvalues of C = "
-            f"({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {sc[K.S_ERRV]:.4g}, typically an exp overflow "
-            f"(argument > 709) in a fibre term; lower the load, refine the mesh or check the parameters.",
-            time=t, element=e, quantity="exp overflow in the material energy derivative")
+            f"non-finite stress in element {e} at t = {t:.6g} s (J = {sc[K.S_ERRV]:.4g}): "
+            f"{describe_nonfinite(model.material, m)}.", time=t, element=e,
+            quantity=f"non-finite energy derivative of material '{name}'")
     if code == K.R_COLLAPSE and not math.isfinite(sc[K.S_ERRV]):
         return NumericalError(
             f"no finite stable time step at t = {t:.6g} s in model '{model.name}': every element has zero "
@@ -270,13 +270,17 @@ def _loop(model, mod, prep: Prepared, o: dict, progress, compile_time: float, th
     hist = np.zeros((4096, K.H_N))
     stop = "end_time"
     reported = 0.0
+    monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
+    z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     start = time.perf_counter()
     while True:
-        rows, code = advance(mod, prep, hist, min(next_progress, next_frame))
+        rows, code = advance(mod, prep, hist, min(next_progress, next_frame, monitor.next))
         chunks.append(hist[:rows].copy())
         if code >= K.R_INVERTED:
             raise _error(code, prep, model)
         t = float(prep.sc[K.S_T])
+        if monitor.due(t):
+            monitor.check(t, prep.st[0], z())
         if fi and t >= next_frame:
             frames.append((t, prep.st[0] - prep.nodes))
             next_frame = (math.floor(t / fi) + 1) * fi
@@ -295,8 +299,11 @@ def _loop(model, mod, prep: Prepared, o: dict, progress, compile_time: float, th
                                  f"t = {t:.6g} s before the end time {end:g} s (option max_steps).",
                                  time=t, quantity="steps")
     wall = time.perf_counter() - start
+    monitor.final(t, prep.st[0], z())
     h = np.concatenate(chunks)
-    return _result(model, prep, h, wall, compile_time, threads, frames, stop, o)
+    res = _result(model, prep, h, wall, compile_time, threads, frames, stop, o)
+    res.info["checks"] = monitor.report()
+    return res
 
 
 def _result(model, prep, h, wall, compile_time, threads, frames, stop, o) -> Result:

@@ -23,6 +23,7 @@ import numpy as np
 
 from cfm_core.material import kinematics as kin
 from cfm_core.material import prony
+from cfm_core.material.diagnose import describe_nonfinite
 from cfm_core.errors import NumericalError
 
 
@@ -57,10 +58,8 @@ class Constitutive:
         if bad.any():
             i = int(np.argmax(bad))
             j = int(index_map[i]) if index_map is not None else i
-            raise NumericalError(
-                f"material '{self.material.name}': {name} is not finite at {where} {j} (eigenvalues of "
-                f"C = {m[i].tolist()}); the fibre exponential overflows float64 when k2 (x-1)^2 > 709: "
-                f"lower the load or check the parameters.", element=j, quantity=name)
+            raise NumericalError(f"{name} is not finite at {where} {j}: {describe_nonfinite(self.material, m[i])}.",
+                                 element=j, quantity=f"non-finite {name} of material '{self.material.name}'")
         return out
 
     def volumetric(self, theta: np.ndarray, index_map=None):
@@ -126,7 +125,8 @@ def point_history(material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
     out = np.empty((t.size, 3, 3))
     for n in range(t.size):
         dt = 0.0 if n == 0 else float(t[n] - t[n - 1])
-        S, _, new = model.update(F[n:n + 1], hist, dt, tangent=False, volumetric=True, where="row")
+        S, _, new = model.update(F[n:n + 1], hist, dt, tangent=False, volumetric=True, where="row",
+                                 index_map=np.array([n]))
         hist = new if new is not None else hist
         out[n] = S[0]
     return kin.to_voigt(kin.cauchy_from_pk2(F, out))

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
+from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
 from .constitutive import History
@@ -105,6 +106,9 @@ def run_model(model, progress=None, **options) -> Result:
     seen, separated_for, separated = False, 0.0, False
     next_progress = end / 100.0
     steps = 0
+    monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
+    nodes = np.asarray(model.nodes, dtype=np.float64)
+    impactor_z = lambda s: float(sys_.sphere.center[2] + s.q[sys_.w_dof]) if sys_.has_w else None  # noqa: E731
     while state.t < end * (1.0 - 1e-12):
         if steps >= o["max_steps"]:
             raise NumericalError(f"skfem backend: more than max_steps = {o['max_steps']} steps before "
@@ -139,6 +143,8 @@ def run_model(model, progress=None, **options) -> Result:
         if state.t >= next_frame - 1e-12 * end:
             frames.append((state.t, sys_.displacement(state.q).copy()))
             next_frame += o["frame_interval"]
+        if monitor.due(state.t):
+            monitor.check(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
         if progress is not None and state.t >= next_progress:
             progress(state.t)
             next_progress = state.t + end / 100.0
@@ -151,7 +157,8 @@ def run_model(model, progress=None, **options) -> Result:
                     separated = True
                     break
     wall = time.perf_counter() - wall0
-    info = {"elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
+    monitor.final(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
+    info = {"checks": monitor.report(), "elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
             "linear_solver": solver, "volumetric": o["volumetric"],
             "integrator": "quasi-static" if quasi else f"generalized-alpha(rho_inf={o['rho_inf']:g})",
             "element_size": h, **stats}

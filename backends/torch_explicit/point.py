@@ -62,6 +62,6 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
         if bool(inverted[first]):
             raise NumericalError(f"point {first} (t = {t[first]:.6g} s): det F = {float(J[first]):.4g} <= 0 "
                                  f"(inverted).", time=float(t[first]), element=first, quantity="J")
-        raise nonfinite_error(material.name, dt, f"point {first} (t = {t[first]:.6g} s)",
+        raise nonfinite_error(material, dt, f"point {first} (t = {t[first]:.6g} s)",
                               m[:, first].tolist(), float(J[first]), float(t[first]), first)
     return out.to("cpu", torch.float64).numpy()

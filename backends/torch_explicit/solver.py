@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from cfm_core.errors import InputError, NumericalError
+from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
 from . import arrays as arr
@@ -143,6 +144,8 @@ class _Run:
         stop = "end_time"
         zero = torch.zeros((), dtype=self.dtype, device=self.device)
         self.syncs = 0
+        monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
+        positions = lambda: np.asarray(model.nodes, dtype=np.float64) + u.T.to("cpu", torch.float64).numpy()  # noqa: E731
         start = time.perf_counter()
         while True:
             # 1. elements at x^n (Prony factors of the previous step)
@@ -242,14 +245,19 @@ class _Run:
                     reported = min(t, end)
                     self.progress(reported)
                 next_progress = (math.floor(t / tick) + 1) * tick
+            if monitor.due(t):
+                monitor.check(t, positions(), Z if sph is not None else None)
             if done:
                 break
             if steps >= o["max_steps"]:
                 raise NumericalError(f"model '{model.name}': {steps} steps reached at t = {t:.6g} s before the end "
                                      f"time {end:g} s (option max_steps).", time=t, quantity="steps")
         wall = time.perf_counter() - start
+        monitor.final(t, positions(), Z if sph is not None else None)
         h = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
-        return self._result(h, wall, steps, DT0, dtmin, dtmax, maxpen, frames, stop)
+        res = self._result(h, wall, steps, DT0, dtmin, dtmax, maxpen, frames, stop)
+        res.info["checks"] = monitor.report()
+        return res
 
     # ---- errors ----
     def _element_error(self, e: int, resp, kin, t: float) -> NumericalError:
@@ -262,7 +270,7 @@ class _Run:
                 f"element {e} inverted at t = {t:.6g} s (J = det F = {J:.4g} <= 0) in model '{self.model.name}': "
                 f"the mesh cannot follow this deformation; refine the mesh, lower the load or raise the "
                 f"hourglass coefficient.", time=t, element=e, quantity="J")
-        return nonfinite_error(name, self.dtype, f"element {e} at t = {t:.6g} s", m, J, t, e)
+        return nonfinite_error(self.model.material, self.dtype, f"element {e} at t = {t:.6g} s", m, J, t, e)
 
     def _collapse_error(self, t: float, e: int, dtc: float, dt0: float) -> NumericalError:
         name = self.model.material.name
@@ -337,23 +345,23 @@ def _energies(mass, v, vold, nodal, dvc, pmask, dtn: float):
     return torch.cat([ke[None], AB, (mass * v[2]).sum()[None]])
 
 
-def nonfinite_error(material: str, dtype, where: str, m, J: float, t: float, index: int) -> NumericalError:
-    """The NumericalError of an inf/NaN stress: overflow of the material's exponential; float32 hint."""
+def nonfinite_error(material, dtype, where: str, m, J: float, t: float, index: int) -> NumericalError:
+    """The NumericalError of an inf/NaN stress: the material's failing term (evaluated term by term in
+    float64, :mod:`cfm_core.material.diagnose`) and its inputs; a float32 hint when float64 would pass."""
     import torch
 
-    if dtype == torch.float32:
+    from cfm_core.material.diagnose import describe_nonfinite, nonfinite_term
+
+    name = material.name
+    if dtype == torch.float32 and nonfinite_term(material, m) is None:
         return NumericalError(
-            f"non-finite stress in {where}: the energy derivatives of material '{material}' overflow float32 at "
-            f"the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {J:.4g} (the fibre term "
-            f"exp(k2 (x - 1)^2) overflows float32 once its argument exceeds about 88.7, float64 only at 709): "
+            f"non-finite stress in {where}: the energy derivatives of material '{name}' overflow float32 at "
+            f"the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {J:.4g} (exp overflows float32 "
+            f"once its argument exceeds about 88.7, float64 only at 709; every term is finite in float64 here): "
             f"this scene needs float64; run it with dtype='float64' (CLI: --dtype float64).",
-            time=t, element=index, quantity="exp overflow in the material energy derivative (float32)")
-    return NumericalError(
-        f"non-finite stress in {where}: the energy derivatives of material '{material}' (psi_grad / "
-        f"psi_hess_diag) are inf or NaN at the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), "
-        f"J = {J:.4g}, typically an exp overflow (argument > 709) in a fibre term; lower the load, refine the "
-        f"mesh or check the parameters.", time=t, element=index,
-        quantity="exp overflow in the material energy derivative")
+            time=t, element=index, quantity="overflow of the material energy derivative (float32)")
+    return NumericalError(f"non-finite stress in {where} (J = {J:.4g}): {describe_nonfinite(material, m)}.",
+                          time=t, element=index, quantity=f"non-finite energy derivative of material '{name}'")
 
 
 def check_point_inputs(t, F):

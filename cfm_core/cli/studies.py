@@ -28,6 +28,9 @@ def _runner_options(p) -> None:
                                                              "process (no Dask)")
     p.add_argument("--workers", type=int, help="worker processes of the local Dask cluster (default: the "
                                                "number of cores)")
+    p.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
+                   help="with Dask: stop waiting after this many seconds with no worker left (the runs not "
+                        "done fail with a message; finished runs are kept and a rerun resumes); default 30 s")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
 
 
@@ -77,7 +80,7 @@ def _progress(args):
 
 
 def _open(args):
-    return open_runner("none" if args.serial else args.scheduler, args.workers)
+    return open_runner("none" if args.serial else args.scheduler, args.workers, args.worker_timeout)
 
 
 def _cmd_sweep(args) -> int:
@@ -127,8 +130,15 @@ def _cmd_calibrate(args) -> int:
     for n, u in zip(result.problem.coords.names, result.problem.coords.units):
         ci = conf[n]["ci"]
         ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "not identifiable (J^T J singular)"
+        if conf[n].get("withheld"):
+            ci_text += f" ({conf[n]['withheld']})"
         print(f"{n:<6} = {result.final.params[n]:<12.6g} {u:<3} start {result.start.params[n]:<10.5g} "
               f"95 % CI {ci_text}")
+    for combo in result.confidence.get("identifiability", {}).get("combinations", []):
+        (a, b), (_, k) = combo["parameters"], combo["coefficients"]
+        print(f"determined (linearised at the fit): {a} + {k:.4g} {b} = {combo['value']:.6g}")
+    for text in result.confidence.get("warnings", []):
+        print(f"warning: {text}", file=sys.stderr)
     for c, e in zip(result.problem.curves, result.final.rel_l2):
         print(f"{c.name}: rel. L2 {100 * e:.2f} % ({1e3 * c.thickness:g} mm)")
     print(f"{result.problem.runs} drop tests, {len(result.problem.history)} evaluations, "

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import kinematics as kin
 from . import prony
+from .diagnose import describe_nonfinite
 from ..errors import InputError, NumericalError
 
 
@@ -21,11 +22,8 @@ def _evaluate(material, m, *names):
     for name, o in zip(names, outs):
         if not np.isfinite(o).all():
             i = int(np.argmax(~np.isfinite(o).all(axis=1)))
-            raise NumericalError(
-                f"material '{material.name}': {name} is not finite at point {i} (eigenvalues of C = "
-                f"{m[i].tolist()}); the fibre exponential overflows float64 when k2 (x-1)^2 > 709.",
-                element=i, quantity=name,
-            )
+            raise NumericalError(f"{name} is not finite at point {i}: {describe_nonfinite(material, m[i])}.",
+                                 element=i, quantity=f"non-finite {name} of material '{material.name}'")
     return outs
 
 

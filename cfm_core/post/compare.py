@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..tables import read_table
 from .metrics import compare_histories
 
 #: signal file -> (column compared, its unit)
@@ -50,18 +51,15 @@ def read_run(path) -> Run:
         raise InputError(f"{d}: neither {' nor '.join(SIGNALS)} found.")
     name = found[0]
     column, _ = SIGNALS[name]
-    with open(d / name, encoding="utf-8") as f:
-        header = f.readline().strip().split(",")
-    if "t" not in header or column not in header:
-        raise InputError(f"{d / name}: header {','.join(header)} lacks 't' or '{column}'.")
+    table = read_table(d / name, ("t", column), {"t": "s", column: SIGNALS[name][1]}, strict=False,
+                       what="run history")
     try:
-        data = np.loadtxt(d / name, delimiter=",", skiprows=1, ndmin=2)
         summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
-    except ValueError as exc:
-        raise InputError(f"{d}: cannot read the run ({exc}).") from None
-    if data.shape[0] < 2 or not np.isfinite(data).all():
-        raise InputError(f"{d / name}: needs at least 2 finite rows, got {data.shape[0]} rows.")
-    return Run(d, name, data[:, header.index("t")], data[:, header.index(column)], summary)
+    except (ValueError, OSError) as exc:
+        raise InputError(f"{d}: cannot read summary.json ({exc}).") from None
+    if table.data.shape[0] < 2:
+        raise InputError(f"{d / name}: needs at least 2 rows, got {table.data.shape[0]}.")
+    return Run(d, name, table.column("t"), table.column(column), summary)
 
 
 def compare_runs(reference: Run, others: list[Run]) -> list[dict]:

@@ -18,7 +18,8 @@ SUMMARY_UNITS = {
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
     "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
     "final_over_peak": "-", "compile_time": "s", "hourglass_coefficient": "-", "newton_iterations": "-",
-    "rejected_steps": "-", "penetration_ratio": "- (largest penetration / element size)", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
+    "rejected_steps": "-", "penetration_ratio": "- (largest penetration / element size)",
+    "warnings": "text (run checks that passed with a warning: hourglass, energy balance, contact at the end, inertia)", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
 }
 
 
@@ -49,8 +50,9 @@ def summarize(result, model_info: dict) -> dict:
     (a ``units`` dict in model_info is merged into the summary's).
     Keys: the :func:`drop_test_metrics` of the CFC-filtered acceleration (duration from the raw
     signal), steps, elements, wall_time (s), energy_error and hourglass_ratio (-, left out when
-    the backend recorded no energies), dt_min/dt_max (s, when finite), backend, model_info, and
-    "units". Non-finite histories raise NumericalError.
+    the backend recorded no energies), dt_min/dt_max (s, when finite), backend, model_info (among
+    it "warnings": the run checks' warnings, :mod:`cfm_core.simulation.checks`, text) and "units".
+    Non-finite histories raise NumericalError.
     """
     if "impactor_mass" not in model_info:
         raise InputError("model_info needs 'impactor_mass' (kg, full impactor mass, e.g. 0.220).")

@@ -11,8 +11,10 @@ from typing import Callable
 
 from .. import post
 from ..errors import InputError
+from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
 from ..scene.scene import Scene, scene_to_dict
+from ..simulation import checks
 from ..simulation.registry import backend_for
 from .outcomes import DropTestOutcome, ReactionOutcome
 
@@ -46,7 +48,10 @@ def _progress(progress, scene: Scene, label: str):
 
 
 def run_model(model, backend: str = "numba", progress: Callable[[float], None] | None = None, **options):
-    """Run a built :class:`~cfm_core.scene.Model` on a backend.
+    """Run a built :class:`~cfm_core.scene.Model` on a backend, with the end-of-run physics checks.
+
+    The checks (:func:`cfm_core.simulation.checks.check_result`) run here for every backend; the
+    backends run the state checks (:class:`cfm_core.simulation.checks.Monitor`) during the run.
 
     Parameters
     ----------
@@ -62,16 +67,56 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
     Returns
     -------
     Result
-        Raw histories (no post-processing).
+        Raw histories (no post-processing); ``info["warnings"]``: the checks' warnings (text).
 
     Raises
     ------
     InputError
         Unknown or unavailable backend, bad options, a model the backend cannot run.
     NumericalError
-        The run failed or its physics broke (names where and when).
+        The run failed or its physics broke (penetration, bottoming out, folded element, contact
+        at the automatic end time, a stop limit): names where and when.
     """
-    return backend_for(backend).run(model, progress=progress, **options)
+    result = backend_for(backend).run(model, progress=progress, **options)
+    result.info["warnings"] = checks.check_result(model, result)
+    return result
+
+
+def report_warnings(summary: dict, stream=None) -> None:
+    """Print a summary's run-check warnings on stderr.
+
+    Parameters
+    ----------
+    summary : dict
+        A run summary; its ``"warnings"`` (list of text), if any, are printed one per line.
+    stream : file, optional
+        Where to print (default ``sys.stderr``).
+    """
+    for text in summary.get("warnings", []):
+        print(f"warning: {text}", file=stream or sys.stderr)
+
+
+def check_output_rate(scene: Scene, cfc: float = 600.0) -> None:
+    """Refuse a drop-test scene whose output rate is too low for the CFC filter, before running.
+
+    Parameters
+    ----------
+    scene : Scene
+        The drop-test scene ([scene] output_rate in Hz).
+    cfc : float
+        Channel frequency class of the filter (Hz, default 600).
+
+    Raises
+    ------
+    InputError
+        output_rate below 10 x CFC (SAE J211/1), naming [scene] output_rate.
+    """
+    rate = float(scene.settings.output_rate)
+    if rate < MIN_RATE_OVER_CFC * cfc:
+        raise InputError(
+            f"[scene] output_rate = {rate:g} Hz is too low: the acceleration is filtered with SAE J211/1 "
+            f"CFC {cfc:g}, which needs at least {MIN_RATE_OVER_CFC:g} x CFC = {MIN_RATE_OVER_CFC * cfc:g} Hz. "
+            f"Use output_rate >= {MIN_RATE_OVER_CFC * cfc:g} Hz (the paper's 50 000 Hz is the default).")
 
 
 def _run(scene: Scene, backend: str, progress, label: str, options: dict):
@@ -115,6 +160,7 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     """
     if scene.type != "drop-test":
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
+    check_output_rate(scene)
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
     model, result = _run(scene, backend, progress, label, options)
     rate = float(scene.settings.output_rate)
@@ -133,7 +179,9 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
                   "scene": "SI (as in scene.toml)"},
     }
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
+    info["warnings"] = list(result.info.get("warnings", []))
     summary = post.summarize(result, info)
+    report_warnings(summary)
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
 
@@ -174,5 +222,7 @@ def reaction_test(scene: Scene, backend: str | None = None, progress=None, **opt
                 elastic=model.material.elastic, parameters=dict(model.material.values), elements=model.n_elements,
                 scene=scene_to_dict(scene))
     info["units"] = {"parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
+    info["warnings"] = list(result.info.get("warnings", []))
     summary = post.summarize_reaction(result, t, force, info)
+    report_warnings(summary)
     return ReactionOutcome(scene, model, result, t, stretch, force, nominal, summary)

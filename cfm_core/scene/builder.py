@@ -53,11 +53,10 @@ def build_model(scene: Scene, material=None) -> Model:
 
         m = scene.material
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
-    if scene.type == "drop-test":
-        return _drop_test(scene, material)
-    if scene.type == "relaxation":
-        return _relaxation(scene, material)
-    return _single_element(scene, material)
+    build = {"drop-test": _drop_test, "relaxation": _relaxation}.get(scene.type, _single_element)
+    model = build(scene, material)
+    model.meta["checks"] = scene.settings.checks()  # limits of cfm_core.simulation.checks
+    return model
 
 
 def _fixed(nodes_dofs: list[tuple[np.ndarray, int]]) -> np.ndarray:
@@ -91,7 +90,7 @@ def _drop_test(scene: Scene, material) -> Model:
     sp, imp = scene.specimen, scene.impactor
     quarter = sp.symmetry == "quarter"
     if sp.mesh is not None:
-        nodes, hexes, _ = read_specimen_mesh(sp.mesh)
+        nodes, hexes, _ = read_specimen_mesh(sp.mesh, bool(sp.merge_nodes))
         nodes, hexes = nodes.copy(), hexes.copy()
         grid = None
     else:

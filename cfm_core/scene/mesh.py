@@ -103,14 +103,35 @@ def structured_hex_mesh(lx: float, ly: float, lz: float, nx: int, ny: int, nz: i
     return nodes, hexes
 
 
-def read_hex_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Read a hexahedral mesh with meshio; return (nodes (n, 3) in m, hexes (e, 8) int64).
 
     Only ``hexahedron`` volume cells are accepted; vertex, line, triangle and quad blocks
     (boundary markers from mesh generators) are ignored; any other cell type is an InputError
     naming what was found. Nodes used by no hexahedron are dropped and the rest renumbered.
+    The mesh must be one body (:func:`check_one_body`): coincident nodes that are not shared are
+    merged when ``merge`` is True and refused otherwise; disconnected parts are refused.
     Every element must have a positive Jacobian at its centre and its 8 corners (VTK node order);
     otherwise an InputError names the first bad element. Coordinates are taken as metres.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mesh file meshio reads (.vtu, .msh, .inp, ...).
+    merge : bool
+        Merge coincident nodes the elements do not share (default: refuse such a mesh).
+
+    Returns
+    -------
+    nodes : ndarray, shape (n, 3)
+        Coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, int64, VTK order.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, other cell types, a mesh that is not one body, a bad Jacobian.
     """
     import meshio
 
@@ -149,7 +170,134 @@ def read_hex_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     hexes = renumber[hexes]
     if not np.all(np.isfinite(nodes)):
         raise InputError(f"mesh file '{path}' has non-finite (NaN or inf) node coordinates.")
+    nodes, hexes = check_one_body(nodes, hexes, source=f"mesh file '{path}'", merge=merge)
     check_hex_jacobians(nodes, hexes, source=f"mesh file '{path}'")
+    return nodes, hexes
+
+
+def coincident_nodes(nodes: np.ndarray, tol: float) -> np.ndarray:
+    """Groups of coincident nodes.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    tol : float
+        Distance (m) below which two nodes are the same.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        For each node the smallest index of its group (itself when it has no twin), int64.
+    """
+    from scipy.spatial import cKDTree
+
+    nodes = np.asarray(nodes, dtype=np.float64)
+    target = np.arange(len(nodes), dtype=np.int64)
+    if len(nodes) < 2:
+        return target
+    pairs = cKDTree(nodes).query_pairs(r=tol, output_type="ndarray")
+    if pairs.size == 0:
+        return target
+    # union-find over the pairs, each group represented by its smallest index
+    parent = np.arange(len(nodes), dtype=np.int64)
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in pairs:
+        ra, rb = root(int(a)), root(int(b))
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    return np.array([root(i) for i in range(len(nodes))], dtype=np.int64)
+
+
+def connected_parts(hexes: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Connected parts of a mesh (elements sharing a node are connected).
+
+    Parameters
+    ----------
+    hexes : ndarray, shape (e, 8)
+        Connectivity.
+    n_nodes : int
+        Number of nodes.
+
+    Returns
+    -------
+    ndarray, shape (e,)
+        Label of the part each element belongs to (0, 1, ...).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    hexes = np.asarray(hexes, dtype=np.int64)
+    ne = hexes.shape[0]
+    rows = np.repeat(np.arange(ne), hexes.shape[1])
+    graph = coo_matrix((np.ones(rows.size), (rows, ne + hexes.ravel())), shape=(ne + n_nodes, ne + n_nodes))
+    _, labels = connected_components(graph, directed=False)
+    return labels[:ne]
+
+
+def check_one_body(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh", merge: bool = False,
+                   rel_tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """A mesh that is one body: (nodes (n', 3) in m, hexes (e, 8)), coincident nodes merged on request.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity (VTK order).
+    source : str
+        What the mesh is, for messages.
+    merge : bool
+        Merge nodes closer than ``rel_tol`` x the mean edge length (a mesh exported element by
+        element, or layers that do not share nodes); False: refuse such a mesh.
+    rel_tol : float
+        Distance (-, relative to the mean edge length) below which two nodes are the same.
+
+    Returns
+    -------
+    nodes, hexes
+        Unchanged, or with coincident nodes merged and unused nodes dropped.
+
+    Raises
+    ------
+    InputError
+        Coincident unmerged nodes (without ``merge``: their count and the hint to merge), or parts
+        that share no node (their count and element counts): a specimen in pieces carries no load
+        from one to the next, and a drop test on it gives a tiny, wrong peak without any error.
+    """
+    nodes = np.asarray(nodes, dtype=np.float64)
+    hexes = np.asarray(hexes, dtype=np.int64)
+    tol = rel_tol * mean_edge_length(nodes, hexes)
+    target = coincident_nodes(nodes, tol)
+    dup = int(np.count_nonzero(target != np.arange(len(nodes))))
+    if dup:
+        if not merge:
+            raise InputError(
+                f"{source}: {dup} node(s) lie on top of other nodes (within {tol:.3g} m) without being shared "
+                f"by the elements, so the mesh is not one body (it was exported element by element, or its "
+                f"layers or parts do not share nodes): loads would not pass between the elements. Merge them "
+                f"in the mesher, or set [specimen] merge_nodes = true to merge them on reading.")
+        used, hexes = np.unique(target[hexes], return_inverse=True)
+        hexes = hexes.reshape(-1, 8).astype(np.int64)
+        nodes = nodes[used]
+        degenerate = np.flatnonzero([len(set(h)) < 8 for h in hexes.tolist()])
+        if degenerate.size:
+            raise InputError(f"{source}: merging coincident nodes collapsed element {int(degenerate[0])} "
+                             f"({degenerate.size} in total): some of its own corners coincide; fix the mesh.")
+    labels = connected_parts(hexes, len(nodes))
+    counts = np.bincount(labels)
+    if counts.size > 1:
+        sizes = ", ".join(str(int(c)) for c in sorted(counts, reverse=True)[:6]) + (", ..." if counts.size > 6 else "")
+        raise InputError(
+            f"{source}: the mesh is {counts.size} disconnected parts (elements per part: {sizes}) that share no "
+            f"node: a specimen must be one body. Remove the stray parts, or connect them (if their nodes "
+            f"coincide, set [specimen] merge_nodes = true).")
     return nodes, hexes
 
 

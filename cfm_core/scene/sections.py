@@ -62,12 +62,21 @@ def _set(obj, **kw):
 class SceneSettings:
     """[scene]: type ("drop-test" | "single-element" | "relaxation"); name (text, default: the type);
     end_time (s, upper bound; None: automatic, see :attr:`Scene.end_time`);
-    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper)."""
+    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper).
+
+    Run checks (:mod:`cfm_core.simulation.checks`): penetration_tolerance (m, allowed penetration
+    behind a rigid surface or across a symmetry plane; None: 5 % of the smallest element edge);
+    hourglass_limit (-, hourglass / internal energy above which the run stops; None: only a
+    warning above 0.10); energy_limit (-, energy-balance error above which the run stops; None:
+    only a warning above 0.01)."""
 
     type: str
     name: str | None = None
     end_time: float | None = None
     output_rate: float = 50_000.0
+    penetration_tolerance: float | None = None
+    hourglass_limit: float | None = None
+    energy_limit: float | None = None
 
     def __post_init__(self):
         _choice("scene", "type", self.type, SCENE_TYPES)
@@ -76,21 +85,34 @@ class SceneSettings:
             _set(self, end_time=_num("scene", "end_time", self.end_time, "s", 0, 1e4, lo_open=True))
         _set(self, output_rate=_num("scene", "output_rate", self.output_rate, "Hz", 0, 1e9,
                                     lo_open=True))
+        if self.penetration_tolerance is not None:
+            _set(self, penetration_tolerance=_num("scene", "penetration_tolerance", self.penetration_tolerance,
+                                                  "m", 0, 0.1))
+        for key in ("hourglass_limit", "energy_limit"):
+            if getattr(self, key) is not None:
+                _set(self, **{key: _num("scene", key, getattr(self, key), "-", 0, 1e6, lo_open=True)})
+
+    def checks(self) -> dict:
+        """The run-check limits as a dict (model.meta["checks"]); None values mean the defaults."""
+        return {"penetration_tolerance": self.penetration_tolerance, "hourglass_limit": self.hourglass_limit,
+                "energy_limit": self.energy_limit}
 
 
 @functools.lru_cache(maxsize=16)
-def _read_mesh_cached(path: str, mtime_ns: int, size: int):
+def _read_mesh_cached(path: str, mtime_ns: int, size: int, merge: bool = False):
 
-    nodes, hexes = read_hex_mesh(path)
+    nodes, hexes = read_hex_mesh(path, merge=merge)
     nodes.setflags(write=False)
     hexes.setflags(write=False)
     return nodes, hexes, mean_edge_length(nodes, hexes)
 
 
-def read_specimen_mesh(path) -> tuple[np.ndarray, np.ndarray, float]:
+def read_specimen_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
     """(nodes (m), hexes, mean edge length (m)) of a user mesh, read once per file version.
 
-    The arrays are read-only and shared; copy them before changing them.
+    merge: merge coincident nodes (else a mesh that is not one body is refused, see
+    :func:`cfm_core.scene.mesh.check_one_body`). The arrays are read-only and shared; copy them
+    before changing them.
     """
     p = Path(path)
     st = p.stat() if p.is_file() else None
@@ -98,7 +120,7 @@ def read_specimen_mesh(path) -> tuple[np.ndarray, np.ndarray, float]:
         raise InputError(f"[specimen] mesh = '{path}': the file does not exist. Give the path of a "
                          f"hexahedral mesh readable by meshio (relative paths are taken from the "
                          f"scene file's folder).")
-    return _read_mesh_cached(str(p), st.st_mtime_ns, st.st_size)
+    return _read_mesh_cached(str(p), st.st_mtime_ns, st.st_size, bool(merge))
 
 
 @dataclass(frozen=True)
@@ -112,7 +134,8 @@ class Specimen:
     full specimen), thickness (max z) and element_size (mean edge length) are taken from the mesh,
     and values given for them must agree with it. The mesh's bottom must be at z = 0; with
     symmetry "none" its lateral centre at x = y = 0, with "quarter" it must be the x, y >= 0
-    quarter (min x = min y = 0).
+    quarter (min x = min y = 0). merge_nodes: merge coincident nodes of the mesh that its elements
+    do not share (default None = false: such a mesh, which is not one body, is refused with a count).
     """
 
     width: float | None = None
@@ -121,10 +144,13 @@ class Specimen:
     density: float = 950.0
     symmetry: str = "quarter"
     mesh: str | None = None
+    merge_nodes: bool | None = None
 
     def __post_init__(self):
         s = "specimen"
         _choice(s, "symmetry", self.symmetry, ("quarter", "none"))
+        if self.merge_nodes is not None and not isinstance(self.merge_nodes, bool):
+            raise InputError(f"[specimen] merge_nodes = {self.merge_nodes!r} must be true or false.")
         _set(self, density=_num(s, "density", self.density, "kg/m^3", 1, 1e5,
                                 note="The default 950 kg/m^3 is an assumption (not in the paper)."))
         if self.mesh is not None:
@@ -152,7 +178,7 @@ class Specimen:
         if not isinstance(self.mesh, (str, Path)) or not str(self.mesh).strip():
             raise InputError(f"[specimen] mesh = {self.mesh!r} must be a file path (string).")
         path = str(Path(self.mesh).expanduser().resolve())
-        nodes, _, edge = read_specimen_mesh(path)
+        nodes, _, edge = read_specimen_mesh(path, bool(self.merge_nodes))
         lo, hi = nodes.min(axis=0), nodes.max(axis=0)
         tol = 1e-6 * float(np.max(hi - lo))
         if abs(lo[2]) > tol:
@@ -200,7 +226,7 @@ class Specimen:
     def n_elements(self) -> int:
         """Number of elements of the modelled part (structured mesh or user mesh)."""
         if self.mesh is not None:
-            return int(read_specimen_mesh(self.mesh)[1].shape[0])
+            return int(read_specimen_mesh(self.mesh, bool(self.merge_nodes))[1].shape[0])
         nx, ny, nz = self.grid
         return nx * ny * nz
 

@@ -2,12 +2,11 @@
 uniaxial stress (lateral tractions zero, solved each step) at a constant engineering strain rate.
 
 History CSV: header exactly ``t,F11,F12,F13,F21,F22,F23,F31,F32,F33`` (t in s, F dimensionless,
-rows in time order). Output CSV: ``t,s11,s22,s33,s12,s23,s13`` (Cauchy stress in Pa).
+rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.tables.read_table`. Output CSV: ``t,s11,s22,s33,s12,s23,s13`` (Cauchy stress in Pa).
 """
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
@@ -16,7 +15,9 @@ from scipy.optimize import brentq
 
 from ..material import kinematics as kin
 from ..material import reference as ref
+from ..material.diagnose import describe_nonfinite
 from ..errors import InputError, NumericalError
+from ..tables import read_table
 
 HISTORY_HEADER = ["t", "F11", "F12", "F13", "F21", "F22", "F23", "F31", "F32", "F33"]
 STRESS_HEADER = ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
@@ -24,57 +25,83 @@ UNIAXIAL_HEADER = ["t", "stretch", "nominal_stress", "lateral_stretch"]
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
-    """(t (n,) in s, F (n, 3, 3)) from a history CSV; InputError naming the line on any problem."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"history file '{path}' does not exist (expected a CSV with header {','.join(HISTORY_HEADER)}).")
-    rows = []
-    with path.open(newline="") as fh:
-        reader = csv.reader(fh)
-        header = next(reader, None)
-        if header is None or [h.strip() for h in header] != HISTORY_HEADER:
-            raise InputError(
-                f"{path}, line 1: header must be exactly '{','.join(HISTORY_HEADER)}', got "
-                f"'{','.join(header) if header else '(empty file)'}'.")
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            if len(row) != 10:
-                raise InputError(f"{path}, line {lineno}: expected 10 comma-separated numbers (t and 9 components of F), got {len(row)}.")
-            try:
-                vals = [float(c) for c in row]
-            except ValueError:
-                raise InputError(f"{path}, line {lineno}: not a number in {row!r}.") from None
-            if not all(math.isfinite(v) for v in vals):
-                raise InputError(f"{path}, line {lineno}: NaN or infinite value in {row!r}.")
-            rows.append((lineno, vals))
-    if not rows:
-        raise InputError(f"{path}: no data rows after the header.")
-    data = np.array([v for _, v in rows])
-    t, F = data[:, 0], data[:, 1:].reshape(-1, 3, 3)
-    for k in range(1, len(rows)):
-        if t[k] < t[k - 1]:
-            raise InputError(f"{path}, line {rows[k][0]}: time {t[k]:g} s is earlier than the previous row's {t[k-1]:g} s; rows must be in time order.")
+    """Deformation history from a CSV file (:func:`cfm_core.tables.read_table` rules: UTF-8 with or
+    without BOM, any line ending, ``#`` comments, optional units such as ``t [s]``).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with the header ``t,F11,F12,F13,F21,F22,F23,F31,F32,F33`` (t in s, F dimensionless),
+        rows in time order.
+
+    Returns
+    -------
+    t : ndarray, shape (n,)
+        Times (s).
+    F : ndarray, shape (n, 3, 3)
+        Deformation gradients (-).
+
+    Raises
+    ------
+    InputError
+        Naming the file and line: encoding, header, non-finite or non-numeric values, times out
+        of order, det F <= 0.
+    """
+    table = read_table(path, HISTORY_HEADER, {"t": "s", **{c: "-" for c in HISTORY_HEADER[1:]}}, exact=True,
+                       strict=False, what="history file")
+    t, F = table.data[:, 0], table.data[:, 1:].reshape(-1, 3, 3)
     J = np.linalg.det(F)
-    for k in range(len(rows)):
-        if not J[k] > 0:
-            raise InputError(f"{path}, line {rows[k][0]}: det F = {J[k]:g} <= 0 (inverted or degenerate deformation); det F must be positive.")
+    bad = np.flatnonzero(~(J > 0))
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(f"{path}, line {table.lines[k]}: det F = {J[k]:g} <= 0 (inverted or degenerate "
+                         f"deformation); det F must be positive.")
     return t, F
 
 
 def run_history(material, t, F, backend=None) -> np.ndarray:
-    """Cauchy stress (n, 6) in Pa (order s11, s22, s33, s12, s23, s13) along the history.
+    """Cauchy stress along a deformation history.
 
-    backend: None for the numpy reference, else a Backend instance whose ``point`` is used.
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material.
+    t : ndarray, shape (n,)
+        Times (s).
+    F : ndarray, shape (n, 3, 3)
+        Deformation gradients (-).
+    backend : Backend, optional
+        None for the numpy reference, else a backend whose ``point`` is used.
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+        Cauchy stress (Pa), order s11, s22, s33, s12, s23, s13.
+
+    Raises
+    ------
+    NumericalError
+        A non-finite stress, naming the row, its time (s) and the material's term that failed
+        (:mod:`cfm_core.material.diagnose`); no numpy RuntimeWarning is shown.
     """
-    if backend is None or backend.kind == "reference":
-        sigma = ref.stress_history(material, t, F)
-        out = kin.to_voigt(sigma)
-    else:
-        out = np.asarray(backend.point(material, np.asarray(t, float), kin.as_batch(F)))
+    t = np.asarray(t, dtype=np.float64)
+    try:
+        with np.errstate(all="ignore"):  # failures are reported below, not as numpy RuntimeWarnings
+            if backend is None or backend.kind == "reference":
+                out = kin.to_voigt(ref.stress_history(material, t, F))
+            else:
+                out = np.asarray(backend.point(material, t, kin.as_batch(F)))
+    except NumericalError as exc:
+        row = exc.element if exc.element is not None and 0 <= exc.element < t.size else None
+        if row is None or exc.time is not None:
+            raise
+        raise NumericalError(f"row {row} (t = {t[row]:.6g} s): {exc}", time=float(t[row]), element=row,
+                             quantity=exc.quantity) from None
     if not np.isfinite(out).all():
         i = int(np.argmax(~np.isfinite(out).all(axis=1)))
-        raise NumericalError(f"stress is not finite at row {i} (t = {t[i]:g} s).", time=float(t[i]), quantity="stress")
+        m = np.linalg.eigvalsh(np.einsum("ki,kj->ij", kin.as_batch(F)[i], kin.as_batch(F)[i]))
+        raise NumericalError(f"stress is not finite at row {i} (t = {t[i]:.6g} s): {describe_nonfinite(material, m)}.",
+                             time=float(t[i]), element=i, quantity="stress")
     return out
 
 
@@ -119,28 +146,34 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
     if hold > 0:
         t = np.concatenate([t, t_load + np.linspace(0.0, hold, steps + 1)[1:]])
     lam = 1.0 + np.sign(stretch - 1.0) * rate * np.minimum(t, t_load)
-    state = None
-    lat = np.ones_like(t)
-    P = np.zeros_like(t)
-    for n in range(t.size):
-        dt = 0.0 if n == 0 else t[n] - t[n - 1]
+    with np.errstate(all="ignore"):  # failures are reported as NumericalError, not numpy RuntimeWarnings
+        state = None
+        lat = np.ones_like(t)
+        P = np.zeros_like(t)
+        for n in range(t.size):
+            dt = 0.0 if n == 0 else t[n] - t[n - 1]
 
-        def lateral_stress(lt, n=n, dt=dt, keep=False):
-            F = np.diag([lam[n], lt, lt])[None]
-            S_iso, S_vol = ref.pk2_parts(material, F)
-            S, new_state = ref.viscous_step(material, state, dt, S_iso[0], S_vol[0])
-            return (S[1, 1], S, new_state) if keep else S[1, 1]
+            def lateral_stress(lt, n=n, dt=dt, keep=False):
+                F = np.diag([lam[n], lt, lt])[None]
+                S_iso, S_vol = ref.pk2_parts(material, F)
+                S, new_state = ref.viscous_step(material, state, dt, S_iso[0], S_vol[0])
+                return (S[1, 1], S, new_state) if keep else S[1, 1]
 
-        guess = lat[n - 1] if n else 1.0
-        lo, hi = guess, guess
-        for _ in range(200):  # bracket the root: S22 grows with the lateral stretch
-            lo, hi = lo / 1.05, hi * 1.05
-            if lateral_stress(lo) <= 0.0 <= lateral_stress(hi):
-                break
-        else:
-            raise NumericalError(f"uniaxial: no lateral stretch gives zero lateral stress at t = {t[n]:g} s.", time=float(t[n]))
-        lt = brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200) if n else 1.0
-        _, S, state = lateral_stress(lt, keep=True)
-        lat[n] = lt
-        P[n] = lam[n] * S[0, 0]  # P = F S, first component
+            guess = lat[n - 1] if n else 1.0
+            lo, hi = guess, guess
+            for _ in range(200):  # bracket the root: S22 grows with the lateral stretch
+                lo, hi = lo / 1.05, hi * 1.05
+                if lateral_stress(lo) <= 0.0 <= lateral_stress(hi):
+                    break
+            else:
+                raise NumericalError(f"uniaxial: no lateral stretch gives zero lateral stress at t = {t[n]:g} s.", time=float(t[n]))
+            lt = brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200) if n else 1.0
+            _, S, state = lateral_stress(lt, keep=True)
+            lat[n] = lt
+            P[n] = lam[n] * S[0, 0]  # P = F S, first component
+    bad = ~(np.isfinite(P) & np.isfinite(lat))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise NumericalError(f"uniaxial: the stress is not finite at step {k} (t = {t[k]:g} s, stretch {lam[k]:g}).",
+                             time=float(t[k]), element=k, quantity="stress")
     return t, lam, P, lat

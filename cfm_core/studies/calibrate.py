@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import identifiability
 from .dask_runner import SerialRunner
 from ..errors import InputError, NumericalError
 from .measured import CFC
@@ -235,11 +236,15 @@ class Problem:
 
 
 # ----------------------------------------------------------------------------- fitting
-def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95) -> dict:
+def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, ranges: dict | None = None) -> dict:
     """{name: {value, std, ci}} and the correlation matrix from the Jacobian (see the docstring).
 
     std is the standard error of p (delta method); ci the ``level`` interval; None where J^T J is
-    singular (the parameter is not identifiable from these data).
+    singular or where :func:`cfm_core.studies.identifiability.analyse` finds the parameter not
+    separately identifiable (|correlation| >= 0.99 with another, or in a near-null direction of the
+    scaled J^T J): then ci is widened to the extent of the valley within ``ranges`` (name -> (low,
+    high) in SI units: the parameters' valid ranges; default the fit's bounds; None without one), "identifiability" holds the combinations the data do determine, with their intervals,
+    and "warnings" says so.
     """
     from scipy import stats
 
@@ -265,8 +270,16 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95) -> di
     if cov is not None:
         d = np.sqrt(np.maximum(np.diag(cov), 1e-300))
         corr = (cov / np.outer(d, d)).tolist()
+    bounds = ranges or {n: tuple(float(math.exp(b) if lg else b) for b in (lo, hi))
+                        for n, lg, lo, hi in zip(coords.names, coords.log, coords.lower, coords.upper)}
+    ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds, residual)
+    for n in ident["unidentified"]:  # one point of a valley: its own interval would claim too much
+        valley = ident["valley"].get(n)
+        out[n].update(std=None, ci=valley, withheld="not separately identifiable: " + (
+            "the interval is the valley's extent within the bounds" if valley else "no interval"))
     return {"parameters": out, "correlation": corr, "dof": dof, "s2": s2, "t_quantile": q, "level": level,
-            "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None}
+            "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
+            "warnings": list(ident["warnings"])}
 
 
 @dataclass
@@ -307,7 +320,8 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
     res = least_squares(problem.residuals, x0, jac=problem.jacobian, bounds=(coords.lower, coords.upper),
                         method="trf", x_scale=1.0, xtol=1e-6, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
     final = problem.evaluate(res.x)
-    conf = confidence(res.x, res.jac, final.residual, coords)
+    decl = {p.name: p for p in get_material(scene.material.name).parameters}
+    conf = confidence(res.x, res.jac, final.residual, coords, ranges={n: (decl[n].low, decl[n].high) for n in names})
     return FitResult(problem, problem.evaluate(x0), final, conf, str(res.message), time.perf_counter() - t0)
 
 
@@ -362,6 +376,7 @@ def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> li
     conf = result.confidence
     params = {n: {"start": result.start.params[n], "fitted": result.final.params[n], "unit": u,
                   "std": conf["parameters"][n]["std"], "ci95": conf["parameters"][n]["ci"],
+                  **({"withheld": conf["parameters"][n]["withheld"]} if "withheld" in conf["parameters"][n] else {}),
                   "coordinate": "log" if lg else "linear"}
               for n, u, lg in zip(pb.coords.names, pb.coords.units, pb.coords.log)}
     curves = [{"name": c.name, "file": str(c.path), "thickness": c.thickness, "samples": int(c.t.size),
@@ -373,6 +388,7 @@ def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> li
             "status": result.status, "drop_tests": pb.runs, "evaluations": len(pb.history),
             "wall_time": result.wall, "rel_step": pb.rel_step, "backend": pb.backend,
             "dof": conf["dof"], "t_quantile": conf["t_quantile"], "cond_JTJ": conf["cond_JTJ"],
+            "warnings": conf.get("warnings", []), "identifiability": conf.get("identifiability"),
             "history": pb.history, **(settings or {}),
             "units": {"thickness": "m", "peak_measured_g": "g (9.80665 m/s^2)", "peak_fitted_g": "g",
                       "rel_l2": "-", "cost": "-", "wall_time": "s", "elapsed": "s",

@@ -23,6 +23,7 @@ import contextlib
 import functools
 import logging
 import os
+import time
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
@@ -35,6 +36,11 @@ WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_TH
               "MKL_NUM_THREADS": "1"}
 #: Seconds to wait for the scheduler's first worker before giving up.
 WORKER_WAIT = 60.0
+#: Seconds a running map waits without any worker before it gives up on the tasks left (the last
+#: worker died or was stopped; a nanny restarts a killed worker within a few seconds).
+WORKER_LOST = 30.0
+#: Seconds between two looks at the scheduler's workers while no task finishes.
+POLL = 0.25
 
 
 @dataclass(frozen=True)
@@ -79,10 +85,15 @@ class SerialRunner:
 
 
 class DaskRunner:
-    """Tasks on a Dask client; ``cluster`` is the local cluster this runner owns (or None)."""
+    """Tasks on a Dask client; ``cluster`` is the local cluster this runner owns (or None).
 
-    def __init__(self, client, label: str, cluster=None):
+    worker_timeout (s): how long :meth:`map` waits while the scheduler has no worker (or cannot be
+    reached) before it ends every task left with an error saying so (default :data:`WORKER_LOST`).
+    """
+
+    def __init__(self, client, label: str, cluster=None, worker_timeout: float = WORKER_LOST):
         self.client, self.label, self.cluster = client, label, cluster
+        self.worker_timeout = float(worker_timeout)
 
     @property
     def workers(self) -> int:
@@ -96,20 +107,50 @@ class DaskRunner:
         futures = self.client.map(functools.partial(_guarded, fn), items, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         pending = set(index)
+        ac = as_completed(futures)
+        lost_since = None
         try:
-            for fut in as_completed(futures):
-                pending.discard(fut.key)
-                i = index[fut.key]
-                if fut.status == "finished":
-                    ok, value = fut.result()
-                    yield Done(i, value) if ok else Done(i, error=value)
-                else:  # the worker died or the task could not be sent
-                    yield Done(i, error=error_text(fut.exception()))
-                fut.release()
-        finally:  # the consumer stopped early (error, Ctrl-C): do not leave work queued
-            left = [f for f in futures if f.key in pending]
+            while not ac.is_empty():
+                batch = ac.next_batch(block=False)
+                if not batch:  # nothing finished: is any worker left to do the rest?
+                    now = time.monotonic()
+                    if self._has_workers():
+                        lost_since = None
+                    elif lost_since is None:
+                        lost_since = now
+                    elif now - lost_since >= self.worker_timeout:
+                        text = (f"WorkersLost: the Dask scheduler has had no worker for {self.worker_timeout:g} s "
+                                f"(the last one died or was stopped), so this run was not done; runs finished "
+                                f"so far are kept: start workers and rerun the same command to resume.")
+                        for fut in futures:
+                            if fut.key in pending:
+                                pending.discard(fut.key)
+                                yield Done(index[fut.key], error=text)
+                        break
+                    time.sleep(POLL)
+                    continue
+                lost_since = None
+                for fut in batch:
+                    pending.discard(fut.key)
+                    i = index[fut.key]
+                    if fut.status == "finished":
+                        ok, value = fut.result()
+                        yield Done(i, value) if ok else Done(i, error=value)
+                    else:  # the worker died or the task could not be sent
+                        yield Done(i, error=error_text(fut.exception()))
+                    fut.release()
+        finally:  # the consumer stopped early (error, Ctrl-C) or no worker is left: do not leave work queued
+            left = [f for f in futures if f.key in pending or f.status not in ("finished", "error", "cancelled")]
             if left:
-                self.client.cancel(left)
+                with contextlib.suppress(Exception):
+                    self.client.cancel(left)
+
+    def _has_workers(self) -> bool:
+        """True when the scheduler reports at least one worker (False when it cannot be asked)."""
+        try:
+            return bool(self.client.nthreads())
+        except Exception:  # scheduler gone or not answering: counts as no worker
+            return False
 
     def close(self) -> None:
         self.client.close()
@@ -127,7 +168,7 @@ def _import_distributed():
     return distributed
 
 
-def local_cluster(workers: int) -> DaskRunner:
+def local_cluster(workers: int, worker_timeout: float = WORKER_LOST) -> DaskRunner:
     """A :class:`DaskRunner` on a new local cluster of ``workers`` one-thread processes."""
     distributed = _import_distributed()
     cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -138,10 +179,11 @@ def local_cluster(workers: int) -> DaskRunner:
     except BaseException:
         cluster.close()
         raise
-    return DaskRunner(client, f"local Dask cluster, {workers} worker process(es) x 1 thread", cluster)
+    return DaskRunner(client, f"local Dask cluster, {workers} worker process(es) x 1 thread", cluster,
+                      worker_timeout=worker_timeout)
 
 
-def connect(address: str, timeout: float = 30.0) -> DaskRunner:
+def connect(address: str, timeout: float = 30.0, worker_timeout: float = WORKER_LOST) -> DaskRunner:
     """A :class:`DaskRunner` on the Dask scheduler at ``address`` (e.g. tcp://host:8786)."""
     distributed = _import_distributed()
     try:
@@ -157,18 +199,40 @@ def connect(address: str, timeout: float = 30.0) -> DaskRunner:
         client.close()
         raise InputError(f"--scheduler {address}: the scheduler has had no worker for "
                          f"{WORKER_WAIT:g} s; start some with 'dask worker {address} --nthreads 1'.") from None
-    runner = DaskRunner(client, f"Dask scheduler {address}")
+    runner = DaskRunner(client, f"Dask scheduler {address}", worker_timeout=worker_timeout)
     runner.label += f" ({runner.workers} worker thread(s))"
     return runner
 
 
 @contextlib.contextmanager
-def open_runner(scheduler: str | None = None, workers: int | None = None):
+def open_runner(scheduler: str | None = None, workers: int | None = None, worker_timeout: float | None = None):
     """Context manager yielding a runner (see the module docstring); closes what it started.
 
-    scheduler: None (local cluster), "none"/"serial" (this process) or a Dask address.
-    workers: processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
+    Parameters
+    ----------
+    scheduler : str, optional
+        None (local cluster), "none"/"serial" (this process) or a Dask address.
+    workers : int, optional
+        Processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
+    worker_timeout : float, optional
+        Seconds a Dask run waits with no worker left before the tasks left fail with a message
+        (default :data:`WORKER_LOST`, 30 s).
+
+    Yields
+    ------
+    SerialRunner or DaskRunner
+        Its ``map(fn, items)`` yields :class:`Done` per item.
+
+    Raises
+    ------
+    InputError
+        Bad workers or worker_timeout, Dask missing, scheduler unreachable or without workers.
     """
+    if worker_timeout is None:
+        worker_timeout = WORKER_LOST
+    elif isinstance(worker_timeout, bool) or not (float(worker_timeout) > 0.0 and float(worker_timeout) < 1e6):
+        raise InputError(f"--worker-timeout {worker_timeout!r} s is not allowed: give a number of seconds > 0 "
+                         f"(how long a sweep waits with no Dask worker left before it stops).")
     if workers is not None and (isinstance(workers, bool) or int(workers) != workers or workers < 1):
         raise InputError(f"--workers {workers!r} is not allowed: give a whole number >= 1 "
                          f"(worker processes of the local Dask cluster).")
@@ -182,7 +246,8 @@ def open_runner(scheduler: str | None = None, workers: int | None = None):
         raise InputError(f"--workers {workers} sets the size of the local cluster and has no effect "
                          f"with --scheduler {scheduler}: the scheduler's workers are used. Leave one "
                          f"of them out.")
-    runner = local_cluster(workers or os.cpu_count() or 1) if scheduler is None else connect(scheduler)
+    runner = (local_cluster(workers or os.cpu_count() or 1, float(worker_timeout)) if scheduler is None
+              else connect(scheduler, worker_timeout=float(worker_timeout)))
     try:
         yield runner
     finally:

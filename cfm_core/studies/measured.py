@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..post import acceleration_histories
+from ..tables import read_table
 
 #: Fewest samples a measured curve must have (rows after t >= 0).
 MIN_POINTS = 10
@@ -69,57 +70,100 @@ def parse_data_spec(spec: str, default_thickness: float | None) -> tuple[str, fl
 
 
 def read_measured(path) -> tuple[np.ndarray, np.ndarray]:
-    """(t (s), a (m/s^2)) from a CSV with columns t and a; InputError naming the file and row.
+    """A measured curve from a CSV file (:func:`cfm_core.tables.read_table` rules).
 
-    Lines starting with '#' and blank lines are skipped; the first other line is the header
-    (other columns are ignored). Every value must be a finite number; t must increase.
+    Parameters
+    ----------
+    path : str or Path
+        CSV with columns t (s, from first contact) and a (m/s^2, positive decelerating), other
+        columns ignored; units may be written (``t [s],a [m/s^2]``); UTF-8 with or without BOM;
+        lines starting with '#' and blank lines skipped.
+
+    Returns
+    -------
+    t : ndarray, shape (n,)
+        Times (s) at t >= 0.
+    a : ndarray, shape (n,)
+        Accelerations (m/s^2).
+
+    Raises
+    ------
+    InputError
+        Naming the file and line: encoding, header, non-finite values, t not increasing, or
+        fewer than MIN_POINTS rows at t >= 0.
     """
-    p = Path(path)
-    try:
-        lines = p.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"data file '{p}' cannot be read: {getattr(exc, 'strerror', None) or exc}.") from None
-    rows = [(n, line) for n, line in enumerate(lines, start=1) if line.strip() and not line.lstrip().startswith("#")]
-    if not rows:
-        raise InputError(f"data file '{p}' is empty; it needs a header line 't,a' and rows of time (s) "
-                         f"and acceleration (m/s^2).")
-    header = [h.strip() for h in rows[0][1].split(",")]
-    if "t" not in header or "a" not in header:
-        raise InputError(f"data file '{p}', line {rows[0][0]}: the header {rows[0][1].strip()!r} must name "
-                         f"the columns t (s) and a (m/s^2), e.g. 't,a'.")
-    it, ia = header.index("t"), header.index("a")
-    values = np.empty((len(rows) - 1, 2))
-    for k, (n, line) in enumerate(rows[1:]):
-        cells = line.split(",")
-        if len(cells) != len(header):
-            raise InputError(f"data file '{p}', line {n}: {len(cells)} values for {len(header)} columns "
-                             f"({', '.join(header)}).")
-        for j, col in ((0, it), (1, ia)):
-            try:
-                values[k, j] = float(cells[col])
-            except ValueError:
-                values[k, j] = math.nan
-            if not math.isfinite(values[k, j]):
-                raise InputError(f"data file '{p}', line {n}: {header[col]} = {cells[col].strip()!r} is not a "
-                                 f"finite number ({'s' if j == 0 else 'm/s^2'}).")
-    t, a = values[:, 0], values[:, 1]
-    bad = np.flatnonzero(np.diff(t) <= 0.0)
-    if bad.size:
-        n = rows[1 + bad[0] + 1][0]
-        raise InputError(f"data file '{p}', line {n}: t = {float(t[bad[0] + 1])!r} s does not increase (previous "
-                         f"row: {float(t[bad[0]])!r} s); rows must be in time order.")
+    table = read_table(path, ("t", "a"), {"t": "s", "a": "m/s^2"}, what="data file")
+    t, a = table.column("t"), table.column("a")
     keep = t >= 0.0
     if keep.sum() < MIN_POINTS:
-        raise InputError(f"data file '{p}' has {int(keep.sum())} rows at t >= 0 s; at least {MIN_POINTS} are "
+        raise InputError(f"data file '{path}' has {int(keep.sum())} rows at t >= 0 s; at least {MIN_POINTS} are "
                          f"needed (t is the time from first contact, s).")
     return t[keep], a[keep]
 
 
-def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.0, cfc: float = CFC) -> Curve:
-    """A measured curve from ``file.csv[:thickness]`` on the grid k / rate, CFC-filtered."""
+def check_plausible(path, t: np.ndarray, a: np.ndarray, velocity: float, end_time: float, cfc: float = CFC) -> None:
+    """InputError when a measured curve cannot be a drop test of the scene (units, sampling).
+
+    Parameters
+    ----------
+    path : str
+        The file (for messages).
+    t, a : ndarray, shape (n,)
+        Times (s) and accelerations (m/s^2) at t >= 0, as read.
+    velocity : float
+        The scene's impact speed (m/s).
+    end_time : float
+        The scene's end time (s): a bound on the duration of the pulse.
+    cfc : float
+        Channel frequency class (Hz) of the filter applied to the curve.
+
+    Raises
+    ------
+    InputError
+        - duration: the curve lasts longer than 10 x the scene's end time (t in ms?);
+        - sampling: the median step is coarser than 1 / (2 CFC) (t in ms, or too coarse for the filter);
+        - peak: the velocity change int a dt is not within 0.3 - 3 x the impact speed (an impact
+          stops the impactor and at most throws it back: 1 - 2 x; a in g gives about 0.1 x, t in ms 1000 x).
+
+    Notes
+    -----
+    The momentum balance of the impactor: int a dt over the pulse equals its change of speed,
+    v (1 + e) with the coefficient of restitution 0 <= e <= 1.
+    """
+    span = float(t[-1] - t[0])
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    ms = (" Is t in ms? The time column must be in s (divide it by 1000, or write the header 't [ms]' "
+          "to be told so).")
+    if span > 10.0 * end_time:
+        raise InputError(f"data file '{path}': the curve lasts {span:g} s, but this drop test ends by {end_time:g} s "
+                         f"(an impact lasts milliseconds).{ms}")
+    if step > 0.5 / cfc:
+        raise InputError(f"data file '{path}': the samples are {step:g} s apart (median), too coarse for the CFC "
+                         f"{cfc:g} filter (at most {0.5 / cfc:g} s; SAE J211/1 asks for at least 10 x CFC = "
+                         f"{10 * cfc:g} samples per s).{ms}")
+    dv = float(np.trapezoid(a, t)) if hasattr(np, "trapezoid") else float(np.trapz(a, t))
+    ratio = dv / velocity if velocity > 0 else float("nan")
+    if not (0.3 <= ratio <= 3.0):
+        if 0.03 <= ratio < 0.3:
+            hint = " Is a in g? It must be in m/s^2 (multiply by 9.80665)."
+        elif ratio > 3.0:
+            hint = " Is t in ms or a in mm/s^2? t must be in s and a in m/s^2."
+        else:
+            hint = " Is a positive when the impactor decelerates, and in m/s^2?"
+        raise InputError(f"data file '{path}': the curve's velocity change int a dt = {dv:.4g} m/s is {ratio:.3g} times "
+                         f"the scene's impact speed {velocity:g} m/s; an impact that stops the impactor gives 1 to 2 "
+                         f"times (0.3 to 3 allowed).{hint}")
+
+
+def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.0, cfc: float = CFC,
+               scene=None) -> Curve:
+    """A measured curve from ``file.csv[:thickness]`` on the grid k / rate, CFC-filtered; with a drop-test
+    ``scene``, checked for plausibility against it (:func:`check_plausible`)."""
 
     path, thickness = parse_data_spec(spec, default_thickness)
     t, a = read_measured(path)
+    if scene is not None:
+        check_plausible(path, t, a, float(scene.impactor.velocity), float(scene.end_time), cfc)
     # Box average of the (linearly interpolated) signal on the grid: the same resampling as a
     # simulated contact force, with mass 1 kg and the signal as the "force".
     grid, _, a_cfc = acceleration_histories(SimpleNamespace(t=t, impulse=None, contact_force=a), 1.0, rate, cfc)
@@ -137,7 +181,7 @@ def read_curves(specs, scene, scene_given: bool) -> list[Curve]:
     rate = float(scene.settings.output_rate)
     curves, seen, names = [], set(), {}
     for spec in specs:
-        c = read_curve(spec, default, rate)
+        c = read_curve(spec, default, rate, scene=scene)
         key = (str(Path(c.path).resolve()), c.thickness)
         if key in seen:
             raise InputError(f"--data {spec}: this file is given twice with thickness {c.thickness:g} m; "

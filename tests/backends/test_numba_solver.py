@@ -95,9 +95,10 @@ def test_inversion_is_reported_with_element_and_time():
     v0 = np.zeros_like(nodes)
     corner = int(np.argmin(np.linalg.norm(nodes - [2e-3, 1e-3, 1e-3], axis=1)))
     v0[corner] = [-200.0, -200.0, -200.0]     # crushes the second element within a few steps
-    with pytest.raises(NumericalError, match=r"element 1 inverted at t = ") as info:
+    with pytest.raises(NumericalError, match=r"element 1 (inverted|is folded) at t = ") as info:
         NumbaExplicitBackend().run(model_of(nodes, hexes), initial_velocity=v0)
-    assert info.value.element == 1 and info.value.quantity == "J" and info.value.time >= 0.0
+    # the corner check (cfm_core.simulation.checks) sees the fold before the centre inverts
+    assert info.value.element == 1 and info.value.quantity in ("J", "corner Jacobian") and info.value.time >= 0.0
 
 
 def test_prescribed_uniaxial_tension_reaction():

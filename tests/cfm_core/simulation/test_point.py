@@ -109,10 +109,10 @@ def test_viscoelastic_uniaxial_is_stiffer_at_higher_rate():
 @pytest.mark.parametrize("content,needle", [
     ("t,F11\n0,1\n", "header must be exactly"),
     (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,1,0,0,0\n", "line 3"),
-    (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,x,0,0,0,1\n", "line 3: not a number"),
+    (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,x,0,0,0,1\n", "line 3: F22 = 'x' is not a finite decimal number"),
     (HEADER + "\n0,1,0,0,0,1,0,0,0,1\n0.1,-1,0,0,0,1,0,0,0,1\n", "line 3: det F"),
-    (HEADER + "\n0.2,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,1,0,0,0,1\n", "line 3: time"),
-    (HEADER + "\n0,nan,0,0,0,1,0,0,0,1\n", "line 2: NaN"),
+    (HEADER + "\n0.2,1,0,0,0,1,0,0,0,1\n0.1,1,0,0,0,1,0,0,0,1\n", "line 3: t = 0.1 s does not follow"),
+    (HEADER + "\n0,nan,0,0,0,1,0,0,0,1\n", "line 2: F11 = 'nan' is not a finite"),
     (HEADER + "\n", "no data rows"),
 ])
 def test_malformed_history_names_the_line_and_leaves_no_output(tmp_path, capsys, content, needle):

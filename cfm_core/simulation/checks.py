@@ -1,0 +1,478 @@
+"""Physics checks of a run: every backend calls the same monitor, the pipeline checks the Result.
+
+A run that ends with a summary must be one whose physics held (docs/conventions.md section 5).
+Two parts, both numpy only and backend-neutral:
+
+- :class:`Monitor`: created by a backend's run loop from the model, called every ~1 % of the
+  end time (at most 25 output intervals apart: 0.5 ms at 50 kHz) with the current nodal positions and impactor centre (``due`` / ``check``) and once
+  at the end (``final``). It stops the run with a :class:`~cfm_core.errors.NumericalError`
+  naming the node or element, the time (s) and the quantity when
+
+  * a node lies behind the rigid plate (z < plate - tol) or inside the rigid sphere
+    (distance to its centre < radius - tol);
+  * a node has crossed a symmetry plane (a plane of nodes whose normal displacement is fixed)
+    by more than tol;
+  * the impactor reached the plate: the sphere's lowest point at or below the plate + tol
+    (bottoming out: the specimen is crushed through);
+  * an element is folded: the Jacobian det(dx/dxi) at one of its 8 corners is <= 0 (the
+    explicit backends integrate at the centre only, whose J stays positive while a corner folds).
+
+  ``tol`` defaults to 5 % of the smallest reference edge length (m); the scene's
+  ``[scene] penetration_tolerance`` (m) sets it.
+
+- :func:`check_result`: end-of-run checks on the :class:`~cfm_core.simulation.result.Result`,
+  run by :mod:`cfm_core.runs.pipeline` for every backend. Returns warnings (text) and raises
+  NumericalError when a stop limit is passed:
+
+  * hourglass energy over internal energy > 10 % warns (LS-DYNA / OpenRadioss practice), above
+    ``[scene] hourglass_limit`` (-) it stops;
+  * energy-balance error > 1 % warns, above ``[scene] energy_limit`` (-) it stops;
+  * the impactor history reaching the plate stops (also between two monitor calls);
+  * a single-element run (prescribed motion, with inertia) whose kinetic energy exceeds 0.1 % of
+    its internal energy warns that inertia matters (soft materials: the explicit reaction force
+    was 5-60 % above the uniaxial-stress solution, where KE / IE was 0.5-3 %; the CFM: 0.02 %);
+  * the run ending at its end time while still in contact: it stops when the end time was
+    automatic (a generous bound, so still being in contact means the impactor never came back:
+    bottoming out), and warns when the user chose the end time (the pulse is cut short).
+
+Limits travel from the scene to the model as ``model.meta["checks"]`` (a dict of the keys above).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import NumericalError
+from ..scene.mesh import HEX_REFERENCE
+
+HOURGLASS_WARN = 0.10   # (-) hourglass / internal energy above which a run warns
+ENERGY_WARN = 0.01      # (-) energy-balance error above which a run warns
+TOLERANCE_FRACTION = 0.05  # (-) default penetration tolerance as a fraction of the smallest edge
+CHECKS_PER_RUN = 100    # monitor calls over the end time at least (plus the final state)
+OUTPUTS_PER_CHECK = 25  # and at least one every 25 output intervals (0.5 ms at 50 kHz)
+INERTIA_WARN = 1e-3     # (-) kinetic / internal energy above which a single-element run is not quasi-static
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Limits of the run checks (SI units).
+
+    Attributes
+    ----------
+    tolerance : float or None
+        Allowed penetration behind a rigid surface or across a symmetry plane (m); None for 5 %
+        of the smallest element edge.
+    hourglass_limit : float or None
+        Hourglass / internal energy above which the run stops (-); None: warn only (above 0.10).
+    energy_limit : float or None
+        Energy-balance error above which the run stops (-); None: warn only (above 0.01).
+    """
+
+    tolerance: float | None = None
+    hourglass_limit: float | None = None
+    energy_limit: float | None = None
+
+    @classmethod
+    def of(cls, model) -> "Limits":
+        """The limits a model carries.
+
+        Parameters
+        ----------
+        model : cfm_core.scene.Model
+            Its ``meta["checks"]`` (from the scene's [scene] section) holds the limits.
+
+        Returns
+        -------
+        Limits
+            Those limits; defaults where the model has none.
+        """
+        d = dict(getattr(model, "meta", {}).get("checks") or {})
+        return cls(tolerance=d.get("penetration_tolerance"), hourglass_limit=d.get("hourglass_limit"),
+                   energy_limit=d.get("energy_limit"))
+
+
+def _corner_neighbours() -> np.ndarray:
+    """(3, 8): for each corner a of the VTK hexahedron, its neighbour along xi, eta and zeta."""
+    out = np.zeros((3, 8), dtype=np.int64)
+    for a in range(8):
+        for k in range(3):
+            target = HEX_REFERENCE[a].copy()
+            target[k] = -target[k]
+            out[k, a] = int(np.flatnonzero((HEX_REFERENCE == target).all(axis=1))[0])
+    return out
+
+
+_NEIGHBOURS = _corner_neighbours()
+
+
+def corner_volumes(x: np.ndarray, hexes: np.ndarray) -> np.ndarray:
+    """Triple products of the three edges leaving each element corner (xi, eta, zeta order).
+
+    The Jacobian of the trilinear map at corner a is this product times -(s1 s2 s3) / 8 (s = the
+    corner's natural coordinates), so its ratio to the reference value is the Jacobian's ratio.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, 3)
+        Nodal positions (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, VTK hexahedron order.
+
+    Returns
+    -------
+    ndarray, shape (e, 8)
+        Triple products (m^3); <= 0 where the element is folded at that corner.
+    """
+    X = np.asarray(x, dtype=np.float64)[np.asarray(hexes)]          # (e, 8, 3)
+    e1 = X[:, _NEIGHBOURS[0]] - X
+    e2 = X[:, _NEIGHBOURS[1]] - X
+    e3 = X[:, _NEIGHBOURS[2]] - X
+    return np.einsum("eai,eai->ea", e1, np.cross(e2, e3))
+
+
+def smallest_edge(nodes: np.ndarray, hexes: np.ndarray) -> float:
+    """Smallest edge length of the hexahedra (the 12 edges of each element).
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, VTK hexahedron order.
+
+    Returns
+    -------
+    float
+        The smallest edge (m); 0 without elements.
+    """
+    x = np.asarray(nodes, dtype=np.float64)[np.asarray(hexes)]
+    pairs = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
+                      [0, 4], [1, 5], [2, 6], [3, 7]])
+    lengths = np.linalg.norm(x[:, pairs[:, 1]] - x[:, pairs[:, 0]], axis=2)
+    return float(lengths.min()) if lengths.size else 0.0
+
+
+def tolerance(model, limits: Limits | None = None) -> float:
+    """Penetration tolerance of a model: the scene's, or 5 % of the smallest edge.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model (reference mesh in m, ``meta["checks"]``).
+    limits : Limits, optional
+        Its limits (default: :meth:`Limits.of` the model).
+
+    Returns
+    -------
+    float
+        Tolerance (m).
+    """
+    limits = limits or Limits.of(model)
+    if limits.tolerance is not None:
+        return float(limits.tolerance)
+    return TOLERANCE_FRACTION * smallest_edge(model.nodes, model.hexes)
+
+
+def symmetry_planes(model) -> list[tuple[int, float, float]]:
+    """The planes of fixed normal displacement (symmetry planes, clamped faces) of a model.
+
+    A fixed dof d counts when all nodes fixed in d share one coordinate x_d = c and the whole
+    mesh lies on one side of it; side is the sign of that side.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        Reference nodes (n, 3) in m and fixed_dofs (k, 2) pairs (node, dof).
+
+    Returns
+    -------
+    list of tuple
+        (axis 0-2, coordinate (m), side +1.0 or -1.0) per plane.
+    """
+    fixed = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
+    nodes = np.asarray(model.nodes, dtype=np.float64)
+    if nodes.size == 0:
+        return []
+    size = float(np.ptp(nodes, axis=0).max()) or 1.0
+    planes = []
+    for d in range(3):
+        idx = fixed[fixed[:, 1] == d, 0]
+        if idx.size == 0:
+            continue
+        c = nodes[idx, d]
+        if np.ptp(c) > 1e-9 * size:
+            continue
+        rel = nodes[:, d] - float(c[0])
+        if rel.min() >= -1e-9 * size and rel.max() > 0:
+            planes.append((d, float(c[0]), 1.0))
+        elif rel.max() <= 1e-9 * size and rel.min() < 0:
+            planes.append((d, float(c[0]), -1.0))
+    return planes
+
+
+class Monitor:
+    """Checks a running model's state; see the module docstring.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model being run (reference nodes (n, 3) in m, hexes (e, 8), sphere, plane, fixed dofs).
+    checks : int
+        Number of checks over the end time (default 100), plus the final state.
+
+    Raises
+    ------
+    NumericalError
+        From :meth:`check` / :meth:`final`, naming the node or element, the time (s) and the
+        quantity ("penetration", "symmetry", "bottoming out", "corner Jacobian").
+    """
+
+    def __init__(self, model, checks: int = CHECKS_PER_RUN):
+        self.model = model
+        self.limits = Limits.of(model)
+        self.tol = tolerance(model, self.limits)
+        self.planes = symmetry_planes(model)
+        self.hexes = np.asarray(model.hexes, dtype=np.int64)
+        self.ref_det = corner_volumes(model.nodes, self.hexes)
+        self.interval = float(model.end_time) / max(int(checks), 1)
+        if float(model.output_interval) > 0.0:
+            self.interval = min(self.interval, OUTPUTS_PER_CHECK * float(model.output_interval))
+        self.next = self.interval
+        self.calls = 0
+        self.worst = {"plate": 0.0, "sphere": 0.0, "symmetry": 0.0, "corner_jacobian_ratio": 1.0}
+
+    def due(self, t: float) -> bool:
+        """Whether a check is due.
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s).
+
+        Returns
+        -------
+        bool
+            True once t has reached the next check time (``self.next``, s).
+        """
+        return t >= self.next
+
+    def check(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
+        """Check the state and schedule the next check.
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s).
+        x : ndarray, shape (n, 3)
+            Current nodal positions (m) of the modelled part.
+        impactor_z : float, optional
+            Current z of the impactor's centre (m), for models with a sphere.
+
+        Raises
+        ------
+        NumericalError
+            Penetration, symmetry plane crossed, bottoming out or a folded corner (see the module
+            docstring), naming node or element, time and quantity.
+        """
+        self.calls += 1
+        self.next = (math.floor(t / self.interval) + 1) * self.interval if self.interval > 0 else math.inf
+        self.inspect(t, x, impactor_z)
+
+    def inspect(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
+        """The checks of :meth:`check` without the bookkeeping of when the next one is due.
+
+        Parameters
+        ----------
+        t, x, impactor_z
+            As for :meth:`check` (s, m, m).
+
+        Raises
+        ------
+        NumericalError
+            As for :meth:`check`.
+        """
+        x = np.asarray(x, dtype=np.float64)
+        m, tol = self.model, self.tol
+        if not np.isfinite(x).all():
+            i = int(np.argmax(~np.isfinite(x).all(axis=1)))
+            raise NumericalError(f"node {i} has a non-finite position at t = {t:.6g} s in model '{m.name}'.",
+                                 time=t, element=None, quantity="position")
+        plane = m.plane
+        if plane is not None:
+            depth = float(plane.z) - x[:, 2]
+            i = int(np.argmax(depth))
+            self.worst["plate"] = max(self.worst["plate"], float(depth[i]))
+            if depth[i] > tol:
+                raise self._error(t, f"node {i} is {_mm(depth[i])} behind the rigid plate z = {plane.z:g} m "
+                                     f"(reference position {_pos(m.nodes[i])}, now {_pos(x[i])})",
+                                  "penetration of the rigid plate", node=i)
+        sph = m.sphere
+        if sph is not None and impactor_z is not None:
+            c = np.array([sph.center[0], sph.center[1], float(impactor_z)])
+            depth = float(sph.radius) - np.linalg.norm(x - c, axis=1)
+            i = int(np.argmax(depth))
+            self.worst["sphere"] = max(self.worst["sphere"], float(depth[i]))
+            if depth[i] > tol:
+                raise self._error(t, f"node {i} is {_mm(depth[i])} inside the rigid impactor (radius "
+                                     f"{sph.radius:g} m, centre z = {impactor_z:.6g} m; node now at {_pos(x[i])})",
+                                  "penetration of the rigid impactor", node=i)
+            if plane is not None:
+                self._bottoming(t, float(impactor_z))
+        for axis, c, side in self.planes:
+            depth = -(x[:, axis] - c) * side
+            i = int(np.argmax(depth))
+            self.worst["symmetry"] = max(self.worst["symmetry"], float(depth[i]))
+            if depth[i] > tol:
+                name = "xyz"[axis]
+                raise self._error(t, f"node {i} has crossed the symmetry plane {name} = {c:g} m by {_mm(depth[i])} "
+                                     f"(now at {_pos(x[i])}): the specimen folds through a plane it may only "
+                                     f"slide on", "symmetry plane crossed", node=i)
+        if self.hexes.size:
+            ratio = corner_volumes(x, self.hexes) / self.ref_det
+            flat = int(np.argmin(ratio))
+            e, corner = divmod(flat, 8)
+            self.worst["corner_jacobian_ratio"] = min(self.worst["corner_jacobian_ratio"], float(ratio[e, corner]))
+            if not ratio[e, corner] > 0.0:
+                raise NumericalError(
+                    f"element {e} is folded at t = {t:.6g} s: the Jacobian at its corner node "
+                    f"{int(self.hexes[e, corner])} (local corner {corner}) is {ratio[e, corner]:.3g} times its "
+                    f"reference value (<= 0) in model '{m.name}'. The centre-point integration of the explicit "
+                    f"solvers cannot see this; the mesh cannot follow the deformation: lower the load, refine the "
+                    f"mesh or check the impactor mass and the material's stiffness (units).",
+                    time=t, element=e, quantity="corner Jacobian")
+
+    def final(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
+        """The check of the last state (always run).
+
+        Parameters
+        ----------
+        t, x, impactor_z
+            As for :meth:`check` (s, m, m).
+
+        Raises
+        ------
+        NumericalError
+            As for :meth:`check`.
+        """
+        self.check(t, x, impactor_z)
+
+    def report(self) -> dict:
+        """What the monitor saw, for ``Result.info["checks"]``.
+
+        Returns
+        -------
+        dict
+            monitor_calls (-), tolerance (m), worst_plate / worst_sphere / worst_symmetry (largest
+            depths seen, m) and worst_corner_jacobian_ratio (smallest ratio to the reference, -).
+        """
+        return {"monitor_calls": self.calls, "tolerance": self.tol,
+                **{f"worst_{k}": v for k, v in self.worst.items()}}
+
+    def _bottoming(self, t: float, z: float) -> None:
+        m = self.model
+        gap = z - float(m.sphere.radius) - float(m.plane.z)
+        if gap <= self.tol:
+            raise NumericalError(
+                f"the impactor reached the rigid plate at t = {t:.6g} s: its lowest point is {_mm(gap)} above "
+                f"the plate z = {m.plane.z:g} m (bottoming out) in model '{m.name}'. The specimen is crushed "
+                f"through: the impactor is too heavy or too fast for this specimen (check the units: mass in "
+                f"kg, velocity in m/s) or the material too soft.", time=t, quantity="bottoming out")
+
+    def _error(self, t: float, what: str, quantity: str, node: int) -> NumericalError:
+        err = NumericalError(
+            f"{what} at t = {t:.6g} s in model '{self.model.name}' (tolerance {_mm(self.tol)}): the run "
+            f"cannot be trusted. The load is too large for this specimen (check the units: impactor mass in "
+            f"kg, velocity in m/s, moduli in Pa), or the mesh too coarse.", time=t, quantity=quantity)
+        err.node = node
+        return err
+
+
+def _mm(x: float) -> str:
+    return f"{1e3 * x:.4g} mm"
+
+
+def _pos(x) -> str:
+    return "(" + ", ".join(f"{1e3 * v:.4g}" for v in x) + ") mm"
+
+
+def check_result(model, result) -> list[str]:
+    """End-of-run checks of a Result (see the module docstring); returns the warnings.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model that was run (sphere, plane, end_time in s, meta["checks"] limits).
+    result : cfm_core.simulation.result.Result
+        Its histories: t (s), contact_force (N), impactor_z (m), energies (J).
+
+    Returns
+    -------
+    list of str
+        Warnings (hourglass energy, energy balance, end in contact with a user end time).
+
+    Raises
+    ------
+    NumericalError
+        Bottoming out, end in contact with an automatic end time, or a stop limit passed.
+    """
+    limits = Limits.of(model)
+    warnings: list[str] = []
+    t = np.asarray(result.t, dtype=np.float64)
+    sph, plane = model.sphere, model.plane
+    if sph is not None and plane is not None and result.impactor_z is not None and t.size:
+        low = np.asarray(result.impactor_z) - float(sph.radius) - float(plane.z)
+        i = int(np.argmin(low))
+        if low[i] <= tolerance(model, limits):
+            raise NumericalError(
+                f"the impactor reached the rigid plate at t = {t[i]:.6g} s: its lowest point came within "
+                f"{_mm(low[i])} of the plate z = {plane.z:g} m (bottoming out) in model '{model.name}'. The "
+                f"specimen is crushed through: the impactor is too heavy or too fast for this specimen (check the "
+                f"units: mass in kg, velocity in m/s) or the material too soft.", time=float(t[i]),
+                quantity="bottoming out")
+    if result.energies and t.size:
+        hg = result.hourglass_ratio()
+        if math.isfinite(hg) and hg > HOURGLASS_WARN:
+            text = (f"hourglass energy is {100 * hg:.3g} % of the internal energy (above {100 * HOURGLASS_WARN:g} %): "
+                    f"the zero-energy modes carry a large part of the deformation and the stresses are not "
+                    f"reliable; refine the mesh or lower the load")
+            if limits.hourglass_limit is not None and hg > limits.hourglass_limit:
+                raise NumericalError(f"{text} (stop limit hourglass_limit = {limits.hourglass_limit:g}) in model "
+                                     f"'{model.name}'.", time=float(t[-1]), quantity="hourglass energy")
+            warnings.append(text + ".")
+        err = result.energy_error()
+        if math.isfinite(err) and err > ENERGY_WARN:
+            text = (f"energy-balance error is {100 * err:.3g} % (above {100 * ENERGY_WARN:g} %): energy is created "
+                    f"or lost by the integration; lower the time step or check the contact")
+            if limits.energy_limit is not None and err > limits.energy_limit:
+                raise NumericalError(f"{text} (stop limit energy_limit = {limits.energy_limit:g}) in model "
+                                     f"'{model.name}'.", time=float(t[-1]), quantity="energy balance")
+            warnings.append(text + ".")
+    if model.meta.get("scene_type") == "single-element" and result.energies and t.size:
+        ke = float(np.max(np.abs(result.energies["kinetic"])))
+        ie = float(np.max(np.abs(result.energies["internal"])))
+        if ie > 0.0 and ke > INERTIA_WARN * ie:
+            warnings.append(
+                f"inertia matters in this single-element run: the kinetic energy reaches {100 * ke / ie:.3g} % of "
+                f"the internal energy (above {100 * INERTIA_WARN:g} %), so the reaction force carries inertial "
+                f"(wave) forces and is not the quasi-static uniaxial response (a soft material or a high rate); "
+                f"lower the rate, or run the quasi-static 'relaxation' scene with the skfem backend.")
+    if sph is not None and result.contact_force is not None and t.size:
+        f = np.asarray(result.contact_force, dtype=np.float64)
+        peak = float(np.max(np.abs(f))) if f.size else 0.0
+        ended = t[-1] >= float(model.end_time) * (1.0 - 1e-9)
+        if ended and peak > 0.0 and f[-1] > 1e-6 * peak:
+            automatic = bool(model.meta.get("end_time_automatic", False))
+            text = (f"the run ended at its end time t = {t[-1]:.6g} s while the impactor was still in contact "
+                    f"(force {f[-1]:.4g} N, {100 * f[-1] / peak:.3g} % of the peak)")
+            if automatic:
+                raise NumericalError(
+                    f"{text} in model '{model.name}', although the automatic end time allows ten times the "
+                    f"thickness over the velocity: the impactor never came back (bottoming out or a far too "
+                    f"soft specimen; check the units of mass, velocity and moduli).",
+                    time=float(t[-1]), quantity="contact at the end time")
+            warnings.append(text + "; the pulse is cut short, so its duration and later metrics are not those "
+                                   "of the full impact (raise [scene] end_time).")
+    return warnings

@@ -1,0 +1,108 @@
+"""The same physics checks on every backend (cfm_core.simulation.checks): an impactor far too heavy
+(the 220 g written as 220, read as kg) stops the run with exit status 3 naming node or element,
+time and quantity; the paper's kind of drop test passes them without warnings, and the checks do
+not change a single number of the result."""
+
+import json
+
+import numpy as np
+import pytest
+
+from cfm_core.cli.main import main
+from cfm_core.errors import NumericalError
+from cfm_core.runs import drop_test
+from cfm_core.scene import builtin_scene
+from cfm_core.simulation import checks
+
+BACKENDS = ["numba", "torch", "skfem"]
+QUANTITIES = {"penetration of the rigid plate", "penetration of the rigid impactor", "symmetry plane crossed",
+              "bottoming out", "corner Jacobian", "contact at the end time"}
+
+
+def coarse(**kw):
+    """Quarter of a 20 x 20 x 5 mm specimen, 2.5 mm hexahedra (32 elements)."""
+    return builtin_scene("drop-test").with_overrides(width=0.02, thickness=0.005, element_size=0.0025, **kw)
+
+
+def _available(name):
+    pytest.importorskip({"numba": "numba", "torch": "torch", "skfem": "skfem"}[name])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_an_impactor_of_220_kg_stops_the_run_on_every_backend(backend):
+    _available(backend)
+    with pytest.raises(NumericalError) as err:
+        drop_test(coarse(mass=220.0, end_time=0.006), backend)
+    e = err.value
+    assert e.quantity in QUANTITIES, str(e)
+    assert e.time is not None and 0.0 < e.time <= 0.006
+    assert (getattr(e, "node", None) is not None or e.element is not None or e.quantity == "bottoming out")
+    assert "t = " in str(e)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_checks_pass_a_paper_drop_test_and_change_no_number(backend, monkeypatch):
+    _available(backend)
+    # the first 2 ms of the 5 mm test (1 ms on the slower implicit backend): still in contact at the end
+    scene = coarse(end_time=0.001 if backend == "skfem" else 0.002)
+    checked = drop_test(scene, backend)
+    assert checked.result.info["checks"]["monitor_calls"] >= 10  # every ~1 % of the end time (or step)
+    w = checked.summary["warnings"]
+    assert len(w) == 1 and "still in contact" in w[0]  # a chosen end time: warned, not stopped
+    monkeypatch.setattr(checks.Monitor, "inspect", lambda self, *a, **k: None)  # same schedule, no checks
+    unchecked = drop_test(scene, backend)
+    for name in ("t", "contact_force", "impactor_z", "impulse"):
+        np.testing.assert_array_equal(getattr(checked.result, name), getattr(unchecked.result, name))
+    for name, e in checked.result.energies.items():
+        np.testing.assert_array_equal(e, unchecked.result.energies[name])
+
+
+def test_the_full_coarse_drop_test_passes_every_check_without_warnings():
+    pytest.importorskip("numba")
+    oc = drop_test(coarse(), "numba")
+    assert oc.summary["warnings"] == []
+    info = oc.result.info["checks"]
+    assert info["worst_plate"] <= 1e-12 and info["worst_symmetry"] == 0.0
+    assert 0.5 < info["worst_corner_jacobian_ratio"] < 1.0
+
+
+def test_cli_exit_3_and_no_summary_for_mass_in_grams(tmp_path, capsys):
+    pytest.importorskip("numba")
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[scene]\ntype = "drop-test"\nend_time = 0.006\n[specimen]\nwidth = 0.02\nthickness = 0.005\n'
+                     'element_size = 0.0025\n[impactor]\nmass = 220.0\n')
+    out = tmp_path / "out"
+    assert main(["drop-test", "--scene", str(scene), "--out", str(out), "--quiet", "--no-plot"]) == 3
+    err = capsys.readouterr().err
+    assert "numerical failure" in err and "t = " in err and "Traceback" not in err
+    assert not (out / "summary.json").exists()
+
+
+def test_cli_warnings_reach_summary_json_and_stderr(tmp_path, capsys):
+    pytest.importorskip("numba")
+    out = tmp_path / "out"
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[scene]\ntype = "drop-test"\nend_time = 0.002\n[specimen]\nwidth = 0.02\nthickness = 0.005\n'
+                     'element_size = 0.0025\n')
+    assert main(["drop-test", "--scene", str(scene), "--out", str(out), "--quiet", "--no-plot"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["warnings"]) == 1 and "still in contact" in summary["warnings"][0]
+    assert "warning: the run ended at its end time" in capsys.readouterr().err
+
+
+def test_automatic_end_time_ending_in_contact_is_an_error(monkeypatch):
+    """A run whose automatic end time passes while in contact never came back: exit 3, not a summary."""
+    pytest.importorskip("numba")
+    scene = coarse()
+    from cfm_core.scene import builder
+
+    original = builder.build_model
+
+    def short(scene, material=None):  # the automatic end time, made too short to see separation
+        m = original(scene, material)
+        return type(m)(**{**m.__dict__, "end_time": 0.002})
+
+    monkeypatch.setattr("cfm_core.runs.pipeline.build_model", short)
+    with pytest.raises(NumericalError, match="still in contact") as err:
+        drop_test(scene, "numba")
+    assert err.value.quantity == "contact at the end time"

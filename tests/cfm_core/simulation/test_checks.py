@@ -1,0 +1,181 @@
+"""Run checks (cfm_core.simulation.checks) on hand-built states: each violation is constructed
+geometrically (a node moved behind the plate, into the sphere, across a symmetry plane, a corner
+pushed through its element), so the truth is known without running a solver."""
+
+import numpy as np
+import pytest
+
+from cfm_core.errors import NumericalError
+from cfm_core.scene.mesh import structured_hex_mesh
+from cfm_core.scene.model import Model, Prescribed, RigidPlane, RigidSphere
+from cfm_core.simulation import checks
+from cfm_core.simulation.result import Result
+
+H = 1e-3  # element edge (m)
+
+
+def quarter_block(n=2, **meta):
+    """2 x 2 x 2 block of 1 mm cubes on the plate z = 0, symmetry planes x = 0 and y = 0, sphere touching."""
+    nodes, hexes = structured_hex_mesh(n * H, n * H, n * H, n, n, n)
+    fixed = [(i, 0) for i in np.flatnonzero(nodes[:, 0] == 0)] + [(i, 1) for i in np.flatnonzero(nodes[:, 1] == 0)]
+    R = 0.05
+    return Model(name="block", nodes=nodes, hexes=hexes, density=950.0, material=None, end_time=1e-2,
+                 output_interval=2e-5, fixed_dofs=np.array(fixed), plane=RigidPlane(0.0),
+                 sphere=RigidSphere(R, 0.055, (0.0, 0.0, n * H + R), -1.0), meta=dict(meta))
+
+
+def test_the_reference_state_passes_and_the_tolerance_is_5_percent_of_the_smallest_edge():
+    m = quarter_block()
+    mon = checks.Monitor(m)
+    assert mon.tol == pytest.approx(0.05 * H)
+    assert mon.planes == [(0, 0.0, 1.0), (1, 0.0, 1.0)]
+    mon.final(0.0, m.nodes.copy(), m.sphere.center[2])
+    assert mon.report()["worst_corner_jacobian_ratio"] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("axis, shift, quantity", [
+    (2, -0.2 * H, "penetration of the rigid plate"),      # a bottom node 0.2 mm below z = 0
+    (0, -0.2 * H, "symmetry plane crossed"),              # a node on x = 0 moved to x = -0.2 mm
+    (1, -0.2 * H, "symmetry plane crossed"),
+])
+def test_a_node_behind_a_surface_stops_the_run_naming_node_time_and_quantity(axis, shift, quantity):
+    m = quarter_block()
+    x = m.nodes.copy()
+    node = int(np.flatnonzero((m.nodes == 0).all(axis=1))[0])  # the corner node at the origin
+    x[node, axis] += shift
+    with pytest.raises(NumericalError, match=f"node {node} ") as err:
+        checks.Monitor(m).check(1.5e-3, x, m.sphere.center[2])
+    assert err.value.quantity == quantity and err.value.time == 1.5e-3 and err.value.node == node
+
+
+def test_within_the_tolerance_passes():
+    m = quarter_block()
+    x = m.nodes.copy()
+    x[0, 2] -= 0.04 * H  # 4 % of the edge: inside the 5 % tolerance (skfem's penalty contact)
+    checks.Monitor(m).check(1e-3, x, m.sphere.center[2])
+
+
+def test_a_node_inside_the_sphere_stops_the_run():
+    m = quarter_block()
+    x = m.nodes.copy()
+    top = int(np.argmax(m.nodes[:, 2] - 1e-3 * np.linalg.norm(m.nodes[:, :2], axis=1)))  # top node on the axis
+    x[top, 2] += 0.3 * H  # 0.3 mm above the top: inside the touching sphere
+    with pytest.raises(NumericalError, match="inside the rigid impactor") as err:
+        checks.Monitor(m).check(2e-3, x, m.sphere.center[2])
+    assert err.value.node == top
+
+
+def test_the_impactor_reaching_the_plate_is_bottoming_out():
+    m = quarter_block()
+    x = m.nodes.copy()
+    x[:, 2] *= 0.01  # specimen squashed flat (no node inside the sphere below)
+    z = m.sphere.radius + 0.02 * H  # sphere's lowest point 0.02 mm above the plate
+    with pytest.raises(NumericalError, match="reached the rigid plate") as err:
+        checks.Monitor(m).check(3e-3, x, z)
+    assert err.value.quantity == "bottoming out"
+
+
+def test_a_folded_corner_is_found_although_the_centre_jacobian_is_positive():
+    nodes, hexes = structured_hex_mesh(H, H, H, 1, 1, 1)
+    m = Model(name="one", nodes=nodes, hexes=hexes, density=950.0, material=None, end_time=1e-3,
+              output_interval=1e-4)
+    x = nodes.copy()
+    top_corner = hexes[0, 6]  # local corner 6 = (+1, +1, +1)
+    x[top_corner] = [0.3 * H, 0.3 * H, 0.3 * H]  # pushed through the element towards corner 0
+    from cfm_core.scene.mesh import hex_jacobians
+    centre = hex_jacobians(x, hexes, np.zeros((1, 3)))[0, 0]
+    assert centre > 0  # the explicit solvers' one-point check sees nothing
+    with pytest.raises(NumericalError, match="element 0 is folded") as err:
+        checks.Monitor(m).check(5e-4, x)
+    assert err.value.element == 0 and err.value.quantity == "corner Jacobian"
+
+
+def test_the_monitor_is_due_about_every_percent_of_the_end_time():
+    mon = checks.Monitor(quarter_block())
+    seen = []
+    for t in np.arange(0.0, 1e-2, 1e-5):
+        if mon.due(t):
+            seen.append(t)
+            mon.check(t, mon.model.nodes, mon.model.sphere.center[2])
+    assert 95 <= len(seen) <= 100
+
+
+def _result(t, force, ke, ie, hg=None, ext=None, z=None):
+    n = t.size
+    zeros = np.zeros(n)
+    return Result(t=t, backend="test", steps=n, wall_time=0.0, contact_force=force,
+                  impactor_z=z if z is not None else np.full(n, 1.0),
+                  energies={"kinetic": ke, "internal": ie, "hourglass": zeros if hg is None else hg,
+                            "contact": zeros, "external": zeros if ext is None else ext})
+
+
+def test_hourglass_and_energy_balance_warn_above_10_and_1_percent_and_stop_above_their_limits():
+    m = quarter_block()
+    t = np.linspace(0.0, 5e-3, 51)
+    ke = 0.11 * np.cos(np.pi * t / 1e-2) ** 2
+    ie = 0.11 - ke
+    force = np.where(t < 4e-3, 1.0, 0.0)
+    ok = _result(t, force, ke, 0.95 * ie, hg=0.05 * ie)  # hourglass 5.3 % of internal, balanced
+    assert checks.check_result(m, ok) == []
+    bad = _result(t, force, ke, 0.8 * ie, hg=0.2 * ie)  # hourglass 25 % of internal, balanced
+    w = checks.check_result(m, bad)
+    assert len(w) == 1 and "hourglass energy is 25 %" in w[0]
+    leak = _result(t, force, ke, 0.97 * ie)  # 3 % of the energy lost
+    w = checks.check_result(m, leak)
+    assert len(w) == 1 and "energy-balance error is 3" in w[0]
+    strict = quarter_block(checks={"hourglass_limit": 0.2, "energy_limit": 0.02})
+    with pytest.raises(NumericalError, match="hourglass_limit"):
+        checks.check_result(strict, bad)
+    with pytest.raises(NumericalError, match="energy_limit"):
+        checks.check_result(strict, leak)
+
+
+def test_ending_in_contact_stops_with_an_automatic_end_time_and_warns_with_a_chosen_one():
+    t = np.linspace(0.0, 1e-2, 101)  # up to the model's end time
+    ke = np.full(t.size, 0.1)
+    res = _result(t, np.linspace(1.0, 5.0, t.size), ke, np.zeros(t.size))
+    with pytest.raises(NumericalError, match="still in contact") as err:
+        checks.check_result(quarter_block(end_time_automatic=True), res)
+    assert err.value.quantity == "contact at the end time" and err.value.time == pytest.approx(1e-2)
+    w = checks.check_result(quarter_block(end_time_automatic=False), res)
+    assert len(w) == 1 and "still in contact" in w[0]
+    separated = _result(t, np.where(t < 5e-3, 1.0, 0.0), ke, np.zeros(t.size))
+    assert checks.check_result(quarter_block(end_time_automatic=True), separated) == []
+
+
+def test_the_impactor_history_reaching_the_plate_stops_the_run():
+    m = quarter_block()
+    t = np.linspace(0.0, 5e-3, 51)
+    z = m.sphere.radius + 2 * H - 1.0 * t  # 1 m/s through the 2 mm specimen: at the plate at 2 ms
+    res = _result(t, np.where(t < 4e-3, 1.0, 0.0), np.full(t.size, 0.1), np.zeros(t.size), z=z)
+    with pytest.raises(NumericalError, match="reached the rigid plate") as err:
+        checks.check_result(m, res)
+    assert err.value.time == pytest.approx(5e-3)  # the lowest point of the history
+
+
+def test_single_element_inertia_warning():
+    nodes, hexes = structured_hex_mesh(H, H, H, 1, 1, 1)
+    top = np.flatnonzero(nodes[:, 2] > 0.5 * H)
+    m = Model(name="se", nodes=nodes, hexes=hexes, density=950.0, material=None, end_time=5e-3,
+              output_interval=1e-4, prescribed=Prescribed(top, 2, np.array([0.0, 5e-3]), np.array([0.0, -5e-4])),
+              meta={"scene_type": "single-element"})
+    t = np.linspace(0.0, 5e-3, 51)
+    ie = 1e-3 * (t / 5e-3) ** 2
+    quasi = _result(t, None, 1e-7 * np.ones(t.size), ie, ext=ie)  # the work done goes into internal energy
+    assert checks.check_result(m, quasi) == []
+    inertial = _result(t, None, 5e-6 * np.ones(t.size), ie, ext=ie)  # KE 0.5 % of IE
+    w = checks.check_result(m, inertial)
+    assert len(w) == 1 and "inertia matters" in w[0]
+
+
+def test_too_low_output_rate_is_refused_before_running(monkeypatch):
+    from cfm_core.errors import InputError
+    from cfm_core.runs import drop_test, pipeline
+    from cfm_core.scene import builtin_scene
+
+    def never(*a, **k):
+        raise AssertionError("the backend must not be started")
+
+    monkeypatch.setattr(pipeline, "run_model", never)
+    with pytest.raises(InputError, match=r"\[scene\] output_rate = 5000 Hz is too low.*6000 Hz"):
+        drop_test(builtin_scene("drop-test").with_overrides(output_rate=5000.0), "numba")
