@@ -41,6 +41,7 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..material import prony
 from ..material import reference as ref
+from ..tables import read_table
 
 #: kind -> (deformation column, what it is)
 KINDS = {
@@ -99,25 +100,6 @@ class LabTest:
         return float(np.max(np.abs(self.P)))
 
 
-def _header(path, lineno, line, kind):
-    cols = {}
-    for i, cell in enumerate(line.split(",")):
-        name, _, unit = cell.strip().partition("[")
-        name, unit = name.strip(), unit.rstrip("]").strip()
-        name = "stress" if name == "nominal_stress" else name  # as ``cfm point --uniaxial`` writes it
-        if name in UNITS and unit and unit != UNITS[name]:
-            raise InputError(f"test file '{path}', line {lineno}: column '{cell.strip()}' has unit {unit!r}; "
-                             f"{name} must be in {UNITS[name]} (convert the column, e.g. kPa x 1000 = Pa).")
-        cols[name] = i
-    need = ["t", KINDS[kind][0], "stress"]
-    missing = [n for n in need if n not in cols]
-    if missing:
-        raise InputError(f"test file '{path}', line {lineno}: the header {line.strip()!r} lacks the column(s) "
-                         f"{', '.join(missing)}; a {kind} test needs t (s), {KINDS[kind][0]} (-) and stress "
-                         f"(nominal, Pa), e.g. 't,{KINDS[kind][0]},stress'.")
-    return [cols[n] for n in need], len(cols)
-
-
 def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str | None = None) -> LabTest:
     """Read and check one test curve (see the module docstring for the CSV).
 
@@ -152,40 +134,19 @@ def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str |
                          f"strain (or shear) rate, a positive number in 1/s.")
     if not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight > 0):
         raise InputError(f"test '{path}': weight = {weight!r} is not allowed; give a positive number (-).")
-    try:
-        lines = p.read_text(encoding="utf-8-sig").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"test file '{p}' cannot be read: {getattr(exc, 'strerror', None) or exc}.") from None
-    rows = [(n, s) for n, s in enumerate(lines, start=1) if s.strip() and not s.lstrip().startswith("#")]
-    if not rows:
-        raise InputError(f"test file '{p}' is empty; it needs a header 't,{KINDS[kind][0]},stress' and rows "
-                         f"(s, -, Pa).")
-    idx, ncol = _header(p, *rows[0], kind)
-    data = np.empty((len(rows) - 1, 3))
-    for k, (n, s) in enumerate(rows[1:]):
-        cells = s.split(",")
-        if len(cells) != ncol:
-            raise InputError(f"test file '{p}', line {n}: {len(cells)} values for {ncol} header columns.")
-        for j, col in enumerate(idx):
-            try:
-                data[k, j] = float(cells[col])
-            except ValueError:
-                data[k, j] = math.nan
-            if not math.isfinite(data[k, j]):
-                field = ("t", KINDS[kind][0], "stress")[j]
-                raise InputError(f"test file '{p}', line {n}: {field} = {cells[col].strip()!r} is not a finite "
-                                 f"number ({UNITS[field]}).")
-    if data.shape[0] < MIN_ROWS:
-        raise InputError(f"test file '{p}' has {data.shape[0]} data rows; at least {MIN_ROWS} are needed.")
-    t, x, P = data.T
-    lineno = [n for n, _ in rows[1:]]
+    deformation = KINDS[kind][0]
+    table = read_table(p, ["t", deformation], {**UNITS, "nominal_stress": "Pa"}, what="test file")
+    stress = next((c for c in ("stress", "nominal_stress") if c in table.columns), None)  # cfm point --uniaxial
+    if stress is None:                                                                      # writes nominal_stress
+        raise InputError(f"test file '{p}': the header names the columns {list(table.columns)} but no stress; a "
+                         f"{kind} test needs t (s), {deformation} (-) and stress (nominal, Pa), e.g. "
+                         f"'t,{deformation},stress'.")
+    if table.data.shape[0] < MIN_ROWS:
+        raise InputError(f"test file '{p}' has {table.data.shape[0]} data rows; at least {MIN_ROWS} are needed.")
+    t, x, P = (table.column(c) for c in ("t", deformation, stress))
+    lineno = list(table.lines)
     if t[0] < 0:
         raise InputError(f"test file '{p}', line {lineno[0]}: t = {t[0]!r} s is negative; t starts at 0 or later.")
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-        k = bad[0] + 1
-        raise InputError(f"test file '{p}', line {lineno[k]}: t = {t[k]!r} s does not increase (previous row "
-                         f"{t[k - 1]!r} s); rows must be in time order.")
     _check_deformation(p, kind, x, lineno)
     _check_rate(p, kind, rate, t, x)
     return LabTest(name or p.stem, str(p), kind, float(rate), float(weight), t, x, P)
