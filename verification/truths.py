@@ -217,16 +217,20 @@ def convolution_reference(material, t_rows, F_rows, sub=4000, pk2_parts=None) ->
     return _cauchy(F_rows, S_iso + Sv[rows])
 
 
-def uniaxial_force(material, rate: float, stretch: float, size: float, steps: int = 400, hold: float = 0.0):
+def uniaxial_force(material, rate: float, stretch: float, size: float, steps: int = 400, hold: float = 0.0,
+                   times=None):
     """Quasi-static uniaxial-stress reaction of a cube of edge ``size`` (m) at engineering strain
     rate ``rate`` (1/s) to ``stretch`` (-), then held ``hold`` s: returns (t (s), force (N)).
 
     At each row the lateral stretch solves sigma_22 = 0 with the hereditary integral over the rows
-    so far (:func:`prony_convolution`, F = diag(l, lt, lt)); force = P11 x size^2, P = F S."""
+    so far (:func:`prony_convolution`, F = diag(l, lt, lt)); force = P11 x size^2, P = F S.
+    ``times`` (s): extra rows (e.g. a run's output times), merged with the ``steps`` rows of the ramp."""
     t_load = abs(stretch - 1.0) / rate
     t = np.linspace(0.0, t_load, steps + 1)
     if hold > 0:
         t = np.concatenate([t, t_load + np.linspace(0.0, hold, steps + 1)[1:]])
+    if times is not None:
+        t = np.unique(np.concatenate([t, np.asarray(times, dtype=float)]))
     lam = 1.0 + np.sign(stretch - 1.0) * rate * np.minimum(t, t_load)
     p = cfm_params(material)
     gammas, taus = prony_values(material)

@@ -32,7 +32,8 @@ def _name(section: str, r: dict) -> str:
         return f"agreement / {r['check']} / {r['case']} / {who}"
     if section == "stability":
         return f"stability / {r['case']} / {r['backend']}"
-    return f"{section} / {r.get('check', r.get('case', '?'))}"
+    case = f" / {r['case']}" if r.get("case") and r.get("case") != r.get("check") else ""
+    return f"{section} / {r.get('check', '?')}{case}"
 
 
 def _why(r: dict) -> str:
