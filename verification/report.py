@@ -17,6 +17,7 @@ from cfm_core.post import G0
 from cfm_core.post.writers import atomic_write, write_json
 
 from . import figures
+from .stability import KNOWN_DEFECTS
 
 
 def _slug(text: str) -> str:
@@ -145,7 +146,9 @@ def _md_stability(rep, figs) -> list[str]:
              "| case | backend | options | expected | verdict | check |", "|---|---|---|---|---|---|"]
     for r in rep["stability"]:
         opts = ", ".join(f"{k}={v}" for k, v in r["options"].items()) or "-"
-        lines.append(f"| {r['case']} | {r['backend']} | {opts} | {r.get('expected', '-')} | {r['verdict']} | "
+        known = KNOWN_DEFECTS.get(f"stability / {r['case']} / {r['backend']}")
+        note = f" (known defect: {known})" if known and r["passed"] is False else ""
+        lines.append(f"| {r['case']} | {r['backend']} | {opts} | {r.get('expected', '-')} | {r['verdict']}{note} | "
                      f"{_ok(r['passed'])} |")
     lines += ["", "### Material stability (Drucker)", "",
               "Intervals of nominal strain (e = stretch - 1, from -0.9 to 2) where positive definiteness is lost, "
