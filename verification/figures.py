@@ -70,7 +70,7 @@ def work_precision(path, study) -> bool:
 
 def drucker_map(path, name, smap) -> None:
     """Relative smallest eigenvalue (Drucker criterion) along each path against nominal strain."""
-    which = "paper Table 1 defaults" if name == "cfm" else "the material's default parameters (not the paper's)"
+    which = "paper Table 1 values" if name == "cfm" else "its own defaults, not from the paper"
     fig, axes = _fig(f"Material stability: {name} (instantaneous response, {which})", "Nominal strain (-)", "",
                      ncols=2, size=(9.6, 4.0))
     e = np.array(smap["e"])

@@ -138,7 +138,8 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     run0 = scene_runs.get(label0, {}).get(ref_backend)
     if run0 and run0["ok"]:
         extra = (label0, run0["t"], run0["y"])
-    paper = timed("paper comparison", "paper", lambda: paper_compare.compare(mode, ref_backend, cache, extra),
+    paper = timed("paper comparison", "paper", lambda: paper_compare.compare(mode, ref_backend, cache, extra,
+                                                                [b["name"] for b in runners]),
                   {"source": "section not run", "rows": [], "facts": [], "curves": [], "checks": []})
     wp_rows = [r for s in wp for r in s.get("checks", [])]
     v = verdict.decide({"agreement": agree, "stability": stab, "drucker": drucker_rows,

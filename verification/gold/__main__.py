@@ -17,6 +17,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cfm_verification.gold", description=__doc__.splitlines()[0])
     parser.add_argument("--update", action="store_true",
                         help="rewrite the references of the selected cases (after their independent checks pass)")
+    parser.add_argument("--force", action="store_true",
+                        help="with --update: rewrite every selected reference, also the unchanged ones (new commit stamp)")
     parser.add_argument("--only", default="", metavar="TEXT", help="only cases whose name contains TEXT")
     parser.add_argument("--rtol", type=float, default=RTOL, help=f"relative tolerance (-), default {RTOL:g}")
     args = parser.parse_args(argv)
@@ -40,7 +42,7 @@ def main(argv=None) -> int:
         for d in diffs:
             print(f"    {d}")
         changed += bool(diffs)
-        if args.update and (diffs or old is None or old.get("checked") is None):
+        if args.update and (diffs or args.force or old is None or old.get("checked") is None):
             try:
                 path = save(name, rec, raw)
             except AssertionError as exc:
