@@ -7,7 +7,8 @@ comparison (:mod:`.paper_compare`), then writes DIR/report.md, DIR/report.json a
 tolerance and nothing was skipped: the verdict is PASSED (exit 0), FAILED (exit 1) or INCOMPLETE
 (exit 4; a backend missing, a run skipped by the budget), see :mod:`.verdict`.
 
-Quick mode (CI, a few tens of seconds with numba's cached kernels): a 1 mm single element, one
+Quick mode (CI; 5.5 minutes measured on a shared 2-core machine at load ~8, two thirds of it the
+implicit backend's stability cases): a 1 mm single element, one
 small drop test (20 x 20 x 6 mm, 2 mm elements), work-precision at 2 and 1 mm (torch and skfem at
 2 mm only, skfem at one step size: :data:`MODES` ``wp_plan``), stability cases on the small drop test cut at 5 ms
 (through the loading phase to the peak). Full mode: the
