@@ -26,6 +26,9 @@ def main(argv=None) -> int:
     if not names:
         print(f"no gold case name contains {args.only!r}", file=sys.stderr)
         return 2
+    from ..machine import git_commit
+
+    commit = git_commit()  # before anything is written
     changed, failed = 0, 0
     for name in names:
         t0 = time.perf_counter()
@@ -44,7 +47,7 @@ def main(argv=None) -> int:
         changed += bool(diffs)
         if args.update and (diffs or args.force or old is None or old.get("checked") is None):
             try:
-                path = save(name, rec, raw)
+                path = save(name, rec, raw, commit)
             except AssertionError as exc:
                 print(f"    NOT WRITTEN: the independent check failed: {exc}")
                 failed += 1

@@ -43,8 +43,10 @@ def compute(name: str) -> tuple[dict, dict]:
     return run_case(_BY_NAME[name])
 
 
-def save(name: str, record: dict, raw: dict) -> Path:
-    """Run the case's independent check (CheckFailed propagates: nothing written), then write."""
+def save(name: str, record: dict, raw: dict, commit: str | None = None) -> Path:
+    """Run the case's independent check (CheckFailed propagates: nothing written), then write.
+    commit: the stamp (default: ``git rev-parse HEAD`` now; an update computes it once before it
+    writes, since every written file makes the tree dirty)."""
     from cfm_core.post.writers import write_json
 
     from ..machine import git_commit
@@ -53,6 +55,6 @@ def save(name: str, record: dict, raw: dict) -> Path:
     checked = CHECKS[c.check](c, raw)
     DATA.mkdir(parents=True, exist_ok=True)
     doc = {"case": name, "definition": dataclasses.asdict(c), "record": record, "rtol": RTOL,
-           "commit": git_commit(), "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "checked": checked}
+           "commit": commit or git_commit(), "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "checked": checked}
     write_json(path(name), doc)
     return path(name)
