@@ -21,7 +21,6 @@ from cfm_backends.torch_explicit import TorchExplicitBackend
 from cfm_core.cli.main import main
 from cfm_core.material import prony
 from cfm_verification import runs as vruns
-from cfm_verification.runs import RunCache
 from cfm_verification.suite import run_suite
 
 
