@@ -201,3 +201,51 @@ def drucker_warnings(material, F_history, emit: bool = True, criteria=WARN_CRITE
         for msg in msgs:
             warnings.warn(msg, DruckerWarning, stacklevel=2)
     return msgs
+
+
+#: The volumetric energy of the Ogden term (beta = 9), U = kappa/81 (9 ln J + J^-9 - 1), has
+#: U'' = kappa/81 (90 J^-11 - 9 J^-2): convex exactly for J < 10^(1/9) (analytic, paper Eq. 7).
+J_CONVEXITY_LIMIT = 10.0 ** (1.0 / 9.0)
+
+
+def checks(maps: dict) -> list[dict]:
+    """Verdict rows on the stability maps of :func:`stability_map` ({material: map}).
+
+    - every registered material's map was computed (a broken plugin or a raising map fails);
+    - materials with the Ogden volumetric term (cfm, and every map whose U''(J) loss starts near
+      J = 1.29): U''(J) is lost from J = 10^(1/9) = 1.2915 (within one grid step of the map) to the
+      end of the grid, and nowhere below: the analytic result of Eq. 7;
+    - cfm: the Drucker criterion holds on every isochoric path over the whole grid (the fibres only
+      stiffen), and the stress is evaluable on the uniaxial path (compression to e = -0.9).
+    """
+    rows = []
+    for name, smap in maps.items():
+        if "error" in smap:
+            rows.append({"check": f"Drucker map of '{name}'", "passed": False, "reason": smap["error"]})
+            continue
+        rows.append({"check": f"Drucker map of '{name}'", "passed": True, "reason": "computed"})
+    cfm = maps.get("cfm")
+    if cfm is None or "error" in cfm:
+        rows.append({"check": "Drucker map of 'cfm'", "passed": None if cfm is None else False,
+                     "reason": "the cfm material is not registered" if cfm is None else cfm["error"]})
+        return rows
+    e = np.array(cfm["e"])
+    de = float(e[1] - e[0])
+    iv = cfm["paths"]["volumetric"]["U''(J)"]["intervals"]
+    if len(iv) == 1:
+        e0, e1 = iv[0]
+        J0 = (1.0 + e0) ** 3
+        J_prev = (1.0 + e0 - de) ** 3
+        ok = J_prev <= J_CONVEXITY_LIMIT <= J0 and abs(e1 - e[-1]) < 1e-12
+        reason = (f"U''(J) lost from J = {J0:.4g} (grid step before: J = {J_prev:.4g}) to e = {e1:+.2f}; "
+                  f"analytic limit J = 10^(1/9) = {J_CONVEXITY_LIMIT:.4f}")
+    else:
+        ok, reason = False, f"U''(J) lost on {len(iv)} intervals {iv}, expected one from J = 1.29 to the end"
+    rows.append({"check": "cfm: U''(J) lost at J = 1.29 (Ogden beta = 9)", "passed": bool(ok), "reason": reason})
+    lost = {p: r["Drucker"]["intervals"] for p, r in cfm["paths"].items() if p != "volumetric" and r["Drucker"]["intervals"]}
+    rows.append({"check": "cfm: Drucker criterion holds on the isochoric paths", "passed": not lost,
+                 "reason": "holds on uniaxial, equibiaxial and planar paths" if not lost else f"lost: {lost}"})
+    ne = cfm["paths"]["uniaxial"]["Drucker"]["not_evaluable"]
+    rows.append({"check": "cfm: stress evaluable on the uniaxial path", "passed": not ne,
+                 "reason": "evaluable from e = -0.9 to 2" if not ne else f"not evaluable on {ne}"})
+    return rows

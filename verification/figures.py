@@ -35,34 +35,43 @@ def signals(path, title, curves, ylabel, scale=1.0, tscale=1e3) -> None:
 
 
 def work_precision(path, study) -> bool:
-    """Log-log error against wall time, one line per backend, peak error and rel L2 side by side."""
-    runs = [r for r in study["runs"] if r.get("status") == "completed" and "peak_error" in r
-            and not r.get("is_reference")]
+    """Log-log error against wall time: one line per (backend, step option) through its element
+    sizes, peak error and rel L2 side by side; the element size is written once per point, offset
+    by step option so that labels of neighbouring points do not overlap."""
+    runs = [r for r in study["runs"] if r.get("status") == "completed" and "peak_error" in r]
     if not runs:
         return False
-    fig, axes = _fig(f"Work-precision: {study['label']}", "Wall time (s)", "", ncols=2, size=(9.6, 4.2))
+    fig, axes = _fig(f"Work-precision: {study['label']}", "Wall time (s)", "", ncols=2, size=(10.4, 4.6))
     axes[0].set_ylabel("Relative peak error (-)")
     axes[1].set_ylabel("Relative L2 error (-)")
-    for i, name in enumerate(sorted({r["backend"] for r in runs})):
-        mine = sorted([r for r in runs if r["backend"] == name], key=lambda r: r["wall"])
+    series = sorted({(r["backend"], tuple(sorted(r["options"].items()))) for r in runs})
+    backends = sorted({b for b, _ in series})
+    for j, (name, opts) in enumerate(series):
+        i = backends.index(name)
+        k = [o for b, o in series if b == name].index(opts)
+        mine = sorted([r for r in runs if r["backend"] == name and tuple(sorted(r["options"].items())) == opts],
+                      key=lambda r: r["wall"])
         w = np.array([max(r["wall"], 1e-6) for r in mine])
+        label = f"{name}, " + ", ".join(f"{key}={v:g}" for key, v in opts)
         for ax, key in zip(axes, ("peak_error", "rel_l2")):
             e = np.array([max(r[key], 1e-16) for r in mine])
-            ax.loglog(w, e, marker=_MARKERS[i % len(_MARKERS)], color=_COLOURS[i % len(_COLOURS)], label=name)
+            ax.loglog(w, e, marker=_MARKERS[i % len(_MARKERS)], color=_COLOURS[i % len(_COLOURS)],
+                      linestyle="-" if k == 0 else "--", markerfacecolor="none" if k else None, label=label)
             for r, x, y in zip(mine, w, e):
-                h = "" if r["element_size"] is None else f"{1e3 * r['element_size']:g} mm, "
-                step = ", ".join(f"{k}={v:g}" for k, v in r["options"].items())
-                ax.annotate(h + step, (x, y), xytext=(4, 3), textcoords="offset points", fontsize=6)
+                if r["element_size"] is not None:
+                    ax.annotate(f"{1e3 * r['element_size']:g} mm", (x, y), xytext=(5, 6 if k == 0 else -11),
+                                textcoords="offset points", fontsize=6, color=_COLOURS[i % len(_COLOURS)])
     for ax in axes:
         ax.axhline(0.01, color="0.5", linestyle=":", linewidth=1.0)
-        ax.legend(fontsize=8, frameon=False)
+    axes[1].legend(fontsize=7, frameon=False, loc="center left", bbox_to_anchor=(1.02, 0.5))
     _save(fig, path)
     return True
 
 
 def drucker_map(path, name, smap) -> None:
     """Relative smallest eigenvalue (Drucker criterion) along each path against nominal strain."""
-    fig, axes = _fig(f"Material stability: {name} (instantaneous, Table defaults)", "Nominal strain (-)", "",
+    which = "paper Table 1 values" if name == "cfm" else "its own defaults, not from the paper"
+    fig, axes = _fig(f"Material stability: {name} (instantaneous response, {which})", "Nominal strain (-)", "",
                      ncols=2, size=(9.6, 4.0))
     e = np.array(smap["e"])
     for ax, crit in zip(axes, ("Drucker", "dS/dE")):

@@ -4,7 +4,9 @@
 
 Writes ``table.md`` (peak g, time of peak, contact duration, loading and unloading times per
 thickness and convention, next to the paper's experimental facts), ``results.json`` and
-``overlay.png`` (all filtered histories on one axes). Experimental facts (paper section 4,
+``overlay.png`` (all filtered histories on one axes). results.json records the git commit that
+produced it: ``cfm verify --quick`` reuses it only after re-running the 8 mm case and finding it
+reproduced (:func:`cfm_verification.paper_compare.stored_check`). Experimental facts (paper section 4,
 porcine SAT at 1 m/s): peak acceleration from 52.5 g (thickest specimen) to 80.7 g (5 mm),
 rising as thickness falls; shorter impacts for thinner specimens; loading in a soft then a stiff
 part; unloading shorter than loading.
@@ -70,8 +72,13 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, curves = run_all(args.backend, element_size=args.element_size)
-    write_json(out / "results.json", {"rows": rows, "units": {"thickness": "m", "t_peak": "s", "duration": "s",
-                                                                "peak_g": "g", "wall_time": "s"}})
+    from .machine import git_commit
+
+    write_json(out / "results.json", {"commit": git_commit(), "backend": args.backend,
+                                      "element_size": args.element_size, "rows": rows,
+                                      "units": {"thickness": "m", "t_peak": "s", "duration": "s", "loading_time": "s",
+                                                "unloading_time": "s", "peak_g": "g", "wall_time": "s",
+                                                "element_size": "m"}})
     atomic_write(out / "table.md", lambda tmp: Path(tmp).write_text(markdown_table(rows)))
     refs = {"5 mm": 80.7 * G0, "8 mm": 52.5 * G0}  # experimental peaks stated in the paper
     plot_overlay(out / "overlay.png", curves, "CFM drop tests at 1 m/s (Table 1), CFC 600", reference_peaks=refs)

@@ -1,24 +1,59 @@
-"""Stability on stiff and extreme cases: each completes with finite results or stops with a clear
-diagnostic (:class:`cfm_core.errors.InputError` / :class:`~cfm_core.errors.NumericalError`).
+"""Stability on stiff and extreme cases, each with its EXPECTED outcome per backend.
 
-A raw Python exception of any other type, or NaN/inf in an output, fails the check; so does a
-completed scene run whose energy-balance error exceeds :data:`ENERGY_LIMIT`, and a completed
-material-point run that deviates from the numpy reference by more than :data:`POINT_LIMIT`.
+An outcome is either "completes" (finite results and, for a scene, an energy-balance error within
+the project's 1 % rule, :data:`ENERGY_LIMIT`; for a material point, agreement with the independent
+truth of :mod:`.truths` within :data:`POINT_LIMIT`) or "diagnostic: <text>" (the run stops with an
+InputError or NumericalError whose message contains <text>). A row passes only when the observed
+outcome is the expected one: a backend that starts stopping on a case it used to complete fails,
+and so does one that completes where a diagnostic is expected. A raw Python exception or NaN/inf
+in an output is always a failure.
+
+Expectations are per case and backend kind (:data:`EXPECTED`, key "*" for every backend), set from
+the physics: the cases are hard but within the model's range, so every backend must complete them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import histories
+from . import histories, truths
+from .agreement import ENERGY_LIMIT
 from .drucker import drucker_warnings
 
-#: Largest energy-balance error (-) of a completed scene run that still counts as correct, per kind:
-#: implicit runs get more, because generalized-alpha (rho_inf = 0.5) dissipates high-frequency energy
-#: by design and the balance counts that as error.
-ENERGY_LIMIT = {"explicit": 0.05, "implicit": 0.10}
-#: Largest relative deviation (-) of a completed point run from the numpy reference.
-POINT_LIMIT = 1e-6
+#: Largest relative deviation (-) of a completed point run from the independent truth (round-off).
+POINT_LIMIT = 1e-9
+
+COMPLETES = "completes"
+
+#: case -> {backend name or kind or "*": expected outcome}
+EXPECTED = {
+    "k2 = 20": {"*": COMPLETES},
+    "k2 = 50": {"*": COMPLETES},
+    "kappa x 100 (nearly incompressible)": {"*": COMPLETES},
+    "2 mm specimen": {"*": COMPLETES},
+    "impact at 5 m/s": {"*": COMPLETES},
+    "tau1 = 1e-7 s (much smaller than the step)": {"*": COMPLETES},
+    "float32 on torch (dtype='float32')": {"*": COMPLETES},
+    "material-point compression to stretch 0.2": {"*": COMPLETES},
+    "repeated principal stretches (l, l, l) and (l, l^-1/2, l^-1/2)": {"*": COMPLETES},
+    "hydrostatic tension to J = 1.5 (past J = 1.29)": {"*": COMPLETES},
+}
+
+#: Rows that fail today, by the verdict's name for them, with what is known. They still FAIL the
+#: suite (the 1 % rule is the project's); tests/verification/test_verify_quick.py accepts exactly
+#: these and fails when one disappears, so that a fix removes its entry.
+KNOWN_DEFECTS = {
+    "stability / k2 = 50 / skfem": "energy-balance error 1.05 % in quick mode (generalized-alpha, rho_inf = 0, "
+                                   "with penalty contact); the skfem backend is being rewritten",
+    "stability / 2 mm specimen / skfem": "energy-balance error 1.87 % in quick mode",
+    "stability / impact at 5 m/s / skfem": "energy-balance error 6.09 % in quick mode",
+}
+
+
+def expected(case: str, backend: dict) -> str:
+    """The expected outcome of ``case`` on a backend row (by name, then kind, then "*")."""
+    table = EXPECTED[case]
+    return table.get(backend["name"], table.get(backend.get("kind", ""), table["*"]))
 
 
 def scene_cases(base, thin_element: float = 1e-3) -> list[tuple[str, object, dict, str | None]]:
@@ -45,16 +80,35 @@ def point_cases() -> list[tuple[str, list]]:
     ]
 
 
-def _scene_verdict(run, kind) -> tuple[str, bool]:
+def judge(observed: str, detail: str, expect: str) -> tuple[str, bool]:
+    """(verdict text, passed) of an observed outcome ("completes", "diagnostic", "failure",
+    "completes-out-of-tolerance") against the expected one."""
+    if observed == "failure":
+        return f"FAILURE: {detail}", False
+    if expect == COMPLETES:
+        if observed == "completes":
+            return f"completed as expected: {detail}", True
+        if observed == "completes-out-of-tolerance":
+            return f"completed but {detail}", False
+        return f"expected to complete, but stopped with a diagnostic: {detail}", False
+    want = expect.split(":", 1)[1].strip()
+    if observed == "diagnostic" and want in detail:
+        return f"stopped with the expected diagnostic: {detail}", True
+    if observed == "diagnostic":
+        return f"stopped with a diagnostic other than the expected '{want}': {detail}", False
+    return f"expected the diagnostic '{want}', but {observed.replace('-', ' ')}: {detail}", False
+
+
+def _scene_outcome(run) -> tuple[str, str]:
     if run["status"] == "completed":
-        err, limit = run["energy_error"], ENERGY_LIMIT.get(kind, 0.05)
-        text = f"completed: finite results, energy error {100 * err:.3g} %"
-        if not (err <= limit):
-            return text + f" (above the {100 * limit:g} % limit for {kind} backends)", False
-        return text, True
+        err = run["energy_error"]
+        text = f"finite results, energy-balance error {100 * err:.3g} %"
+        if not err <= ENERGY_LIMIT:
+            return "completes-out-of-tolerance", text + f" above the {100 * ENERGY_LIMIT:g} % rule"
+        return "completes", text
     if run["status"] == "diagnostic":
-        return f"stopped with a clear diagnostic: {run['message']}", True
-    return f"FAILURE ({run['status']}): {run['message']}", False
+        return "diagnostic", run["message"]
+    return "failure", f"({run['status']}) {run['message']}"
 
 
 def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3, budget=None) -> list[dict]:
@@ -79,20 +133,23 @@ def run_scene_cases(base, inventory, cache, thin_element: float = 1e-3, budget=N
             elif not allowed:
                 row.update(verdict=why, passed=None)
             else:
+                exp = expected(name, b)
                 run = cache.run(scene, b["name"], **options)
                 budget.record(b["name"], scene, run)
-                row["verdict"], row["passed"] = _scene_verdict(run, b["kind"])
-                row.update(wall=run["total"], energy_error=run["energy_error"] if run["ok"] else None,
+                observed, detail = _scene_outcome(run)
+                row["verdict"], row["passed"] = judge(observed, detail, exp)
+                row.update(expected=exp, observed=observed, wall=run["total"],
+                           energy_error=run["energy_error"] if run["ok"] else None,
                            peak_g=(run["summary"] or {}).get("peak_g"))
             rows.append(row)
     return rows
 
 
 def run_point_cases(inventory, material_name: str = "cfm") -> list[dict]:
+    """Every point case on every point-capable backend (the numpy reference included), judged
+    against :func:`.truths.stress_history`; Drucker warnings of the history are attached."""
     from cfm_core.errors import InputError, NumericalError
-    from cfm_core.material.kinematics import to_voigt
     from cfm_core.material.registry import make_material
-    from cfm_core.material.reference import stress_history
 
     mat = make_material(material_name)
     rows = []
@@ -100,24 +157,26 @@ def run_point_cases(inventory, material_name: str = "cfm") -> list[dict]:
         warn = []
         for t, F in hist:
             warn += drucker_warnings(mat, F, emit=False)
+        refs = [truths.stress_history(mat, t, F) for t, F in hist]
         for b in [r for r in inventory if r["status"] == "available" and r["can_point"]]:
             row = {"case": name, "kind": "point", "backend": b["name"], "options": {}}
+            exp = expected(name, b)
             try:
                 dev = 0.0
-                for t, F in hist:
+                for (t, F), ref in zip(hist, refs):
                     s = np.asarray(b["instance"].point(mat, t, F), dtype=float)
                     if not np.isfinite(s).all():
                         raise FloatingPointError("non-finite stress returned without an error")
-                    ref = to_voigt(stress_history(mat, t, F))
                     dev = max(dev, float(np.linalg.norm(s - ref) / max(np.linalg.norm(ref), 1e-300)))
-                row["verdict"] = (f"completed: finite results, energy error n/a (material point); deviation "
-                                  f"from the numpy reference {dev:.2g}")
-                row["passed"] = dev <= POINT_LIMIT
+                observed = "completes" if dev <= POINT_LIMIT else "completes-out-of-tolerance"
+                detail = f"finite results, deviation from the independent truth {dev:.2g} (limit {POINT_LIMIT:g})"
                 row["deviation"] = dev
             except (InputError, NumericalError) as exc:
-                row.update(verdict=f"stopped with a clear diagnostic: {type(exc).__name__}: {exc}", passed=True)
-            except Exception as exc:
-                row.update(verdict=f"FAILURE (raw exception): {type(exc).__name__}: {exc}", passed=False)
+                observed, detail = "diagnostic", f"{type(exc).__name__}: {exc}"
+            except Exception as exc:  # a raw exception is a failure, named
+                observed, detail = "failure", f"raw exception {type(exc).__name__}: {exc}"
+            row["verdict"], row["passed"] = judge(observed, detail, exp)
+            row.update(expected=exp, observed=observed)
             if warn:
                 row["verdict"] += f"; Drucker warning: {warn[0]}"
                 row["drucker_warnings"] = warn

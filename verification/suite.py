@@ -4,11 +4,13 @@
 run time (:mod:`.workprecision`), stability (:mod:`.stability`, :mod:`.drucker`) and the paper
 comparison (:mod:`.paper_compare`), then writes DIR/report.md, DIR/report.json and PNG figures
 (:mod:`.report`). The suite passes when every agreement and stability check is within its
-tolerance; the CLI exits 1 otherwise.
+tolerance and nothing was skipped: the verdict is PASSED (exit 0), FAILED (exit 1) or INCOMPLETE
+(exit 4; a backend missing, a run skipped by the budget), see :mod:`.verdict`.
 
-Quick mode (CI, a few tens of seconds with numba's cached kernels): a 1 mm single element, one
-small drop test (20 x 20 x 6 mm, 2 mm elements), work-precision at 2 and 1 mm (runs estimated to exceed
-20 s per backend are listed as skipped), stability cases on the small drop test cut at 5 ms
+Quick mode (CI; 5.5 minutes measured on a shared 2-core machine at load ~8, two thirds of it the
+implicit backend's stability cases): a 1 mm single element, one
+small drop test (20 x 20 x 6 mm, 2 mm elements), work-precision at 2 and 1 mm (torch and skfem at
+2 mm only, skfem at one step size: :data:`MODES` ``wp_plan``), stability cases on the small drop test cut at 5 ms
 (through the loading phase to the peak). Full mode: the
 full-size drop tests at 5, 6, 7 and 8 mm (1 mm elements), work-precision at 2, 1 and 0.5 mm.
 """
@@ -18,11 +20,17 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+#: Per mode. wp_plan: {backend: (element sizes from the coarsest, step options)} of the
+#: work-precision runs (absent: all); the skfem entries are the ones to change when the implicit
+#: backend gets faster. Budgets in s of solver time per backend (cfm verify --budget overrides).
 MODES = {
     "quick": {"small_drop": {"width": 0.02, "thickness": 0.006, "element_size": 0.002},
-              "drop_thicknesses": None, "wp_sizes": (2e-3, 1e-3), "wp_budget": 20.0, "scene_budget": 600.0, "stability_end": 5e-3, "thin_element": 2e-3},
+              "drop_thicknesses": None, "wp_sizes": (2e-3, 1e-3), "wp_budget": 60.0, "scene_budget": 600.0,
+              "wp_plan": {"torch": (1, None), "skfem": (1, 1)},
+              "stability_end": 5e-3, "thin_element": 2e-3},
     "full": {"small_drop": None, "drop_thicknesses": (0.005, 0.006, 0.007, 0.008),
-             "wp_sizes": (2e-3, 1e-3, 5e-4), "wp_budget": 3600.0, "scene_budget": 3600.0, "stability_end": None, "thin_element": 1e-3},
+             "wp_sizes": (2e-3, 1e-3, 5e-4), "wp_budget": 3600.0, "scene_budget": 3600.0, "wp_plan": {},
+             "stability_end": None, "thin_element": 1e-3},
 }
 
 
@@ -45,43 +53,65 @@ def _scenes(mode: str):
     return single, drops, wp, base
 
 
-def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=print, budget: float | None = None) -> dict:
-    """Run the suite and write the report; returns the report dict (``report["passed"]``).
+#: Sections of the suite, in order; ``sections=`` / ``--only`` runs a subset (the verdict is then
+#: INCOMPLETE at best).
+SECTIONS = ("point", "scenes", "workprecision", "stability", "drucker", "paper")
+
+
+def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=print, budget: float | None = None,
+              require=None, sections=None, cache=None) -> dict:
+    """Run the suite and write the report; returns the report dict (``report["verdict"]``:
+    "PASSED", "FAILED" or "INCOMPLETE", see :mod:`.verdict`; ``report["passed"]`` is True only for
+    PASSED).
 
     budget (s): solver time per backend for the scene runs (agreement and stability cases) and,
-    separately, for the work-precision runs (default: the mode's, 20 s quick, 3600 s full); runs estimated to exceed
-    it are listed as skipped with the estimate."""
+    separately, for the work-precision runs (default: the mode's, 20 s quick, 3600 s full); runs
+    estimated to exceed it are listed as skipped with the estimate and make the run INCOMPLETE.
+    require: backend names that must be available (default: $CFM_VERIFY_REQUIRE), else FAILED.
+    sections: subset of :data:`SECTIONS` (default all). cache: a :class:`.runs.RunCache` to share.
+
+    Raises InputError on an unknown mode, section or backend, or a budget that is not > 0."""
     from cfm_core.errors import InputError
 
-    from . import agreement, inventory, paper_compare, report, stability, workprecision
-    from .drucker import stability_map
+    from . import agreement, inventory, paper_compare, report, stability, verdict, workprecision
     from .machine import git_commit, machine_info
     from .runs import RunCache
 
     if mode not in MODES:
         raise InputError(f"verification mode {mode!r}; use 'quick' or 'full'.")
+    sections = tuple(SECTIONS if not sections else sections)
+    unknown = sorted(set(sections) - set(SECTIONS))
+    if unknown:
+        raise InputError(f"--only names unknown section(s) {', '.join(unknown)}; sections: {', '.join(SECTIONS)}.")
+    if budget is not None and not (isinstance(budget, (int, float)) and budget > 0):
+        raise InputError(f"--budget {budget!r} s must be a number > 0.")
+    required = list(require) if require is not None else verdict.required_from_env()
     say = progress or (lambda *a: None)
     t_start = time.perf_counter()
     selected = None if not backends else [b.strip() for b in backends if b.strip()]
     inv = inventory.discover(selected)
+    unknown = sorted(set(required) - {b["name"] for b in inv})
+    if unknown:
+        raise InputError(f"--require names unknown backend(s) {', '.join(unknown)}; known: "
+                         f"{', '.join(b['name'] for b in inv)}.")
     pointers = inventory.usable(inv, "point")
     runners = inventory.usable(inv, "run")
-    cache = RunCache()
-    if budget is not None and not (isinstance(budget, (int, float)) and budget > 0):
-        raise InputError(f"--budget {budget!r} s must be a number > 0.")
+    cache = cache or RunCache()
     wp_budget = float(budget) if budget is not None else MODES[mode]["wp_budget"]
     scene_budget = agreement.Budget(float(budget) if budget is not None else MODES[mode]["scene_budget"])
     single, drops, wp_scenes, base = _scenes(mode)
     timings = {}
 
-    def timed(name, fn):
+    def timed(name, section, fn, empty):
+        if section not in sections:
+            return empty
         t0 = time.perf_counter()
         say(f"verify: {name} ...")
         v = fn()
         timings[name] = time.perf_counter() - t0
         return v
 
-    agree = timed("material-point agreement", lambda: agreement.point_agreement(pointers))
+    agree = timed("material-point agreement", "point", lambda: agreement.point_agreement(pointers), [])
     scene_runs = {}
 
     def scenes():
@@ -92,15 +122,16 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
             scene_runs[label] = runs
         return rows
 
-    agree += timed("scene agreement", scenes)
-    wp = timed("work-precision", lambda: [workprecision.study(label, sc, MODES[mode]["wp_sizes"], inv, cache,
-                                                              wp_budget) for label, sc in wp_scenes])
-    stab = timed("stability", lambda: stability.run_point_cases(inv) + stability.run_scene_cases(base, inv, cache,
-                                                                                          MODES[mode]["thin_element"],
-                                                                                          scene_budget))
-    from cfm_core import plugins as registry
-
-    drucker = timed("Drucker stability map", lambda: _drucker_all(registry, stability_map))
+    agree += timed("scene agreement", "scenes", scenes, [])
+    wp = timed("work-precision", "workprecision",
+               lambda: [workprecision.study(label, sc, MODES[mode]["wp_sizes"], inv, cache, wp_budget,
+                                                   MODES[mode]["wp_plan"])
+                        for label, sc in wp_scenes], [])
+    stab = timed("stability", "stability",
+                 lambda: stability.run_point_cases(inv) + stability.run_scene_cases(base, inv, cache,
+                                                                                    MODES[mode]["thin_element"],
+                                                                                    scene_budget), [])
+    drucker_maps, drucker_rows = timed("Drucker stability map", "drucker", _drucker_all, ({}, []))
     ref_backend = next((n for n in workprecision.REFERENCE_ORDER if any(b["name"] == n for b in runners)),
                        runners[0]["name"] if runners else None)
     extra = None
@@ -108,24 +139,41 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     run0 = scene_runs.get(label0, {}).get(ref_backend)
     if run0 and run0["ok"]:
         extra = (label0, run0["t"], run0["y"])
-    paper = timed("paper comparison", lambda: paper_compare.compare(mode, ref_backend, cache, extra))
-    checks = [r for r in agree + stab if r.get("passed") is not None]  # None: skipped, listed
-    passed = all(bool(r["passed"]) for r in checks)
-    rep = {"mode": mode, "passed": passed, "commit": git_commit(), "machine": machine_info(),
+    paper = timed("paper comparison", "paper", lambda: paper_compare.compare(mode, ref_backend, cache, extra,
+                                                                [b["name"] for b in runners]),
+                  {"source": "section not run", "rows": [], "facts": [], "curves": [], "checks": []})
+    wp_rows = [r for s in wp for r in s.get("checks", [])]
+    v = verdict.decide({"agreement": agree, "stability": stab, "drucker": drucker_rows,
+                        "work-precision": wp_rows, "paper": paper.get("checks", [])}, inv, required,
+                       [s for s in SECTIONS if s not in sections])
+    rep = {"mode": mode, "verdict": v["verdict"], "passed": v["verdict"] == "PASSED", "exit_code": v["exit_code"],
+           "failed": v["failed"], "incomplete": v["incomplete"], "checks": v["checks"], "required": required,
+           "sections": list(sections), "commit": git_commit(), "machine": machine_info(),
            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "backends_requested": selected,
-           "inventory": [{k: v for k, v in b.items() if k != "instance"} for b in inv],
-           "agreement": agree, "work_precision": wp, "stability": stab, "drucker": drucker, "paper": paper,
-           "timings": timings, "runtime": time.perf_counter() - t_start,
-           "tolerances": {k: {"rel_l2": v[0], "peak": v[1], "why": v[2]} for k, v in agreement.TOLERANCES.items()}}
+           "inventory": [{k: val for k, val in b.items() if k != "instance"} for b in inv],
+           "agreement": agree, "work_precision": wp, "stability": stab, "drucker": drucker_maps,
+           "drucker_checks": drucker_rows, "paper": paper, "timings": timings,
+           "runtime": time.perf_counter() - t_start,
+           "tolerances": {k: {"rel_l2": t[0], "peak": t[1], "t_peak": t[2], "duration": t[3], "why": t[4]}
+                          for k, t in agreement.TOLERANCES.items()}}
     report.write(Path(out), rep, scene_runs)
-    say(f"verify: {'PASSED' if passed else 'FAILED'} in {rep['runtime']:.1f} s; report in {Path(out) / 'report.md'}")
+    say(f"verify: {v['verdict']} in {rep['runtime']:.1f} s ({v['checks']} checks, {len(v['failed'])} failed, "
+        f"{len(v['incomplete'])} not run); report in {Path(out) / 'report.md'}")
+    for msg in v["failed"][:20]:
+        say(f"verify: FAILED {msg}")
+    for msg in v["incomplete"][:20]:
+        say(f"verify: NOT RUN {msg}")
     return rep
 
 
-def _drucker_all(registry, stability_map) -> dict:
+def _drucker_all() -> tuple[dict, list]:
+    """Stability maps of every registered material, and the checks on them (:func:`.drucker.checks`)."""
     import warnings
 
+    from cfm_core import plugins as registry
     from cfm_core.material.registry import make_material
+
+    from .drucker import checks, stability_map
 
     out = {}
     with warnings.catch_warnings():
@@ -137,14 +185,18 @@ def _drucker_all(registry, stability_map) -> dict:
             continue
         try:
             out[name] = stability_map(make_material(name))
-        except Exception as exc:  # listed, not hidden
+        except Exception as exc:  # listed, and failed in checks()
             out[name] = {"error": f"{type(exc).__name__}: {exc}"}
-    return out
+    return out, checks(out)
 
 
 def cli(args) -> int:
-    """Handler of ``cfm verify``: 0 when every check passes, 1 otherwise."""
+    """Handler of ``cfm verify``: 0 PASSED, 1 FAILED, 4 INCOMPLETE (see :mod:`.verdict`)."""
     mode = "full" if getattr(args, "full", False) else "quick"
     names = args.backends.split(",") if getattr(args, "backends", None) else None
-    rep = run_suite(mode, names, args.out, budget=getattr(args, "budget", None))
-    return 0 if rep["passed"] else 1
+    req = getattr(args, "require", None)
+    require = [s.strip() for s in req.split(",") if s.strip()] if req is not None else None
+    only = getattr(args, "only", None)
+    sections = [s.strip() for s in only.split(",") if s.strip()] if only else None
+    rep = run_suite(mode, names, args.out, budget=getattr(args, "budget", None), require=require, sections=sections)
+    return rep["exit_code"]

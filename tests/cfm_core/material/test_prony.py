@@ -6,6 +6,7 @@ import pytest
 from cfm_core import make_material
 from cfm_core.material import reference as ref
 from cfm_core.material.prony import relaxation_function
+from cfm_verification.truths import convolution_reference  # hereditary integral, hand-written Eq. 2-7
 
 
 def shear_history(t, gamma):
@@ -68,37 +69,6 @@ def test_steps_much_larger_than_tau_stay_stable_and_bounded():
     dev = sigma[:, 0, 0] - sigma[:, 1, 1]
     dev2 = sig2[:, 0, 0] - sig2[:, 1, 1]
     assert np.allclose(dev[1:], dev2[1:] , rtol=2e-4)
-
-
-def convolution_reference(mat, t_rows, F_rows, sub=4000):
-    """Independent truth: S_iso(t) = int g(t - s) dS0/ds ds by quadrature on a fine resampling.
-
-    F is interpolated linearly in time between rows (as the recurrence assumes for S0 per step).
-    """
-    from cfm_core.material.kinematics import cauchy_from_pk2
-
-    gammas, taus = mat.prony_arrays()
-    out = []
-    for n in range(t_rows.size):
-        if n == 0:
-            S0, Sv = ref.pk2_parts(mat, F_rows[:1])
-            out.append(cauchy_from_pk2(F_rows[:1], S0 + Sv)[0])
-            continue
-        # fine grid up to t_n
-        ts, Fs = [t_rows[0]], [F_rows[0]]
-        for k in range(1, n + 1):
-            w = np.linspace(0, 1, sub + 1)[1:]
-            ts.extend(t_rows[k - 1] + w * (t_rows[k] - t_rows[k - 1]))
-            Fs.extend((1 - w)[:, None, None] * F_rows[k - 1] + w[:, None, None] * F_rows[k])
-        ts, Fs = np.array(ts), np.array(Fs)
-        S0, Sv = ref.pk2_parts(mat, Fs)
-        dS = np.diff(S0, axis=0)
-        tm = 0.5 * (ts[1:] + ts[:-1])
-        g = relaxation_function(t_rows[n] - tm, gammas, taus)
-        S_iso = S0[0] + np.einsum("k,kij->ij", g, dS)  # jump at t0 carries g(t - t0) too
-        S_iso = S0[0] * relaxation_function(t_rows[n] - t_rows[0], gammas, taus) + np.einsum("k,kij->ij", g, dS)
-        out.append(cauchy_from_pk2(Fs[-1:], (S_iso + Sv[-1])[None])[0])
-    return np.array(out)
 
 
 def test_viscoelastic_history_matches_direct_convolution():

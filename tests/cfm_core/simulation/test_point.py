@@ -2,48 +2,15 @@
 
 import csv
 
-import mpmath as mp
 import numpy as np
 import pytest
 
 from cfm_core import make_material
 from cfm_core.simulation import point as pt
 from cfm_core.cli.main import main
+from cfm_verification.truths import cauchy_mp  # the paper's Eq. 2-7 in mpmath, independent of codegen
 
 HEADER = "t,F11,F12,F13,F21,F22,F23,F31,F32,F33"
-
-
-def cfm_energy_mp(C, c=10.0, k1=1320.0, k2=1.66, kappa=666.1e3):
-    """The paper's Eq. 2-7 written out in mpmath (independent of the package's code generation)."""
-    Cm = mp.matrix(C)
-    ev, _ = mp.eigsy(Cm)
-    J = mp.sqrt(mp.det(Cm))
-    mb = [ev[i] * J ** (-mp.mpf(2) / 3) for i in range(3)]
-    w = c / 2 * (mb[0] + mb[1] + mb[2] - 3)
-    for a, b in ((0, 1), (1, 2), (0, 2)):
-        x = (mb[a] + mb[b]) / 2
-        if x >= 1:
-            w += k1 / (2 * k2) * (mp.exp(k2 * (x - 1) ** 2) - 1)
-    return w + kappa / 81 * (9 * mp.log(J) + J**-9 - 1)
-
-
-def cauchy_mp(F, **params):
-    """sigma = J^-1 F (2 dW/dC) F^T with dW/dC by high-precision central differences."""
-    with mp.workdps(40):
-        Fm = mp.matrix(F.tolist())
-        C = Fm.T * Fm
-        h = mp.mpf("1e-15")
-        S = mp.matrix(3, 3)
-        for i in range(3):
-            for j in range(i, 3):
-                Cp, Cm_ = C.copy(), C.copy()
-                for (a, b) in {(i, j), (j, i)}:
-                    Cp[a, b] += h / 2 if i != j else h
-                    Cm_[a, b] -= h / 2 if i != j else h
-                d = (cfm_energy_mp(Cp.tolist(), **params) - cfm_energy_mp(Cm_.tolist(), **params)) / (2 * h)
-                S[i, j] = S[j, i] = 2 * d
-        sig = Fm * S * Fm.T / mp.det(Fm)
-        return np.array(sig.tolist(), dtype=float)
 
 
 def write_history(path, t, F):
