@@ -35,6 +35,9 @@ LIGHT = {"density": 1.0}
 #: neo-hookean and mooney-rivlin 20 times stiffer than their defaults (at 1 kPa the impactor sinks
 #: through the specimen over 65 ms and 10^5 steps).
 COARSE = {"element_size": 0.003, "width": 0.024}
+#: ... and at 0.5 m/s: at 1 m/s the run checks stop them (the impactor presses nodes of the two
+#: element layers 0.2-0.4 mm into itself and folds corners), which is the checks working, not a reference.
+SOFT = {**COARSE, "velocity": 0.5}
 
 
 def _point(name, backend, material="cfm", history="uniaxial compression", elastic=False, moduli="long-term"):
@@ -92,10 +95,10 @@ CASES = [
     _drop("drop-cfm-instantaneous-numba", moduli="instantaneous"),
     _drop("drop-cfm-elastic-numba", elastic=True),
     _drop("drop-cfm-k2-5-numba", parameters={"k2": 5.0}),
-    _drop("drop-neo-hookean-torch", "torch", material="neo-hookean", parameters={"mu": 2e4}, **COARSE),
-    _drop("drop-ogden-torch", "torch", material="ogden", **COARSE),
+    _drop("drop-neo-hookean-torch", "torch", material="neo-hookean", parameters={"mu": 2e4}, **SOFT),
+    _drop("drop-ogden-torch", "torch", material="ogden", **SOFT),
     _drop("drop-mooney-rivlin-torch", "torch", material="mooney-rivlin", parameters={"c10": 6e3, "c01": 2e3},
-          **COARSE),
+          **SOFT),
     _drop("drop-cfm-mesh-1mm-numba", element_size=0.001),
     _drop("drop-cfm-mesh-3mm-numba", element_size=0.003, width=0.024),
     _drop("drop-cfm-friction-0.3-numba", friction=0.3),
