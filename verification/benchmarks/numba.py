@@ -22,27 +22,15 @@ import time
 
 
 def drop_test(thickness: float, size: float):
-    """The built-in drop-test scene (cfm_core.scene.builder) with the given thickness and element size."""
-    from cfm_core.material.registry import make_material
+    """The built-in drop-test scene with the given thickness and element size (m)."""
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
 
-    material = make_material("cfm", {}, "long-term", False)
-    try:
-        from dataclasses import replace
-
-        from cfm_core.scene.builder import build_model
-        from cfm_core.scene.scene import builtin_scene
-
-        scene = builtin_scene("drop-test")
-        spec = replace(scene.specimen, thickness=thickness, element_size=size)
-        return build_model(replace(scene, specimen=spec), material)
-    except Exception:  # scene API not as expected: the backend's own structured model
-        from .fixtures import drop_test_model
-
-        return drop_test_model(material, thickness=thickness, h=size, end_time=0.085)
+    return build_model(builtin_scene("drop-test").with_overrides(thickness=thickness, element_size=size))
 
 
 def _timed_run(model, **options):
-    from . import NumbaExplicitBackend
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
 
     start = time.perf_counter()
     res = NumbaExplicitBackend().run(model, **options)
@@ -52,7 +40,7 @@ def _timed_run(model, **options):
 def cold(thickness: float, size: float) -> dict:
     """Run once in a fresh interpreter with an empty kernel cache; timings as a dict."""
     code = ("import json, time; t0 = time.perf_counter(); "
-            "from cfm_backends.numba_explicit.benchmark import drop_test, _timed_run; "
+            "from cfm_verification.benchmarks.numba import drop_test, _timed_run; "
             f"m = drop_test({thickness!r}, {size!r}); total, r = _timed_run(m); "
             "print(json.dumps({'total': time.perf_counter() - t0, 'run': total, "
             "'compile': r.info['compile_time'], 'wall': r.wall_time, 'steps': r.steps}))")
