@@ -56,6 +56,47 @@ class TorchExplicitBackend(Backend):
         self.check_model(model)
         return run_model(model, progress, **options)
 
+    def run_batch(self, models, *, progress=None, raise_errors: bool = True, sync_free: bool | None = None,
+                  **options):
+        """Run drop tests that share a mesh as one batched simulation; one Result per model.
+
+        Parameters
+        ----------
+        models : sequence of cfm_core.scene.model.Model
+            B drop tests (rigid sphere, no prescribed motion) with the same mesh, density,
+            constraints, contact node sets, sphere radius, friction and material definition; they may
+            differ in material parameter values, impact velocity, impactor mass, start height and
+            end time (s).
+        progress : callable, optional
+            Called with the smallest simulated time (s) of the runs still going.
+        raise_errors : bool
+            True: raise the first run's NumericalError; False: put it in the list in place of the
+            Result (the other runs are unaffected).
+        sync_free : bool, optional
+            No host synchronisation inside a step (default: True on CUDA, False on the CPU).
+        **options
+            The options of :meth:`run` (shared by all runs; ``frame_interval`` is not supported).
+
+        Returns
+        -------
+        list of Result (or NumericalError)
+            In the order of ``models``; each equals the same run done alone to round-off.
+            ``wall_time`` is the batch's solver time divided by B; ``info['batch_wall_time']``
+            the whole.
+
+        Raises
+        ------
+        InputError
+            Models that cannot share a batch (the message names the differing field), bad options.
+        NumericalError
+            A run failed (with ``raise_errors``), naming the run, the element and the time (s).
+        """
+        from .batch import run_batch
+
+        for m in models:
+            self.check_model(m)
+        return run_batch(list(models), progress, raise_errors, sync_free, **options)
+
     def point(self, material, t: np.ndarray, F: np.ndarray, *, device: str = "cpu",
               dtype: str = "float64") -> np.ndarray:
         """Cauchy stress (n, 6) in Pa (11, 22, 33, 12, 23, 13) along F (n, 3, 3) at times t (n,) in s.

@@ -155,12 +155,14 @@ def _rotation(app, aqq, apq):
     return c, t * c, t
 
 
-def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16):
+def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16, check: bool = True):
     """Cyclic Jacobi (numba's ``eig3_jacobi``) on A (3, 3, K): (m (3, K), Q (3, 3, K)).
 
     Slow (about 100 tensor ops per sweep) and used only for the few matrices :func:`eig3` flags.
     Each matrix stops rotating once its off-diagonal sum is below 1e-18 of its diagonal sum (scaled
-    by the dtype's precision); the loop ends when all have (one host check per sweep).
+    by the dtype's precision); the loop ends when all have (one host check per sweep), or, with
+    ``check=False``, after ``max_sweeps`` sweeps without any host check (a converged matrix is
+    left unchanged by further sweeps, so the result is the same).
     """
     rel = precision_scale(A.dtype)
     a = {(i, j): A[i, j].clone() for i in range(3) for j in range(i, 3)}
@@ -169,7 +171,7 @@ def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16):
     for _sweep in range(max_sweeps):
         off = a[0, 1].abs() + a[0, 2].abs() + a[1, 2].abs()
         active = ~(off <= 1e-18 * rel * (a[0, 0].abs() + a[1, 1].abs() + a[2, 2].abs()))
-        if not bool(active.any()):
+        if check and not bool(active.any()):
             break
         for p, qq in OFF:
             r = 3 - p - qq                                      # the third index
@@ -206,3 +208,21 @@ def patch_fallback(A, m, Q, fallback):
     m = m.index_copy(1, idx, mj)
     Q = Q.index_copy(2, idx, Qj)
     return m, Q
+
+
+def patch_fallback_fixed(A, m, Q, fallback, size: int):
+    """:func:`patch_fallback` without host synchronisation: Jacobi on ``size`` flagged entries.
+
+    The first ``size`` flagged entries (by ``topk`` of the flags, a fixed-size selection) are
+    replaced by the Jacobi solution with a fixed number of sweeps; returns (m, Q, overflow) where
+    ``overflow`` (0-d bool tensor) says that more than ``size`` entries were flagged (the caller
+    reports it later; nothing here waits for the device).
+    """
+    k = min(size, fallback.shape[0])
+    flags = fallback.to(A.dtype)
+    val, idx = torch.topk(flags, k)
+    mj, Qj = eig3_jacobi(A.index_select(2, idx), check=False)
+    take = val > 0.0
+    m = m.index_copy(1, idx, torch.where(take, mj, m.index_select(1, idx)))
+    Q = Q.index_copy(2, idx, torch.where(take, Qj, Q.index_select(2, idx)))
+    return m, Q, flags.sum() > k
