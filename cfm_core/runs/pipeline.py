@@ -5,6 +5,7 @@ Backends never post-process; post-processing never knows the backend (docs/conve
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,11 @@ def drop_test(scene, backend: str = "numba", progress=None, **options) -> DropTe
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
     model = build_model(scene)
     result = run_model(model, backend, progress, **options)
+    return drop_test_outcome(scene, model, result)
+
+
+def drop_test_outcome(scene, model, result) -> DropTestOutcome:
+    """The post-processed outcome of a drop-test run (filtered histories and summary)."""
     rate = float(scene.settings.output_rate)
     t, a_raw, a_cfc = postprocess.acceleration_histories(result, model.mass_full, rate=rate)
     info = {
@@ -88,6 +94,77 @@ def drop_test(scene, backend: str = "numba", progress=None, **options) -> DropTe
             info[key] = result.info[key]
     summary = postprocess.summarize(result, info)
     return DropTestOutcome(model, result, t, a_raw, a_cfc, summary)
+
+
+def batch_key(model) -> str:
+    """What drop tests must share to run as one batch (mesh, density, constraints, contact, sphere
+    radius, friction, material definition), as a hash; runs with equal keys may be batched."""
+    h = hashlib.sha256()
+    for a in (model.nodes, model.hexes, model.fixed_dofs, model.sphere_nodes, model.plane_nodes):
+        arr = np.ascontiguousarray(a)
+        h.update(str(arr.shape).encode() + arr.tobytes())
+    sph = model.sphere
+    h.update(repr((model.density, model.friction, model.gravity, model.symmetry_factor, model.plane,
+                   model.stop_after_separation, sph.radius if sph else None, tuple(sph.center[:2]) if sph else None,
+                   model.prescribed is None, model.material.spec.name,
+                   len(model.material.prony_arrays()[0]))).encode())
+    return h.hexdigest()
+
+
+def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) -> list:
+    """Run drop-test scenes; those sharing a mesh run as batches where the backend can (``run_batch``).
+
+    Parameters
+    ----------
+    scenes : sequence of Scene
+        Drop-test scenes.
+    backend : str
+        Backend name; one with a ``run_batch`` method (torch) runs each group of scenes sharing a
+        mesh (:func:`batch_key`) as batches of at most ``batch_size``, others one by one.
+    batch_size : int
+        Largest batch.
+    **options
+        Backend options.
+
+    Returns
+    -------
+    list of DropTestOutcome or Exception
+        In the order of ``scenes``; a failed run's entry is its exception (InputError,
+        NumericalError), the others are unaffected.
+    """
+    be = backend_for(backend)
+    out: list = [None] * len(scenes)
+    models = []
+    for i, scene in enumerate(scenes):
+        try:
+            if scene.type != "drop-test":
+                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
+            models.append((i, build_model(scene)))
+        except (ValueError, RuntimeError) as exc:
+            out[i] = exc
+    if not hasattr(be, "run_batch"):
+        for i, model in models:
+            try:
+                out[i] = drop_test_outcome(scenes[i], model, be.run(model, **options))
+            except (ValueError, RuntimeError) as exc:
+                out[i] = exc
+        return out
+    groups: dict = {}
+    for i, model in models:
+        groups.setdefault(batch_key(model), []).append((i, model))
+    for members in groups.values():
+        for k in range(0, len(members), batch_size):
+            part = members[k:k + batch_size]
+            try:
+                results = be.run_batch([m for _, m in part], raise_errors=False, **options)
+            except (ValueError, RuntimeError) as exc:
+                results = [exc] * len(part)
+            for (i, model), res in zip(part, results):
+                try:
+                    out[i] = res if isinstance(res, Exception) else drop_test_outcome(scenes[i], model, res)
+                except (ValueError, RuntimeError) as exc:
+                    out[i] = exc
+    return out
 
 
 def reaction_test(scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:

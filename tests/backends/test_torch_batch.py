@@ -65,3 +65,30 @@ def test_a_failing_run_does_not_stop_the_others(models):
     out = TorchExplicitBackend().run_batch([models[0], crushing], raise_errors=False)
     assert isinstance(out[1], NumericalError) and "batch run 1" in str(out[1]) and out[1].time is not None
     assert not isinstance(out[0], Exception) and out[0].steps > 0
+
+
+def test_sweep_dispatch_groups_runs_sharing_a_mesh_into_batches():
+    """map_cases (used by cfm sweep and cfm calibrate) sends one batch per mesh, and each run's
+    filtered history equals the run alone."""
+    from cfm_core.studies.dask_runner import SerialRunner
+    from cfm_core.studies.sweep import map_cases, run_case
+
+    class Counting(SerialRunner):
+        items = []
+
+        def map(self, fn, items):
+            items = list(items)
+            Counting.items.append((fn.__name__, len(items)))
+            return super().map(fn, items)
+
+    scene = BASE.with_overrides(element_size=0.0025)
+    cases = [{"k2": 1.66}, {"k2": 2.5}, {"k2": 1.66, "thickness": 0.006}]
+    tasks = [(scene, c, "torch") for c in cases]
+    done = {d.index: d for d in map_cases(Counting(), tasks)}
+    assert Counting.items == [("run_cases", 2)]          # two meshes: two batches
+    for i, task in enumerate(tasks):
+        assert done[i].ok, done[i].error
+        alone = run_case(task)
+        a, b = done[i].value["a_cfc"], alone["a_cfc"]
+        n = min(a.size, b.size)
+        assert post.relative_l2(a[:n], b[:n]) < 1e-10
