@@ -11,13 +11,15 @@ to round-off (relative L2 of the filtered acceleration < 1e-10 in float64,
 tests/backends/test_torch_batch.py). A run that has stopped (end time, separation, failure) keeps
 being computed with the others until all have stopped; its records are dropped.
 
-Host synchronisations: none inside a step when ``sync_free`` (default on CUDA): the Jacobi eigen
-fallback works on a fixed-size selection, the contact Newton iteration runs a fixed number of
+Host synchronisations: none inside a step when ``sync_free`` (default on CUDA): the eigen
+fallback (C isotropic to round-off) takes m = diag C, Q = I under a mask
+(``eigen.patch_fallback_isotropic``), the contact Newton iteration runs a fixed number of
 iterations, and failures, unconverged contacts and stops are flags read once per chunk of
-``CHUNK`` steps together with the history rows, so the step can be captured as a CUDA graph. On
-the CPU (default ``sync_free=False``) a step reads one flag (any eigen fallback?) and the Newton
-iteration checks convergence every ``newton_block`` iterations; ``info['host_syncs_per_step']``
-counts them.
+``CHUNK`` steps together with the history rows, so the step can be captured as a CUDA graph (not
+done yet: no GPU was available to test it). On the CPU (default ``sync_free=False``) a step reads
+whether any eigen fallback is needed (then Jacobi, as a single run) and whether every run has
+stopped, and the Newton iteration checks convergence every ``newton_block`` iterations;
+``info['host_syncs_per_step']`` counts them.
 """
 
 from __future__ import annotations
@@ -35,7 +37,6 @@ from . import material as mat
 from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
 
 CHUNK = 32            # steps between host reads of the history rows and the run flags
-FALLBACK_SLOTS = 64   # eigen fallbacks per step handled without host synchronisation (sync_free)
 
 # error codes per run (flags on the device)
 OK, INVERTED, NONFINITE, COLLAPSE, STATE, NEWTON, FALLBACK = 0, 1, 2, 3, 4, 5, 6
@@ -183,7 +184,7 @@ class _Batch:
         import torch
 
         from . import element
-        from .eigen import patch_fallback, patch_fallback_fixed
+        from .eigen import patch_fallback, patch_fallback_isotropic
 
         st = self.stages
         kin, D = st.front(element.gather(self.uv, self.idx, self.B * self.N), self.Bm, self.G, self._ghd, self.p)
@@ -192,7 +193,7 @@ class _Batch:
         overflow = None
         patched = False
         if self.sync_free:
-            m, Q, overflow = patch_fallback_fixed(kin.C, kin.m, kin.Q, fb, FALLBACK_SLOTS)
+            m, Q, overflow = patch_fallback_isotropic(kin.C, kin.m, kin.Q, fb)
             patched = True
         else:
             self.syncs += 1
@@ -345,7 +346,21 @@ class _Batch:
             chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
         wall = time.perf_counter() - start
         host = [x.to("cpu") for x in (steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t)]
+        self.memory = self._memory(vold, dvc)
         return self._results(chunks, wall, total, *host)
+
+    def _memory(self, *extra) -> dict:
+        """Bytes per run: the persistent tensors (geometry, state), and the device's peak on CUDA."""
+        import torch
+
+        tensors = [self.idx, self.Bm, self.BV, self.G, self.L, self.V0, self.hgc, self.mass, self.free, self.uv,
+                   self.ginf, *self.state, *self.sphere, *extra]
+        if self.plane is not None:
+            tensors += list(self.plane)
+        out = {"tensor_bytes_per_run": sum(t.numel() * t.element_size() for t in tensors) / self.B}
+        if self.device.type == "cuda":
+            out["peak_device_bytes_per_run"] = torch.cuda.max_memory_allocated(self.device) / self.B
+        return out
 
     @staticmethod
     def _flag(code, err, where, kind, element, t, value, m, dt0):
@@ -394,7 +409,7 @@ class _Batch:
                 info={"device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
                       "threads": torch.get_num_threads(), "compile": self.o.compile,
                       "compile_time": self.compile_time / self.B, "batch_size": self.B, "batch_index": b,
-                      "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free,
+                      "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free, **self.memory,
                       "host_syncs_per_step": self.syncs / max(total, 1)})
             out.append(res)
         return out
@@ -418,8 +433,8 @@ class _Batch:
                                  f"{_fixed()} iterations at t = {t:.6g} s (sync-free batch); run with "
                                  f"sync_free=False.", time=t, quantity="contact")
         else:
-            err = NumericalError(f"more than {FALLBACK_SLOTS} elements needed the Jacobi eigen fallback in one "
-                                 f"step at t = {t:.6g} s (sync-free batch); run with sync_free=False.",
+            err = NumericalError(f"an element needed the Jacobi eigen fallback for a C that is not isotropic to "
+                                 f"round-off at t = {t:.6g} s (sync-free batch); run with sync_free=False.",
                                  time=t, quantity="eigen fallback")
         err.args = (f"{where}: {err.args[0]}",) + err.args[1:]
         return err

@@ -210,19 +210,18 @@ def patch_fallback(A, m, Q, fallback):
     return m, Q
 
 
-def patch_fallback_fixed(A, m, Q, fallback, size: int):
-    """:func:`patch_fallback` without host synchronisation: Jacobi on ``size`` flagged entries.
+def patch_fallback_isotropic(A, m, Q, fallback, rel: float = 1e-8):
+    """:func:`patch_fallback` without host synchronisation, for matrices isotropic to round-off.
 
-    The first ``size`` flagged entries (by ``topk`` of the flags, a fixed-size selection) are
-    replaced by the Jacobi solution with a fixed number of sweeps; returns (m, Q, overflow) where
-    ``overflow`` (0-d bool tensor) says that more than ``size`` entries were flagged (the caller
-    reports it later; nothing here waits for the device).
+    The hybrid flags (nearly) only matrices whose deviator is at round-off level, where any
+    orthonormal basis is an eigenbasis to that level: the flagged entries get m = diag(A) and
+    Q = I (the stress error is of the order of the round-off off-diagonals that caused the flag,
+    relative to an element stress that is itself near zero). Returns (m, Q, unsafe), ``unsafe``
+    (0-d bool tensor) saying that a flagged matrix has off-diagonals above ``rel`` times its
+    trace, where this is not exact: the caller reports it later (nothing here waits for the device).
     """
-    k = min(size, fallback.shape[0])
-    flags = fallback.to(A.dtype)
-    val, idx = torch.topk(flags, k)
-    mj, Qj = eig3_jacobi(A.index_select(2, idx), check=False)
-    take = val > 0.0
-    m = m.index_copy(1, idx, torch.where(take, mj, m.index_select(1, idx)))
-    Q = Q.index_copy(2, idx, torch.where(take, Qj, Q.index_select(2, idx)))
-    return m, Q, flags.sum() > k
+    diag = torch.stack([A[0, 0], A[1, 1], A[2, 2]])
+    off = A[0, 1].abs() + A[0, 2].abs() + A[1, 2].abs()
+    unsafe = (fallback & ~(off <= rel * diag.abs().sum(0))).any()
+    eye = torch.eye(3, dtype=A.dtype, device=A.device)[:, :, None]
+    return torch.where(fallback, diag, m), torch.where(fallback, eye, Q), unsafe
