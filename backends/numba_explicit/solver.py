@@ -169,9 +169,10 @@ def run_model(model, progress=None, **options) -> Result:
         numba.set_num_threads(int(threads))
     try:
         t0 = time.perf_counter()
-        mod = codegen.load(model.material)
-        if o.warm_up:
-            warm_up(mod, model.material)
+        with codegen.announce(model.material):
+            mod = codegen.load(model.material)
+            if o.warm_up:
+                warm_up(mod, model.material)
         compile_time = time.perf_counter() - t0
         prep = prepare(model, o)
         return _loop(model, mod, prep, o, progress, compile_time, numba.get_num_threads())
