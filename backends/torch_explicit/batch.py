@@ -124,6 +124,7 @@ class _Batch:
         rep = lambda x: x.repeat(*([1] * (x.dim() - 1)), B)  # noqa: E731  (last axis tiled B times)
         offs = torch.arange(B, device=device, dtype=torch.int64)
         self.idx = (a.idx.view(8, 1, N) + (offs * n).view(1, B, 1)).reshape(-1)
+        self.flat = element.flat_index(self.idx, B * n)
         self.Bm, self.BV, self.G = rep(a.B), rep(a.BV), rep(a.G)
         self.L, self.V0, self.hgc = rep(a.L), rep(a.V0), rep(a.hgc)
         self.mass, self.free = rep(a.mass), rep(a.free)
@@ -187,7 +188,7 @@ class _Batch:
         from .eigen import patch_fallback, patch_fallback_isotropic
 
         st = self.stages
-        kin, D = st.front(element.gather(self.uv, self.idx, self.B * self.N), self.Bm, self.G, self._ghd, self.p)
+        kin, D = st.front(element.gather(self.uv, self.flat, self.B * self.N), self.Bm, self.G, self._ghd, self.p)
         alive_e = alive[:, None].expand(self.B, self.N).reshape(-1)
         fb = kin.fallback & alive_e
         overflow = None

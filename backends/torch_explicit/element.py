@@ -59,8 +59,19 @@ class Response(NamedTuple):
 
 
 def gather(uv: torch.Tensor, idx: torch.Tensor, ne: int) -> torch.Tensor:
-    """Element nodal displacements and velocities (6, 8, N) from uv (6, n) (idx = conn^T flattened)."""
+    """Element nodal displacements and velocities (6, 8, N) from uv (6, n).
+
+    idx: conn^T flattened (8 N,), or its flat form (6, 8 N) from :func:`flat_index` (one gather
+    from the flattened uv: about 4 times faster on the CPU than ``index_select`` along dim 1).
+    """
+    if idx.dim() == 2:
+        return uv.reshape(-1).index_select(0, idx.reshape(-1)).view(6, 8, ne)
     return uv.index_select(1, idx).view(6, 8, ne)
+
+
+def flat_index(idx: torch.Tensor, n: int) -> torch.Tensor:
+    """(6, 8 N): the positions of uv (6, n) flattened, row c at c n + idx."""
+    return idx[None, :] + n * torch.arange(6, dtype=idx.dtype, device=idx.device)[:, None]
 
 
 def deformation(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor):

@@ -64,6 +64,7 @@ class _Run:
         self.gam, self.tau, self.ginf = mat.prony(model.material)
         self.a, self.uv, k = arr.build(model, o, device, dtype)
         self.state = arr.initial_state(k, self.a.ne, dtype, device)
+        self.flat = element.flat_index(self.a.idx, self.a.n)
         self.vold = torch.zeros((3, self.a.n), dtype=dtype, device=device)
         self.dvc = torch.zeros_like(self.vold)
         self.stages = element.Stages.make(o.compile)
@@ -89,7 +90,7 @@ class _Run:
 
         a, o, st = self.a, self.o, self.stages
         factors = self._factors(dtp)
-        kin, D = st.front(element.gather(self.uv, a.idx, a.ne), a.B, a.G, self.ghd, self.p)
+        kin, D = st.front(element.gather(self.uv, self.flat, a.ne), a.B, a.G, self.ghd, self.p)
         args = (self.state, factors, self.ginf, a.BV, a.G, a.L, a.V0, a.hgc, float(self.model.density),
                 0 if o.hourglass_wave == "shear" else 1)
         resp = element.response(kin, D, *args, stages=st)
