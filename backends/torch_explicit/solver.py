@@ -7,7 +7,9 @@ The element work is batched tensor ops on the run's device (``element``), the no
 ``index_add_``; the scalar bookkeeping (time, impactor, energy sums, stop rule) is host
 arithmetic in float64 with numba's formulas.
 
-Host synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
+On CUDA a drop test (sphere, no prescribed motion, no frames) runs through the batched engine
+with one run (``batch``), whose step has no host synchronisation. Otherwise, host
+synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
 (min step, failures, work: the step size is needed on the host), one to select the nodes inside
 the sphere, while some are: one to start the contact Newton iteration and one per
 ``newton_block`` iterations, and one at the end (contact results and energies: the history row).
@@ -38,6 +40,11 @@ def run_model(model, progress=None, **options) -> Result:
 
     o = TorchOptions.from_mapping(options)
     device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
+    if device.type == "cuda" and model.sphere is not None and model.prescribed is None and o.frame_interval is None:
+        # a drop test on CUDA: the batched engine with one run, whose step has no host synchronisation
+        from .batch import run_batch
+
+        return run_batch([model], progress, True, True, **o.as_dict())[0]
     old_threads = torch.get_num_threads()
     threads = o.threads
     if threads is None and device.type == "cpu" and model.n_elements < PARALLEL_MIN:

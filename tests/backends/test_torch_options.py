@@ -106,3 +106,12 @@ def test_cli_device_error_exit_status(tmp_path):
                           "cuda", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "torch.cuda.is_available() = False" in out.stderr
+
+
+def test_gpu_check_without_cuda_exits_2_and_says_why(tmp_path):
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is available here")
+    out = subprocess.run([sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and "no CUDA device" in out.stderr and "Nothing was run" in out.stderr
