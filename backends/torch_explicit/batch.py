@@ -145,20 +145,23 @@ class _Batch:
         P = np.array([mat.parameters(m.material) for m in models])                  # (B, P)
         self.p = [T(P[:, j]).view(B, 1) for j in range(P.shape[1])]
         pr = [mat.prony(m.material) for m in models]
-        self.gam = T([g for g, _, _ in pr]).view(B, k)
-        self.tau = T([t for _, t, _ in pr]).view(B, k)
+        T64 = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=torch.float64, device=device)  # noqa: E731
+        self.gam = T64([g for g, _, _ in pr]).view(B, k)
+        self.tau = T64([t for _, t, _ in pr]).view(B, k)
         self.ginf = T([gi for _, _, gi in pr]).repeat_interleave(N)
-        self.M = T([m.sphere.mass for m in models])
-        self.Z0 = T([m.sphere.center[2] for m in models])
-        self.V0s = T([m.sphere.velocity for m in models])
-        self.end = T([m.end_time for m in models])
+        # per-run scalars (time, step, impactor, energy sums) are float64 whatever the field dtype,
+        # as the single run's host arithmetic
+        self.M = T64([m.sphere.mass for m in models])
+        self.Z0 = T64([m.sphere.center[2] for m in models])
+        self.V0s = T64([m.sphere.velocity for m in models])
+        self.end = T64([m.end_time for m in models])
         self.state = arr.initial_state(k, B * N, dtype, device)
         self.stages = element.Stages.make(o.compile)
         self.tol = 1e-16 * torch.finfo(dtype).eps / torch.finfo(torch.float64).eps
         self.block = 0 if sync_free else (o.newton_block or 1)
         self.syncs = 0
         if o.warm_up:
-            self._element_pass(torch.zeros(B, dtype=dtype, device=device), torch.ones(B, dtype=torch.bool,
+            self._element_pass(torch.zeros(B, dtype=torch.float64, device=device), torch.ones(B, dtype=torch.bool,
                                                                                          device=device))
         self.syncs = 0
         self.compile_time = time.perf_counter() - t0
@@ -177,7 +180,7 @@ class _Batch:
         small = x < 1e-8
         decay = torch.where(small, 1.0 - x, torch.exp(-x))
         gain = self.gam * torch.where(small, 1.0 - 0.5 * x, -torch.expm1(-x) / torch.where(small, 1.0, x))
-        f = torch.stack([decay, gain]).permute(0, 2, 1)                              # (2, k, B)
+        f = torch.stack([decay, gain]).permute(0, 2, 1).to(self.dtype)              # (2, k, B)
         return f[:, :, :, None].expand(2, self.k, self.B, self.N).reshape(2, self.k, -1)
 
     def _element_pass(self, dtp, alive):
@@ -218,7 +221,8 @@ class _Batch:
         o, B, N, n = self.o, self.B, self.N, self.n
         m0 = self.models[0]
         dev, dt_ = self.device, self.dtype
-        z = lambda: torch.zeros(B, dtype=dt_, device=dev)  # noqa: E731
+        z = lambda: torch.zeros(B, dtype=torch.float64, device=dev)  # noqa: E731
+        F = lambda x: x.to(dt_)  # noqa: E731  (a per-run float64 scalar where it meets the fields)
         sym = float(m0.symmetry_factor)
         grav = abs(float(m0.gravity))
         mu = float(m0.friction)
@@ -231,7 +235,7 @@ class _Batch:
         seen = torch.zeros(B, dtype=torch.bool, device=dev)
         alive = torch.ones(B, dtype=torch.bool, device=dev)
         steps = torch.zeros(B, dtype=torch.int64, device=dev)
-        dtmin, dtmax, maxpen = torch.full((B,), math.inf, dtype=dt_, device=dev), z(), z()
+        dtmin, dtmax, maxpen = torch.full((B,), math.inf, dtype=torch.float64, device=dev), z(), z()
         code = torch.zeros(B, dtype=torch.int64, device=dev)
         err = torch.zeros((B, 7), dtype=torch.float64, device=dev)   # element, t, value, m0, m1, m2, dt0
         separated = torch.zeros(B, dtype=torch.bool, device=dev)
@@ -254,10 +258,10 @@ class _Batch:
             if overflow is not None:
                 self._flag(code, err, alive & overflow, FALLBACK, fb * 0, t, t, kin.m[:, :B], DT0)
             alive = alive & ~failed
-            IE = IE + resp.work_e.view(B, N).sum(1)
+            IE = IE + resp.work_e.view(B, N).sum(1).double()
             # 2. stable step per run
             dmin, emin = resp.dte.view(B, N).min(1)
-            dtc = o.safety * dmin
+            dtc = o.safety * dmin.double()
             DT0 = torch.where((DT0 == 0.0) & torch.isfinite(dtc), dtc, DT0)
             dt = torch.clamp(dtc, max=o.dt_max)
             coll = alive & (~((dt > 0.0) & torch.isfinite(dt)) | (dtc < o.collapse * DT0))
@@ -269,27 +273,28 @@ class _Batch:
             nodal = scatter(resp.fint, resp.fhg, self.idx, B * n)
             fint, fhg = nodal[0:3], nodal[3:6]
             vold.copy_(v)
-            v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (dtn[:, None] / self.mass.view(B, n))).mul_(
+            v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (F(dtn)[:, None] / self.mass.view(B, n))).mul_(
                 self.free.view(3, B, n))
-            u.view(3, B, n).add_(v.view(3, B, n) * dt[:, None])
+            u.view(3, B, n).add_(v.view(3, B, n) * F(dt)[:, None])
             Vo, Zn = V, Z
             Vs = Vo - dtn * grav
             Zs = Zn + dt * Vs
             # 4. contact
             dvc.zero_()
             dZ, dV, pen, checks, unconv = batch_contact.sphere_contact(
-                u, v, dvc, self.sphere, cx, cy, Zs, Vs, R, M, mu, dt, alive, self.tol, self.block)
+                u, v, dvc, self.sphere, cx, cy, F(Zs), F(Vs), R, F(M), mu, F(dt), alive, self.tol, self.block)
+            dZ, dV, pen = dZ.double(), dV.double(), pen.double()
             self.syncs += checks
             self._flag(code, err, alive & unconv, NEWTON, emin * 0, t, dt, kin.m[:, :B], DT0)
             if self.plane is not None:
                 plane_contact(u, v, dvc, self.plane, float(m0.plane.z), mu,
-                              dt.repeat_interleave(self.p_count))
+                              F(dt).repeat_interleave(self.p_count))
             Zs = Zs + dZ
             Vs = Vs + dV
             force = M * dV / dtn
             Vf = Vo + dtp / (dtp + dt) * (Vs - Vo)
             # 5. energies and the record of step n
-            en = self._energies(v, vold, nodal, dvc, dtn)
+            en = self._energies(v, vold, nodal, dvc, F(dtn)).double()
             ke, ai, bi, ah, bh, ac, bc, pz = en.unbind(0)
             ke = ke + 0.5 * M * Vo * Vs
             fs = 0.5 * M * dV
