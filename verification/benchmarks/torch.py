@@ -14,7 +14,8 @@
    default mesh with different fibre stiffness k2 and impact velocity in one batched torch run
    (float64, CPU, one thread), simulated for ``--batch-time`` seconds; per-run solver time (batch
    time / B) against numba on one thread in the same process (the mean over the same runs), host
-   synchronisations per step, and memory per run (persistent tensors; the device's peak on CUDA).
+   synchronisations per step, and memory per run (persistent tensors, and the growth of the
+   process's peak resident memory over the batch, sizes in increasing order).
 3. Speed: solver wall time (compilation excluded, reported apart) and nanoseconds per
    element-cycle (wall / (elements x steps)) of numba and of torch on the CPU (eager float64 and
    float32; compiled with ``--compile``) with the same thread count (``--threads``, default 1),
@@ -161,15 +162,20 @@ def batches(sizes: list[int], end_time: float, numba_runs: int = 4) -> None:
     steps = sum(r.steps for r in ref) / len(ref)
     print(f"  numba, 1 thread: {per_numba:.3f} s per run ({steps:.0f} steps, {ne} hexahedra, "
           f"{per_numba / (steps * ne) * 1e9:.0f} ns per element-cycle; mean of {len(ref)} runs)", flush=True)
+    import resource
+
     tb = TorchExplicitBackend()
-    for b in sizes:
+    for b in sorted(sizes):
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0      # MiB (Linux: KiB)
         res = tb.run_batch(models[:b], threads=1)
+        grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0 - before
         r0 = res[0]
         per = r0.info["batch_wall_time"] / b
         ns = r0.info["batch_wall_time"] / (sum(r.steps for r in res) * ne) * 1e9
         print(f"  torch batch B = {b:3d}: {per:.3f} s per run ({per / per_numba:5.2f} x numba), {ns:.0f} ns per "
               f"element-cycle, {r0.info['host_syncs_per_step']:.2f} host syncs per step, "
-              f"{r0.info['tensor_bytes_per_run'] / 2**20:.1f} MiB of tensors per run", flush=True)
+              f"{r0.info['tensor_bytes_per_run'] / 2**20:.1f} MiB of state and geometry tensors per run, process "
+              f"peak memory grew {grown:.0f} MiB ({grown / b:.1f} MiB per run)", flush=True)
 
 
 def main(argv=None) -> None:
