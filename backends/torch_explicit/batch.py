@@ -184,9 +184,7 @@ class _Batch:
         return f[:, :, :, None].expand(2, self.k, self.B, self.N).reshape(2, self.k, -1)
 
     def _element_pass(self, dtp, alive):
-        """(kin, resp, fallback overflow flag) of all runs (no host sync when sync_free)."""
-        import torch
-
+        """(kin, resp, unsafe-fallback flag) of all runs (no host sync when sync_free)."""
         from . import element
         from .eigen import patch_fallback, patch_fallback_isotropic
 
