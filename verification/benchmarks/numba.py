@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -92,6 +93,65 @@ def warm_end_to_end(thickness: float, size: float) -> dict:
     return phases
 
 
+def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
+    """CPU time per element-cycle (ns, one thread) of the step's parts at the state of t_state (s).
+
+    Runs the compiled loop to t_state (the impactor near its deepest point), then times with
+    ``time.process_time`` (CPU time of this process: much less disturbed by other processes than
+    wall time) the whole step (``advance`` over a few steps), the parallel parts on their own
+    (element pass, gather and update, energies) and, in isolation, the material derivatives and the
+    eigen-decomposition per element; the rest of a step is the serial part (contact, step
+    minimum, history row, chunk loop).
+    """
+    import numba
+    import numpy as np
+
+    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_backends.numba_explicit.kernels import layout as K
+    from cfm_backends.numba_explicit.options import NumbaOptions
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        mod = codegen.load(model.material)
+        solver.warm_up(mod, model.material)
+        prep = solver.prepare(model, NumbaOptions())
+        hist = np.zeros((64, K.H_N))
+        while prep.sc[K.S_T] < t_state:
+            solver.advance(mod, prep, hist, t_state)
+        ne = model.n_elements
+        conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
+        p, gam, tau = prep.mat
+        x, v, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st
+        decay, gain = np.zeros(gam.size), np.zeros(gam.size)
+        mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
+
+        def cpu(fn, n=repeat):
+            best = math.inf
+            for _ in range(3):
+                t0 = time.process_time()
+                for _ in range(n):
+                    fn()
+                best = min(best, (time.process_time() - t0) / n)
+            return best / ne * 1e9
+
+        steps0 = prep.sc[K.S_STEPS]
+        t0 = time.process_time()
+        solver.advance(mod, prep, np.zeros((repeat, K.H_N)), math.inf)
+        step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
+        xs, vs = x.copy(), v.copy()
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, B, G, V0, L, hgfac, p, decay, gain, prep.par[K.P_GINF],
+                                               H.copy(), S0old.copy(), Sold.copy(), Eold.copy(), fe, dte, status,
+                                               errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
+        copies = cpu(lambda: (H.copy(), S0old.copy(), Sold.copy(), Eold.copy()))
+        gather = cpu(lambda: mod.gather_update(ef, ptr, inc, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
+        energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
+        return {"step": step, "element_pass": element - copies, "gather_update": gather, "energy": energy,
+                "serial_rest": step - (element - copies) - gather - energy}
+    finally:
+        numba.set_num_threads(old)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--thickness", type=float, default=8e-3, help="specimen thickness (m)")
@@ -116,6 +176,10 @@ def main(argv=None) -> None:
               f"{p['kernels']:.2f} s, solve {p['solve']:.2f} s, other run set-up {p['run_other']:.2f} s, "
               f"post-processing {p['post']:.2f} s, writing {p['write']:.2f} s, plotting {p['plot']:.2f} s "
               f"(sum {p['total']:.2f} s)", flush=True)
+    sp = split(model)
+    print(f"CPU time per element-cycle, one thread, at t = 6 ms: step {sp['step']:.0f} ns = element pass "
+          f"{sp['element_pass']:.0f} + gather and update {sp['gather_update']:.0f} + energies {sp['energy']:.0f} + "
+          f"serial rest (contact, step minimum, record, chunk loop) {sp['serial_rest']:.0f} ns", flush=True)
     _timed_run(model, threads=1)  # compile or load the kernels in this process
     best = {}
     for threads in (1, 2):
