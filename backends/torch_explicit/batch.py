@@ -317,7 +317,7 @@ class _Batch:
             dtmax = torch.where(alive, torch.maximum(dtmax, dt), dtmax)
             maxpen = torch.where(alive, torch.maximum(maxpen, pen), maxpen)
             self.state = resp.state
-            self._flag(code, err, nonfin, STATE, emin * 0, t, t, kin.m[:, :B], DT0)
+            self._flag(code, err, nonfin, STATE, emin * 0, t_n, t_n, kin.m[:, :B], DT0)   # as the single run: t^n
             alive = alive & ~nonfin
             done = t_n >= self.end
             if m0.stop_after_separation:
