@@ -372,7 +372,7 @@ class _Batch:
         import torch
 
         new = where & (code == OK)
-        code.copy_(torch.where(new, torch.as_tensor(kind, device=code.device), code))
+        code.copy_(torch.where(new, kind, code))          # kind: a Python int or a (B,) tensor (no copy to the device)
         vals = torch.stack([element.to(err.dtype), t.to(err.dtype), value.to(err.dtype),
                             m[0].to(err.dtype), m[1].to(err.dtype), m[2].to(err.dtype), dt0.to(err.dtype)], dim=1)
         err.copy_(torch.where(new[:, None], vals, err))
