@@ -210,7 +210,7 @@ def patch_fallback(A, m, Q, fallback):
     return m, Q
 
 
-def patch_fallback_isotropic(A, m, Q, fallback, rel: float = 1e-8):
+def patch_fallback_isotropic(A, m, Q, fallback, rel: float | None = None):
     """:func:`patch_fallback` without host synchronisation, for matrices isotropic to round-off.
 
     The hybrid flags (nearly) only matrices whose deviator is at round-off level, where any
@@ -220,6 +220,8 @@ def patch_fallback_isotropic(A, m, Q, fallback, rel: float = 1e-8):
     (0-d bool tensor) saying that a flagged matrix has off-diagonals above ``rel`` times its
     trace, where this is not exact: the caller reports it later (nothing here waits for the device).
     """
+    if rel is None:   # 1e-8 in float64, 2.3e-4 in float32 (whose hybrid flags less isotropic matrices)
+        rel = 1e-8 * precision_scale(A.dtype) ** 0.5
     diag = torch.stack([A[0, 0], A[1, 1], A[2, 2]])
     off = A[0, 1].abs() + A[0, 2].abs() + A[1, 2].abs()
     unsafe = (fallback & ~(off <= rel * diag.abs().sum(0))).any()

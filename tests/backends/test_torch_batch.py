@@ -107,6 +107,8 @@ def test_float32_batch_keeps_the_run_scalars_in_float64():
     models = [replace(build_model(BASE.with_overrides(element_size=0.0025, parameters={"k2": k2})), end_time=0.004)
               for k2 in (1.66, 2.2)]
     batch = TorchExplicitBackend().run_batch(models, dtype="float32")
-    for m, r in zip(models, batch):
+    free = TorchExplicitBackend().run_batch(models, dtype="float32", sync_free=True)   # CUDA's step
+    for m, r, f in zip(models, batch, free):
         alone = TorchExplicitBackend().run(m, dtype="float32")
         assert r.steps == alone.steps and rel_l2(r, alone, m) < 5e-6
+        assert f.steps == alone.steps and rel_l2(f, alone, m) < 5e-6
