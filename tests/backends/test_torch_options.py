@@ -115,3 +115,18 @@ def test_gpu_check_without_cuda_exits_2_and_says_why(tmp_path):
     out = subprocess.run([sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path)],
                          capture_output=True, text=True)
     assert out.returncode == 2 and "no CUDA device" in out.stderr and "Nothing was run" in out.stderr
+
+
+def test_gpu_check_dry_run_on_the_cpu(tmp_path):
+    """The GPU check's own logic (batches, CPU references, limits, files) on a coarse mesh."""
+    import json
+
+    pytest.importorskip("torch")
+    out = subprocess.run([sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path),
+                          "--device", "cpu", "--sizes", "2", "--element-size", "0.004"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+    records = json.loads((tmp_path / "gpu_check.json").read_text())["records"]
+    assert [(r["batch"], r["dtype"]) for r in records] == [(1, "float64"), (1, "float32"), (2, "float64"),
+                                                           (2, "float32")]
+    assert all(r["passed"] and r["host_syncs_per_step"] < 0.1 for r in records)
