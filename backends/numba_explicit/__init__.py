@@ -20,29 +20,23 @@ Threads: the element, node and energy loops run in parallel (numba prange, OpenM
 machine, ``OMP_WAIT_POLICY=PASSIVE`` (set by default unless already set, before numba starts
 its threads) keeps an occupied core from stalling every parallel loop.
 
-Options of :meth:`NumbaExplicitBackend.run` (all optional):
-
-- ``hourglass`` (-, default 0.1): viscous hourglass coefficient Q_hg in
-  c_hg = Q_hg rho c V0^(2/3) / 4; ``hourglass_wave``: "shear" (default, c from the current
-  isochoric modulus, so the soft shear response is not swamped by the bulk modulus) or
-  "longitudinal" (c from the full modulus);
-- ``safety`` (default 0.9): dt = safety min_e L_e / c_e; ``dt_max`` (s): upper bound of dt;
-- ``collapse`` (default 1e-4): stop when dt falls below this fraction of the first step;
-- ``separation_time`` (s, default 2e-4): with ``model.stop_after_separation``, stop this long
-  after the contact force fell to zero with the impactor moving up;
-- ``initial_velocity`` ((n, 3) m/s); ``frame_interval`` (s): store (t, displacement) frames;
-- ``threads``: number of numba threads for this run (default: numba's, or 1 for models under
-  1000 elements, where starting threads costs more than it saves); ``max_steps``; ``warm_up`` (default
-  True: compile on a 1-element model first so that ``wall_time`` excludes compilation, which is
-  reported in ``info['compile_time']``).
+Options of :meth:`NumbaExplicitBackend.run`: :class:`.options.NumbaOptions` (declared once with unit,
+default and allowed values; listed by ``cfm backends --options`` and in the method's docstring):
+the shared explicit-solver options (``cfm_backends.explicit.options``) and ``threads`` (default:
+numba's, or 1 for models under 1000 elements, where starting threads costs more than it saves).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from cfm_backends.explicit import errors
+from cfm_backends.explicit.checks import check_point_inputs
+from cfm_backends.explicit.options import document_run
+from cfm_core.errors import NumericalError
 from cfm_core.simulation.backend import Backend
-from cfm_core.errors import InputError, NumericalError
+
+from .options import NumbaOptions
 
 __all__ = ["NumbaExplicitBackend"]
 
@@ -58,12 +52,13 @@ class NumbaExplicitBackend(Backend):
     devices = ("cpu",)
     dtypes = ("float64",)
     requires = ("numba",)
+    options_class = NumbaOptions
 
     def run(self, model, *, progress=None, **options):
         """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
-        See the module docstring for the options. Raises NumericalError (element inversion,
-        non-finite stress, time-step collapse) naming the element and the time (s).
+        Raises InputError (an unknown option or a value out of range, a bad model) or NumericalError
+        (element inversion, non-finite stress, time-step collapse) naming the element and the time (s).
         """
         from .solver import run_model
 
@@ -78,12 +73,7 @@ class NumbaExplicitBackend(Backend):
         """
         from . import codegen
 
-        t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
-        F = np.ascontiguousarray(F, dtype=np.float64).reshape(-1, 3, 3)
-        if t.shape[0] != F.shape[0]:
-            raise InputError(f"point: {t.shape[0]} times but {F.shape[0]} deformation gradients.")
-        if t.size > 1 and not (np.diff(t) >= 0).all():
-            raise InputError("point: times must not decrease.")
+        t, F = check_point_inputs(t, F)
         mod = codegen.load(material)
         gam, tau = (np.ascontiguousarray(a, dtype=np.float64) for a in material.prony_arrays())
         p = np.ascontiguousarray(material.param_array(), dtype=np.float64)
@@ -94,9 +84,8 @@ class NumbaExplicitBackend(Backend):
             raise NumericalError(f"point {i} (t = {t[i]:.6g} s): det F = {J:.4g} <= 0 (inverted).",
                                  time=float(t[i]), element=int(i), quantity="J")
         if status != 0:
-            from cfm_core.material.diagnose import describe_nonfinite
-
-            raise NumericalError(
-                f"point {i} (t = {t[i]:.6g} s): non-finite stress: {describe_nonfinite(material, (m0, m1, m2))}.",
-                time=float(t[i]), element=int(i), quantity=f"non-finite energy derivative of material '{material.name}'")
+            raise errors.nonfinite(material, f"point {i} (t = {t[i]:.6g} s)", (m0, m1, m2), J, float(t[i]), int(i))
         return out
+
+
+document_run(NumbaExplicitBackend, NumbaOptions)

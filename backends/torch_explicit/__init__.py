@@ -9,16 +9,10 @@ batched tensor ops, and ``index_add_`` of the nodal forces. The time loop is Pyt
 comes from its single symbolic definition (generated torch code, ``cfm_core.material.codegen``). torch is
 imported only when a run or a point evaluation starts.
 
-Options of :meth:`TorchExplicitBackend.run` (all optional): ``device`` ("cpu" default, "cuda",
-"cuda:N"), ``dtype`` ("float64" default, "float32"), ``threads`` (torch intra-op threads for the
-run; default 1 below 20000 elements on the CPU, else torch's setting), ``compile`` (False
-default; True or a ``torch.compile`` mode fuses the pointwise part of the element pass, after a
-one-time compilation of tens of seconds reported in ``info['compile_time']``), ``warm_up``
-(default True: one element pass before the clock starts), ``newton_block`` (contact Newton
-iterations between host checks; default 1 on the CPU, 4 on CUDA; the result does not depend on
-it), and the explicit-solver options of the numba backend with its defaults: ``hourglass`` (0.1),
-``hourglass_wave`` ("shear"), ``safety`` (0.9), ``dt_max``, ``collapse`` (1e-4),
-``separation_time`` (2e-4 s), ``initial_velocity``, ``frame_interval``, ``max_steps``.
+Options of :meth:`TorchExplicitBackend.run`: :class:`.options.TorchOptions` (declared once with unit,
+default and allowed values; listed by ``cfm backends --options`` and in the method's docstring):
+the explicit-solver options shared with numba (``cfm_backends.explicit.options``: ``hourglass``,
+``safety``, ...) plus ``device``, ``dtype``, ``threads``, ``compile`` and ``newton_block``.
 
 float32 halves memory traffic but the fibre exponential exp(k2 (x-1)^2) overflows float32 at an
 argument of about 88.7 (float64: 709): an overflow stops the run with a NumericalError naming the
@@ -29,7 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from cfm_backends.explicit.options import document_run
 from cfm_core.simulation.backend import Backend
+
+from .options import TorchOptions
 
 __all__ = ["TorchExplicitBackend"]
 
@@ -45,11 +42,12 @@ class TorchExplicitBackend(Backend):
     devices = ("cpu", "cuda")
     dtypes = ("float64", "float32")
     requires = ("torch",)
+    options_class = TorchOptions
 
     def run(self, model, *, progress=None, **options):
         """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
-        See the module docstring for the options. Raises InputError (bad options, CUDA requested
+        Raises InputError (bad options, CUDA requested
         but not available) or NumericalError (element inversion, non-finite stress, float32
         overflow, time-step collapse) naming the element and the time (s).
         """
@@ -57,6 +55,47 @@ class TorchExplicitBackend(Backend):
 
         self.check_model(model)
         return run_model(model, progress, **options)
+
+    def run_batch(self, models, *, progress=None, raise_errors: bool = True, sync_free: bool | None = None,
+                  **options):
+        """Run drop tests that share a mesh as one batched simulation; one Result per model.
+
+        Parameters
+        ----------
+        models : sequence of cfm_core.scene.model.Model
+            B drop tests (rigid sphere, no prescribed motion) with the same mesh, density,
+            constraints, contact node sets, sphere radius, friction and material definition; they may
+            differ in material parameter values, impact velocity, impactor mass, start height and
+            end time (s).
+        progress : callable, optional
+            Called with the smallest simulated time (s) of the runs still going.
+        raise_errors : bool
+            True: raise the first run's NumericalError; False: put it in the list in place of the
+            Result (the other runs are unaffected).
+        sync_free : bool, optional
+            No host synchronisation inside a step (default: True on CUDA, False on the CPU).
+        **options
+            The options of :meth:`run` (shared by all runs; ``frame_interval`` is not supported).
+
+        Returns
+        -------
+        list of Result (or NumericalError)
+            In the order of ``models``; each equals the same run done alone to round-off.
+            ``wall_time`` is the batch's solver time divided by B; ``info['batch_wall_time']``
+            the whole.
+
+        Raises
+        ------
+        InputError
+            Models that cannot share a batch (the message names the differing field), bad options.
+        NumericalError
+            A run failed (with ``raise_errors``), naming the run, the element and the time (s).
+        """
+        from .batch import run_batch
+
+        for m in models:
+            self.check_model(m)
+        return run_batch(list(models), progress, raise_errors, sync_free, **options)
 
     def point(self, material, t: np.ndarray, F: np.ndarray, *, device: str = "cpu",
               dtype: str = "float64") -> np.ndarray:
@@ -68,3 +107,6 @@ class TorchExplicitBackend(Backend):
         from .point import point_history
 
         return point_history(material, t, F, device=device, dtype=dtype)
+
+
+document_run(TorchExplicitBackend, TorchOptions)

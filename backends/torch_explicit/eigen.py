@@ -155,12 +155,14 @@ def _rotation(app, aqq, apq):
     return c, t * c, t
 
 
-def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16):
+def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16, check: bool = True):
     """Cyclic Jacobi (numba's ``eig3_jacobi``) on A (3, 3, K): (m (3, K), Q (3, 3, K)).
 
     Slow (about 100 tensor ops per sweep) and used only for the few matrices :func:`eig3` flags.
     Each matrix stops rotating once its off-diagonal sum is below 1e-18 of its diagonal sum (scaled
-    by the dtype's precision); the loop ends when all have (one host check per sweep).
+    by the dtype's precision); the loop ends when all have (one host check per sweep), or, with
+    ``check=False``, after ``max_sweeps`` sweeps without any host check (a converged matrix is
+    left unchanged by further sweeps, so the result is the same).
     """
     rel = precision_scale(A.dtype)
     a = {(i, j): A[i, j].clone() for i in range(3) for j in range(i, 3)}
@@ -169,7 +171,7 @@ def eig3_jacobi(A: torch.Tensor, max_sweeps: int = 16):
     for _sweep in range(max_sweeps):
         off = a[0, 1].abs() + a[0, 2].abs() + a[1, 2].abs()
         active = ~(off <= 1e-18 * rel * (a[0, 0].abs() + a[1, 1].abs() + a[2, 2].abs()))
-        if not bool(active.any()):
+        if check and not bool(active.any()):
             break
         for p, qq in OFF:
             r = 3 - p - qq                                      # the third index
@@ -206,3 +208,22 @@ def patch_fallback(A, m, Q, fallback):
     m = m.index_copy(1, idx, mj)
     Q = Q.index_copy(2, idx, Qj)
     return m, Q
+
+
+def patch_fallback_isotropic(A, m, Q, fallback, rel: float | None = None):
+    """:func:`patch_fallback` without host synchronisation, for matrices isotropic to round-off.
+
+    The hybrid flags (nearly) only matrices whose deviator is at round-off level, where any
+    orthonormal basis is an eigenbasis to that level: the flagged entries get m = diag(A) and
+    Q = I (the stress error is of the order of the round-off off-diagonals that caused the flag,
+    relative to an element stress that is itself near zero). Returns (m, Q, unsafe), ``unsafe``
+    (0-d bool tensor) saying that a flagged matrix has off-diagonals above ``rel`` times its
+    trace, where this is not exact: the caller reports it later (nothing here waits for the device).
+    """
+    if rel is None:   # 1e-8 in float64, 2.3e-4 in float32 (whose hybrid flags less isotropic matrices)
+        rel = 1e-8 * precision_scale(A.dtype) ** 0.5
+    diag = torch.stack([A[0, 0], A[1, 1], A[2, 2]])
+    off = A[0, 1].abs() + A[0, 2].abs() + A[1, 2].abs()
+    unsafe = (fallback & ~(off <= rel * diag.abs().sum(0))).any()
+    eye = torch.eye(3, dtype=A.dtype, device=A.device)[:, :, None]
+    return torch.where(fallback, diag, m), torch.where(fallback, eye, Q), unsafe

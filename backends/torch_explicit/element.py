@@ -53,13 +53,25 @@ class Response(NamedTuple):
     dte: torch.Tensor      # (N,) L / c (s), inf for failed elements
     bad: torch.Tensor      # (N,) int8: 0 ok, 1 inverted (J <= 0), 2 non-finite stress
     work: torch.Tensor     # () stress work increment (J, modelled part)
+    work_e: torch.Tensor   # (N,) stress work increment per element (J)
     state: ElementState    # the updated state
     summary: torch.Tensor  # (5,) float64: min dte, its element, first failed element (N if none), work, fallback count
 
 
 def gather(uv: torch.Tensor, idx: torch.Tensor, ne: int) -> torch.Tensor:
-    """Element nodal displacements and velocities (6, 8, N) from uv (6, n) (idx = conn^T flattened)."""
+    """Element nodal displacements and velocities (6, 8, N) from uv (6, n).
+
+    idx: conn^T flattened (8 N,), or its flat form (6, 8 N) from :func:`flat_index` (one gather
+    from the flattened uv: about 4 times faster on the CPU than ``index_select`` along dim 1).
+    """
+    if idx.dim() == 2:
+        return uv.reshape(-1).index_select(0, idx.reshape(-1)).view(6, 8, ne)
     return uv.index_select(1, idx).view(6, 8, ne)
+
+
+def flat_index(idx: torch.Tensor, n: int) -> torch.Tensor:
+    """(6, 8 N): the positions of uv (6, n) flattened, row c at c n + idx."""
+    return idx[None, :] + n * torch.arange(6, dtype=idx.dtype, device=idx.device)[:, None]
 
 
 def deformation(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor):
@@ -148,15 +160,20 @@ def principal_stresses(D: torch.Tensor, Q: torch.Tensor):
 def prony_update(S0, S_vol, H, S0_old, factors, ginf: float):
     """(S, H_new): S = S_vol + gamma_inf S0 + sum_k H_k with H_k <- decay_k H_k + gain_k (S0 - S0_old).
 
-    H (k, 3, 3, N), S0_old (3, 3, N): the Prony state; factors (2, k): decay_k, gain_k of the step;
+    H (k, 3, 3, N), S0_old (3, 3, N): the Prony state; factors (2, k): decay_k, gain_k of the step,
+    or (2, k, N) per element with ginf (N,) (a batch of runs, each with its own step and series);
     no Prony terms (k = 0): S = S_vol + S0 (elastic).
     """
     k = H.shape[0]
     if k == 0:
         return S_vol + S0, H
     d = S0 - S0_old
-    S = S_vol.add(S0, alpha=ginf)
-    Hn = H * factors[0, :, None, None, None]
+    if factors.dim() == 2:
+        S = S_vol.add(S0, alpha=ginf)
+        Hn = H * factors[0, :, None, None, None]
+    else:
+        S = S_vol + S0 * ginf
+        Hn = H * factors[0, :, None, None, :]
     for j in range(k):
         S.add_(Hn[j].add_(d * factors[1, j]))
     return S, Hn
@@ -169,7 +186,8 @@ def stress(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf:
     D (12, N): the material derivatives at kin.m (:func:`derivatives`); factors (2, k): Prony decay
     and gain of the step since the previous pass; hgc = -Q_hg rho V0^(2/3) / 4 (N,); hgwave 0:
     hourglass wave speed from the isochoric modulus, 1: from the full one.
-    Returns (P = F S (3, 3, N), c_hg q (4, 3, N), dte, bad, work, new state, summary).
+    Returns (P = F S (3, 3, N), c_hg q (4, 3, N), dte, bad, work, work per element (N,), new state,
+    summary).
     """
     F, q, J, C, m, Q = kin.F, kin.q, kin.J, kin.C, kin.m, kin.Q
     ne = F.shape[-1]
@@ -193,13 +211,14 @@ def stress(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf:
     # stress work (trapezoid in time) and the new state
     E = 0.5 * (C - torch.eye(3, dtype=C.dtype, device=C.device)[:, :, None])
     w = ((state.S + S) * (E - state.E)).sum((0, 1))
-    work = 0.5 * (V0 * w).sum()
+    work_e = 0.5 * (V0 * w)
+    work = work_e.sum()
     dmin, emin = torch.min(dte, 0)
     first_bad = torch.where(failed, torch.arange(ne, device=F.device), ne).amin()
     f64 = torch.float64
     summary = torch.stack([dmin.to(f64), emin.to(f64), first_bad.to(f64), work.to(f64),
                            kin.fallback.sum().to(f64)])
-    return P, qc, dte, bad, work, ElementState(Hn, S0, S, E), summary
+    return P, qc, dte, bad, work, work_e, ElementState(Hn, S0, S, E), summary
 
 
 def forces(P: torch.Tensor, qc: torch.Tensor, BV: torch.Tensor, G: torch.Tensor):
@@ -220,9 +239,9 @@ def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, gin
     :class:`Stages`) when its stress and forces functions are to be used (compiled ones).
     """
     st_fn, f_fn = (stress, forces) if stages is None else (stages.stress, stages.forces)
-    P, qc, dte, bad, work, new, summary = st_fn(kin, D, state, factors, ginf, L, V0, hgc, rho, hgwave)
+    P, qc, dte, bad, work, work_e, new, summary = st_fn(kin, D, state, factors, ginf, L, V0, hgc, rho, hgwave)
     fint, fhg = f_fn(P, qc, BV, G)
-    return Response(fint, fhg, dte, bad, work, new, summary)
+    return Response(fint, fhg, dte, bad, work, work_e, new, summary)
 
 
 def scatter(fint: torch.Tensor, fhg: torch.Tensor, idx: torch.Tensor, n: int) -> torch.Tensor:

@@ -1,50 +1,52 @@
-"""Options of the torch backend: defaults, validation, device and dtype resolution.
+"""Options of the torch backend (declared once), device and dtype resolution.
 
-The explicit-solver options (``hourglass``, ``safety``, ...) have the numba backend's names,
-defaults and meaning, so that both backends run the same algorithm with the same numbers.
-torch itself is imported only by :func:`resolve_device` / :func:`resolve_dtype` (at run time).
+:class:`TorchOptions` extends the shared explicit-solver options (``cfm_backends.explicit.options``:
+the same names, defaults and meaning on numba and torch, so that both run the same algorithm with
+the same numbers) with the device, the dtype, threads, ``torch.compile`` and the contact Newton
+block. torch itself is imported only by :func:`resolve_device` / :func:`resolve_dtype` (at run time).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 
+from cfm_backends.explicit.options import ExplicitOptions
 from cfm_core.errors import InputError
+from cfm_core.simulation.options import document, option
 
 DEVICES = ("cpu", "cuda")
 DTYPES = ("float64", "float32")
 
-def _explicit_defaults() -> dict:
-    from cfm_backends.numba_explicit.solver import DEFAULTS as explicit
-
-    return explicit
-
-
-DEFAULTS = {
-    **_explicit_defaults(),      # hourglass, safety, dt_max, collapse, ...: the numba backend's, shared
-    "device": "cpu",             # "cpu", "cuda" or "cuda:N"
-    "dtype": "float64",          # "float64" or "float32" (state, stresses, forces)
-    "threads": None,             # torch intra-op threads (None: 1 below 20000 elements on the CPU, else torch's)
-    "warm_up": True,             # one element pass before the clock starts (and torch.compile)
-    "compile": False,            # False, True or a torch.compile mode ("default", "reduce-overhead", ...)
-    "newton_block": None,        # contact Newton iterations between host checks (None: 1 cpu, 4 cuda)
-}
+# Below this many elements the CPU run uses one torch thread unless told otherwise: the tensors are
+# then rows of ~1e4-1e5 numbers, where intra-op threads gain little when the cores are free and,
+# on a machine whose cores are shared, made a 5000-element drop test 40 times slower.
+PARALLEL_MIN = 20_000
 
 
-def check_options(options: dict) -> dict:
-    """Options merged over DEFAULTS; unknown names and bad values raise InputError."""
-    from cfm_backends.numba_explicit.solver import check_options as check_explicit
+@document
+@dataclass(frozen=True)
+class TorchOptions(ExplicitOptions):
+    """Options of the torch backend (``TorchExplicitBackend.run(model, **options)``)."""
 
-    o = check_explicit(options, DEFAULTS, "torch")
-    if o["threads"] is not None and not (isinstance(o["threads"], int) and o["threads"] >= 1):
-        raise InputError(f"torch backend: threads = {o['threads']!r} must be a positive integer or None.")
-    if o["newton_block"] is not None and not (isinstance(o["newton_block"], int) and o["newton_block"] >= 1):
-        raise InputError(f"torch backend: newton_block = {o['newton_block']!r} must be a positive integer or None.")
-    if not (isinstance(o["compile"], (bool, str))):
-        raise InputError(f"torch backend: compile = {o['compile']!r}; use False, True or a torch.compile "
-                         f"mode name ('default', 'reduce-overhead', 'max-autotune').")
-    check_dtype_name(o["dtype"])
-    check_device_name(o["device"])
-    return o
+    owner = "torch backend"
+    device: str = option("cpu", "-", "'cpu', 'cuda' or 'cuda:N' (N the GPU index)", kind="any")
+    dtype: str = option("float64", "-", "floating point type of state, stresses and forces ('float64' or "
+                        "'float32'; torch dtypes accepted)", kind="any")
+    threads: int = option(None, "-", "torch intra-op threads for the run", kind="int", low=1,
+                          none=f"1 below {PARALLEL_MIN} elements on the CPU, else torch's setting")
+    compile: object = option(False, "-", "torch.compile the pointwise part of the element pass: False, True or "
+                             "a mode name ('default', 'reduce-overhead', 'max-autotune'); tens of seconds once",
+                             kind="any")
+    newton_block: int = option(None, "-", "contact Newton iterations between host checks (the result does not "
+                               "depend on it)", kind="int", low=1, none="1 on the CPU, 4 on CUDA")
+
+    def __post_init__(self):
+        super().__post_init__()
+        object.__setattr__(self, "dtype", check_dtype_name(self.dtype))
+        object.__setattr__(self, "device", check_device_name(self.device))
+        if not isinstance(self.compile, (bool, str)):
+            raise InputError(f"torch backend: option compile = {self.compile!r} is not allowed; use False, True or "
+                             f"a torch.compile mode name ('default', 'reduce-overhead', 'max-autotune').")
 
 
 def check_dtype_name(dtype) -> str:

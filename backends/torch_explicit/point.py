@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from cfm_backends.explicit import errors
+from cfm_backends.explicit.checks import check_point_inputs
 from cfm_core.errors import NumericalError
 
 from . import material as mat
 from .options import resolve_device, resolve_dtype
-from .solver import check_point_inputs, nonfinite_error
 
 
 def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
@@ -62,6 +63,6 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
         if bool(inverted[first]):
             raise NumericalError(f"point {first} (t = {t[first]:.6g} s): det F = {float(J[first]):.4g} <= 0 "
                                  f"(inverted).", time=float(t[first]), element=first, quantity="J")
-        raise nonfinite_error(material, dt, f"point {first} (t = {t[first]:.6g} s)",
-                              m[:, first].tolist(), float(J[first]), float(t[first]), first)
+        raise errors.nonfinite(material, f"point {first} (t = {t[first]:.6g} s)", m[:, first].tolist(),
+                               float(J[first]), float(t[first]), first, float32=dt == torch.float32)
     return out.to("cpu", torch.float64).numpy()

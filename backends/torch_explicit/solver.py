@@ -7,7 +7,9 @@ The element work is batched tensor ops on the run's device (``element``), the no
 ``index_add_``; the scalar bookkeeping (time, impactor, energy sums, stop rule) is host
 arithmetic in float64 with numba's formulas.
 
-Host synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
+On CUDA a drop test (sphere, no prescribed motion, no frames) runs through the batched engine
+with one run (``batch``), whose step has no host synchronisation. Otherwise, host
+synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
 (min step, failures, work: the step size is needed on the host), one to select the nodes inside
 the sphere, while some are: one to start the contact Newton iteration and one per
 ``newton_block`` iterations, and one at the end (contact results and energies: the history row).
@@ -23,31 +25,29 @@ import time
 
 import numpy as np
 
-from cfm_core.errors import InputError, NumericalError
+from cfm_backends.explicit import errors, history
+from cfm_backends.explicit.history import COLUMNS
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
 from . import arrays as arr
 from . import material as mat
-from .options import check_options, resolve_device, resolve_dtype
-
-# Below this many elements the CPU run uses one torch thread unless told otherwise: the tensors are
-# then rows of ~1e4-1e5 numbers, where intra-op threads gain little when the cores are free and,
-# on a machine whose cores are shared, made a 5000-element drop test 40 times slower.
-PARALLEL_MIN = 20_000
-
-COLUMNS = ("t", "force", "impulse", "z", "v", "reaction", "kinetic", "internal", "hourglass", "contact",
-           "external", "internal_force_work", "dt", "penetration", "momentum_z")
+from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
 
 
 def run_model(model, progress=None, **options) -> Result:
     """Run ``model``; see :class:`cfm_backends.torch_explicit.TorchExplicitBackend`."""
     import torch
 
-    o = check_options(options)
-    device, dtype = resolve_device(o["device"]), resolve_dtype(o["dtype"])
+    o = TorchOptions.from_mapping(options)
+    device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
+    if device.type == "cuda" and model.sphere is not None and model.prescribed is None and o.frame_interval is None:
+        # a drop test on CUDA: the batched engine with one run, whose step has no host synchronisation
+        from .batch import run_batch
+
+        return run_batch([model], progress, True, True, **o.as_dict())[0]
     old_threads = torch.get_num_threads()
-    threads = o["threads"]
+    threads = o.threads
     if threads is None and device.type == "cpu" and model.n_elements < PARALLEL_MIN:
         threads = 1
     if threads is not None:
@@ -72,14 +72,15 @@ class _Run:
         self.gam, self.tau, self.ginf = mat.prony(model.material)
         self.a, self.uv, k = arr.build(model, o, device, dtype)
         self.state = arr.initial_state(k, self.a.ne, dtype, device)
+        self.flat = element.flat_index(self.a.idx, self.a.n)
         self.vold = torch.zeros((3, self.a.n), dtype=dtype, device=device)
         self.dvc = torch.zeros_like(self.vold)
-        self.stages = element.Stages.make(o["compile"])
+        self.stages = element.Stages.make(o.compile)
         eps = torch.finfo(dtype).eps / torch.finfo(torch.float64).eps
         self.tol = 1e-16 * eps
-        self.block = o["newton_block"] or (1 if device.type == "cpu" else 4)
+        self.block = o.newton_block or (1 if device.type == "cpu" else 4)
         self.syncs = 0
-        if o["warm_up"]:
+        if o.warm_up:
             self._element_pass(0.0)        # pure: its result is dropped (compiles, warms caches)
         self.compile_time = time.perf_counter() - t0
 
@@ -97,9 +98,9 @@ class _Run:
 
         a, o, st = self.a, self.o, self.stages
         factors = self._factors(dtp)
-        kin, D = st.front(element.gather(self.uv, a.idx, a.ne), a.B, a.G, self.ghd, self.p)
+        kin, D = st.front(element.gather(self.uv, self.flat, a.ne), a.B, a.G, self.ghd, self.p)
         args = (self.state, factors, self.ginf, a.BV, a.G, a.L, a.V0, a.hgc, float(self.model.density),
-                0 if o["hourglass_wave"] == "shear" else 1)
+                0 if o.hourglass_wave == "shear" else 1)
         resp = element.response(kin, D, *args, stages=st)
         summary = resp.summary.tolist()
         self.syncs += 1
@@ -137,7 +138,7 @@ class _Run:
         rows = []
         tick = end / 100.0
         next_progress = tick
-        fi = o["frame_interval"]
+        fi = o.frame_interval
         frames = [(0.0, np.zeros((a.n, 3)))] if fi else []
         next_frame = fi if fi else math.inf
         reported = 0.0
@@ -154,11 +155,11 @@ class _Run:
                 raise self._element_error(int(first_bad), resp, kin, t)
             IE += work
             # 2. stable step
-            dtc = o["safety"] * dmin
+            dtc = o.safety * dmin
             if DT0 == 0.0 and math.isfinite(dtc):
                 DT0 = dtc
-            dt = min(dtc, o["dt_max"])
-            if not (dt > 0.0 and math.isfinite(dt)) or dtc < o["collapse"] * DT0:
+            dt = min(dtc, o.dt_max)
+            if not (dt > 0.0 and math.isfinite(dt)) or dtc < o.collapse * DT0:
                 raise self._collapse_error(t, int(emin), dtc, DT0)
             dtn = 0.5 * (dtp + dt)
             # 3. central differences
@@ -224,15 +225,14 @@ class _Run:
             dtmin, dtmax, maxpen = min(dtmin, dt), max(dtmax, dt), max(maxpen, pen_)
             self.state = resp.state
             if not math.isfinite(ke + pz + Zs):
-                raise NumericalError(f"non-finite kinematic state at t = {t_n:.6g} s in model '{model.name}'.",
-                                     time=t_n, quantity="state")
+                raise errors.state(model, t_n)
             done = t_n >= end
             if not done and sph is not None and model.stop_after_separation:
                 if force > 0.0:
                     seen, SEPT = True, 0.0
                 elif seen and Vf > 0.0:
                     SEPT += dt
-                    if SEPT >= o["separation_time"]:
+                    if SEPT >= o.separation_time:
                         stop = "separated"
                         done = True
                 else:
@@ -249,9 +249,8 @@ class _Run:
                 monitor.check(t, positions(), Z if sph is not None else None)
             if done:
                 break
-            if steps >= o["max_steps"]:
-                raise NumericalError(f"model '{model.name}': {steps} steps reached at t = {t:.6g} s before the end "
-                                     f"time {end:g} s (option max_steps).", time=t, quantity="steps")
+            if steps >= o.max_steps:
+                raise errors.max_steps(model, steps, t)
         wall = time.perf_counter() - start
         monitor.final(t, positions(), Z if sph is not None else None)
         h = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
@@ -260,66 +259,30 @@ class _Run:
         return res
 
     # ---- errors ----
-    def _element_error(self, e: int, resp, kin, t: float) -> NumericalError:
-        code = int(resp.bad[e])
-        J = float(kin.J[e])
-        m = [float(x) for x in kin.m[:, e].tolist()]
-        name = self.model.material.name
-        if code == 1:
-            return NumericalError(
-                f"element {e} inverted at t = {t:.6g} s (J = det F = {J:.4g} <= 0) in model '{self.model.name}': "
-                f"the mesh cannot follow this deformation; refine the mesh, lower the load or raise the "
-                f"hourglass coefficient.", time=t, element=e, quantity="J")
-        return nonfinite_error(self.model.material, self.dtype, f"element {e} at t = {t:.6g} s", m, J, t, e)
+    def _element_error(self, e: int, resp, kin, t: float):
+        import torch
 
-    def _collapse_error(self, t: float, e: int, dtc: float, dt0: float) -> NumericalError:
-        name = self.model.material.name
-        if not math.isfinite(dtc):
-            return NumericalError(
-                f"no finite stable time step at t = {t:.6g} s in model '{self.model.name}': every element has zero "
-                f"stiffness (material '{name}'); give the option dt_max (s).", time=t, quantity="time step")
-        return NumericalError(
-            f"time-step collapse at t = {t:.6g} s: the stable step of element {e} fell to {dtc:.3g} s, below "
-            f"{self.o['collapse']:g} x the first step {dt0:.3g} s (element crushed or material stiffening "
-            f"without bound).", time=t, element=e, quantity="time step")
+        J = float(kin.J[e])
+        if int(resp.bad[e]) == 1:
+            return errors.inverted(self.model, e, t, J)
+        m = [float(x) for x in kin.m[:, e].tolist()]
+        return errors.nonfinite(self.model.material, f"element {e} at t = {t:.6g} s", m, J, t, e,
+                                float32=self.dtype == torch.float32)
+
+    def _collapse_error(self, t: float, e: int, dtc: float, dt0: float):
+        return errors.collapse(self.model, t, e, dtc, dt0, self.o.collapse)
 
     # ---- result ----
     def _result(self, h, wall, steps, dt0, dtmin, dtmax, maxpen, frames, stop) -> Result:
         import torch
 
-        model, o = self.model, self.o
-        ne = model.n_elements
-        sphere = model.sphere is not None
-        mass_full = model.mass_full or (model.sphere.mass * model.symmetry_factor if sphere else None)
-        col = {name: h[:, i] for i, name in enumerate(COLUMNS)}
-        duration = float(col["t"][-1]) if len(h) else 0.0
-        pz = col["momentum_z"]
-        res = Result(
-            t=col["t"], backend="torch", steps=steps, wall_time=wall,
-            contact_force=col["force"] if sphere else None, impulse=col["impulse"] if sphere else None,
-            acceleration=col["force"] / mass_full if sphere else None,
-            impactor_z=col["z"] if sphere else None, impactor_v=col["v"] if sphere else None,
-            reaction_force=col["reaction"] if model.prescribed is not None else None,
-            energies={k: col[k] for k in ("kinetic", "internal", "hourglass", "contact", "external")},
-            dt_min=float(dtmin), dt_max=float(dtmax), frames=frames,
-            info={
-                "n_elements": ne, "n_nodes": model.n_nodes, "material": model.material.name,
-                "hourglass": o["hourglass"], "hourglass_wave": o["hourglass_wave"], "safety": o["safety"],
-                "device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
-                "threads": torch.get_num_threads(), "compile": o["compile"], "compile_time": self.compile_time,
-                "stop_reason": stop, "dt_first": dt0,
-                "steps_at_first_dt": int(math.ceil(duration / dt0)) if dt0 > 0 else None,
-                "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
-                "host_syncs_per_step": self.syncs / max(steps, 1),
-                "max_sphere_penetration": float(maxpen),
-                "internal_force_work": float(col["internal_force_work"][-1]) if len(h) else 0.0,
-                "momentum_z_drift": float(np.max(np.abs(pz - pz[0]))) if len(h) else 0.0,
-                "prony_terms": len(self.gam),
-            },
-        )
-        res.info["energy_error"] = res.energy_error()
-        res.info["hourglass_ratio"] = res.hourglass_ratio()
-        return res
+        o = self.o
+        return history.assemble(
+            self.model, h, backend="torch", steps=steps, wall=wall, dt0=dt0, dtmin=dtmin, dtmax=dtmax,
+            maxpen=maxpen, frames=frames, stop=stop, options=o,
+            info={"device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
+                  "threads": torch.get_num_threads(), "compile": o.compile, "compile_time": self.compile_time,
+                  "host_syncs_per_step": self.syncs / max(steps, 1)})
 
 
 def _energies(mass, v, vold, nodal, dvc, pmask, dtn: float):
@@ -343,33 +306,3 @@ def _energies(mass, v, vold, nodal, dvc, pmask, dtn: float):
         AB = torch.cat([AB, torch.zeros(2, dtype=AB.dtype, device=AB.device)])
     ke = 0.5 * (mass * (vold * v).sum(0)).sum()
     return torch.cat([ke[None], AB, (mass * v[2]).sum()[None]])
-
-
-def nonfinite_error(material, dtype, where: str, m, J: float, t: float, index: int) -> NumericalError:
-    """The NumericalError of an inf/NaN stress: the material's failing term (evaluated term by term in
-    float64, :mod:`cfm_core.material.diagnose`) and its inputs; a float32 hint when float64 would pass."""
-    import torch
-
-    from cfm_core.material.diagnose import describe_nonfinite, nonfinite_term
-
-    name = material.name
-    if dtype == torch.float32 and nonfinite_term(material, m) is None:
-        return NumericalError(
-            f"non-finite stress in {where}: the energy derivatives of material '{name}' overflow float32 at "
-            f"the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {J:.4g} (exp overflows float32 "
-            f"once its argument exceeds about 88.7, float64 only at 709; every term is finite in float64 here): "
-            f"this scene needs float64; run it with dtype='float64' (CLI: --dtype float64).",
-            time=t, element=index, quantity="overflow of the material energy derivative (float32)")
-    return NumericalError(f"non-finite stress in {where} (J = {J:.4g}): {describe_nonfinite(material, m)}.",
-                          time=t, element=index, quantity=f"non-finite energy derivative of material '{name}'")
-
-
-def check_point_inputs(t, F):
-    """(t (n,), F (n, 3, 3)) float64 arrays; InputError on mismatched or decreasing times."""
-    t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
-    F = np.ascontiguousarray(F, dtype=np.float64).reshape(-1, 3, 3)
-    if t.shape[0] != F.shape[0]:
-        raise InputError(f"point: {t.shape[0]} times but {F.shape[0]} deformation gradients.")
-    if t.size > 1 and not (np.diff(t) >= 0).all():
-        raise InputError("point: times must not decrease.")
-    return t, F

@@ -42,6 +42,10 @@ def _cmd_backends(args) -> int:
         ok, why = cls().available()
         status = "available" if ok else f"unavailable: {why}"
         print(f"{name:<8} {cls.kind:<12} {status}  ({cls.description})")
+        options = getattr(cls, "options_class", None)
+        if getattr(args, "options", False):
+            table = options.table() if options is not None else "(no options declared)"
+            print("\n".join("    " + line for line in table.splitlines()) + "\n")
     return 0
 
 
@@ -80,7 +84,9 @@ def _cmd_point(args) -> int:
 def add_parser(sub) -> None:
     """Add ``materials``, ``backends`` and ``point`` to the ``cfm`` subcommands."""
     sub.add_parser("materials", help="list materials with their parameters (units, defaults, ranges)")
-    sub.add_parser("backends", help="list backends: kind and availability")
+    b = sub.add_parser("backends", help="list backends: kind and availability")
+    b.add_argument("--options", action="store_true",
+                   help="also list each backend's run options (name, default, unit, meaning, allowed values)")
     p = sub.add_parser("point", help="material-point driver: Cauchy stress along F(t), or uniaxial stress")
     add_material_options(p)
     p.add_argument("--backend", default=None, help="backend evaluating the stress (default: the numpy reference); "

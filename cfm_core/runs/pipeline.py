@@ -6,8 +6,11 @@ section 3). The outcome keeps the resolved scene, so that what it writes can be 
 
 from __future__ import annotations
 
+import hashlib
 import sys
 from typing import Callable
+
+import numpy as np
 
 from .. import post
 from ..errors import InputError
@@ -163,6 +166,26 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     check_output_rate(scene)
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
     model, result = _run(scene, backend, progress, label, options)
+    return drop_test_outcome(scene, model, result)
+
+
+def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
+    """The post-processed outcome of a finished drop-test run.
+
+    Parameters
+    ----------
+    scene : Scene
+        The drop-test scene that ran.
+    model : Model
+        The model built from it.
+    result : Result
+        The backend's result (after the run checks).
+
+    Returns
+    -------
+    DropTestOutcome
+        Filtered histories (SAE J211/1 CFC 600) and the summary.
+    """
     rate = float(scene.settings.output_rate)
     t, a_raw, a_cfc = post.acceleration_histories(result, model.mass_full, rate=rate)
     info = {
@@ -183,6 +206,99 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     summary = post.summarize(result, info)
     report_warnings(summary)
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
+
+
+def batch_key(model) -> str:
+    """What drop tests must share to run as one batch, as a hash.
+
+    Parameters
+    ----------
+    model : Model
+        A drop-test model.
+
+    Returns
+    -------
+    str
+        SHA-256 of the mesh, density, constraints, contact sets, sphere radius and position, friction
+        and material definition; models with equal keys may run in one batch.
+    """
+    h = hashlib.sha256()
+    for a in (model.nodes, model.hexes, model.fixed_dofs, model.sphere_nodes, model.plane_nodes):
+        arr = np.ascontiguousarray(a)
+        h.update(str(arr.shape).encode() + arr.tobytes())
+    sph = model.sphere
+    h.update(repr((model.density, model.friction, model.gravity, model.symmetry_factor, model.plane,
+                   model.stop_after_separation, sph.radius if sph else None, tuple(sph.center[:2]) if sph else None,
+                   model.prescribed is None, model.material.spec.name,
+                   len(model.material.prony_arrays()[0]))).encode())
+    return h.hexdigest()
+
+
+def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) -> list:
+    """Run drop-test scenes; those sharing a mesh run as batches where the backend can (``run_batch``).
+
+    Every run gets the same end-of-run checks as :func:`run_model`.
+
+    Parameters
+    ----------
+    scenes : sequence of Scene
+        Drop-test scenes.
+    backend : str
+        Backend name; one with a ``run_batch`` method (torch) runs each group of scenes sharing a
+        mesh (:func:`batch_key`) as batches of at most ``batch_size``, others one by one.
+    batch_size : int
+        Largest batch.
+    **options
+        Backend options.
+
+    Returns
+    -------
+    list of DropTestOutcome or Exception
+        In the order of ``scenes``; a failed run's entry is its exception (InputError,
+        NumericalError), the others are unaffected.
+    """
+    be = backend_for(backend)
+    out: list = [None] * len(scenes)
+    models = []
+    for i, scene in enumerate(scenes):
+        try:
+            if scene.type != "drop-test":
+                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
+            check_output_rate(scene)
+            models.append((i, build_model(scene)))
+        except (ValueError, RuntimeError) as exc:
+            out[i] = exc
+
+    def finish(i, model, result):
+        if isinstance(result, Exception):
+            return result
+        try:
+            result.info["warnings"] = checks.check_result(model, result)
+            return drop_test_outcome(scenes[i], model, result)
+        except (ValueError, RuntimeError) as exc:
+            return exc
+
+    if not hasattr(be, "run_batch"):
+        for i, model in models:
+            try:
+                result = be.run(model, **options)
+            except (ValueError, RuntimeError) as exc:
+                result = exc
+            out[i] = finish(i, model, result)
+        return out
+    groups: dict = {}
+    for i, model in models:
+        groups.setdefault(batch_key(model), []).append((i, model))
+    for members in groups.values():
+        for k in range(0, len(members), batch_size):
+            part = members[k:k + batch_size]
+            try:
+                results = be.run_batch([m for _, m in part], raise_errors=False, **options)
+            except (ValueError, RuntimeError) as exc:
+                results = [exc] * len(part)
+            for (i, model), res in zip(part, results):
+                out[i] = finish(i, model, res)
+    return out
 
 
 def reaction_test(scene: Scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:

@@ -47,7 +47,7 @@ from . import identifiability
 from .dask_runner import SerialRunner
 from ..errors import InputError, NumericalError
 from .measured import CFC
-from .sweep import run_case
+from .sweep import map_cases
 from ..material.registry import get_material
 from ..material.registry import make_material
 from ..post.plots import _figure, _save, plot_overlay
@@ -173,7 +173,7 @@ class Problem:
         scenes = [self.scene.with_overrides(thickness=c.thickness) for c in self.curves]
         tasks = [(s, params, self.backend) for params in points for s in scenes]
         results = [None] * len(tasks)
-        for done in self.runner.map(run_case, tasks):
+        for done in map_cases(self.runner, tasks):
             params, curve = points[done.index // len(scenes)], self.curves[done.index % len(scenes)]
             if not done.ok:
                 values = ", ".join(f"{k} = {v:.6g}" for k, v in params.items())

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .dask_runner import SerialRunner, error_text
+from .dask_runner import Done, SerialRunner, error_text
 from ..errors import InputError
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.scene import scene_to_dict
@@ -155,6 +155,67 @@ def run_case(task) -> dict:
     return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}
 
 
+def run_cases(task) -> list:
+    """Run drop tests as batches; task = ([(scene, {name: value}), ...], backend). Runs on a worker.
+
+    The runs share a mesh (grouped by :func:`map_cases`) and go through the backend's ``run_batch``
+    (:func:`cfm_core.runs.pipeline.drop_tests`). Returns, per run, (True, the dict of
+    :func:`run_case`) or (False, error text); ``run_time`` is the batch's time divided by its size.
+    """
+    items, backend = task
+    start = time.perf_counter()
+    outcomes = simulate.drop_tests([scene.with_overrides(**overrides(case)) for scene, case in items], backend)
+    share = (time.perf_counter() - start) / max(len(items), 1)
+    out = []
+    for outcome in outcomes:
+        if isinstance(outcome, Exception):
+            out.append((False, error_text(outcome)))
+            continue
+        summary = dict(outcome.summary, run_time=share)
+        summary["units"] = dict(summary.get("units", {}), run_time="s")
+        out.append((True, {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}))
+    return out
+
+
+def batches(backend: str) -> bool:
+    """Whether ``backend`` runs drop tests sharing a mesh as one batch (has ``run_batch``)."""
+    try:
+        return hasattr(simulate.backend_for(backend), "run_batch")
+    except InputError:
+        return False
+
+
+def map_cases(runner, tasks: list, batch_size: int = 64):
+    """Done objects of the drop tests ``tasks`` = [(scene, case, backend)], in completion order.
+
+    On a backend with ``run_batch`` (torch) the tasks whose models share a mesh
+    (:func:`cfm_core.runs.pipeline.batch_key`) are sent to the runner as batches of at most
+    ``batch_size`` (:func:`run_cases`), else one by one (:func:`run_case`); either way each task
+    gets its own Done with its index in ``tasks``.
+    """
+    if not tasks or not batches(tasks[0][2]):
+        yield from runner.map(run_case, tasks)
+        return
+    groups: dict = {}
+    for i, (scene, case, backend) in enumerate(tasks):
+        try:
+            key = simulate.batch_key(simulate.build_model(scene.with_overrides(**overrides(case))))
+        except (ValueError, RuntimeError):
+            key = f"alone-{i}"          # the run reports its own error
+        groups.setdefault((backend, key), []).append(i)
+    parts = [(backend, members[k:k + batch_size]) for (backend, _), members in groups.items()
+             for k in range(0, len(members), batch_size)]
+    items = [([(tasks[i][0], tasks[i][1]) for i in members], backend) for backend, members in parts]
+    for done in runner.map(run_cases, items):
+        members = parts[done.index][1]
+        if not done.ok:
+            for i in members:
+                yield Done(i, error=done.error)
+            continue
+        for i, (ok, value) in zip(members, done.value):
+            yield Done(i, value) if ok else Done(i, error=value)
+
+
 # ----------------------------------------------------------------------------- the sweep
 def _row(rid: str, case: dict, summary: dict | None, error: str | None) -> dict:
     row = {"run_id": rid, **case, "status": "ok" if error is None else "failed", "error": error or ""}
@@ -193,7 +254,7 @@ def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None,
     if result.skipped:
         say(f"{result.skipped} of {len(todo)} runs already complete in {out}/runs: skipped")
     tasks = [(scene, todo[i], backend) for i in pending]
-    for n, done in enumerate(runner.map(run_case, tasks), start=1):
+    for n, done in enumerate(map_cases(runner, tasks), start=1):
         i = pending[done.index]
         rid, case = ids[i], todo[i]
         folder = out / "runs" / rid

@@ -51,3 +51,28 @@ def test_prune_keeps_the_newest(tmp_path):
     left = sorted(p.name for p in tmp_path.glob("*.py"))
     assert left == ["cfm_numba_other_00.py", "cfm_numba_x_00.py", "cfm_numba_x_08.py", "cfm_numba_x_09.py"]
     assert len(list((tmp_path / "__pycache__").iterdir())) == 3
+
+
+def test_cold_first_run_says_what_it_compiles(tmp_path, monkeypatch):
+    """An empty kernel cache: one line before (material, once per machine, an estimate, the folder)
+    and one after (seconds); once numba's cache index exists, nothing."""
+    import io
+
+    from cfm_core.material.registry import make_material
+
+    monkeypatch.setenv("CFM_CACHE_DIR", str(tmp_path))
+    material = make_material("cfm")
+    out = io.StringIO()
+    with codegen.announce(material, stream=out):
+        pass
+    text = out.getvalue()
+    assert "compiling kernels for material 'cfm'" in text and "once per machine" in text
+    assert str(tmp_path) in text and "compiled in" in text
+    assert (tmp_path / "numba" / "compile_seconds.json").is_file()
+    folder = tmp_path / "numba" / "__pycache__"
+    folder.mkdir(parents=True)
+    (folder / f"{codegen._module_name(material)}.advance-1.py311.nbi").write_text("")
+    quiet = io.StringIO()
+    with codegen.announce(material, stream=quiet):
+        pass
+    assert quiet.getvalue() == ""

@@ -5,6 +5,7 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend, codegen, solver
+from cfm_backends.numba_explicit.options import NumbaOptions
 from fixtures.hand_derived import NeoHookeanStandIn, block_mesh
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.scene.model import Model, Prescribed
@@ -31,7 +32,7 @@ def model_of(nodes, hexes, **kw):
 def element_state(model, x, v):
     """Run one element pass + gather at positions x, velocities v: (S (e, 6), fe, fint, fhg)."""
     mod = codegen.load(model.material)
-    prep = solver.prepare(model, solver.check_options({}))
+    prep = solver.prepare(model, NumbaOptions())
     conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
     p, gam, tau = prep.mat
     _, _, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st

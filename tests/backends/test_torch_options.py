@@ -29,17 +29,41 @@ def test_registered_through_entry_point():
 
 
 def test_bad_options():
-    from cfm_backends.torch_explicit.options import check_options
+    from cfm_backends.torch_explicit.options import TorchOptions
 
     with pytest.raises(InputError, match="unknown option"):
-        check_options({"thread": 2})
+        TorchOptions.from_mapping({"thread": 2})
     with pytest.raises(InputError, match="dtype"):
-        check_options({"dtype": "float16"})
+        TorchOptions.from_mapping({"dtype": "float16"})
     with pytest.raises(InputError, match="device"):
-        check_options({"device": "tpu"})
-    with pytest.raises(InputError, match="safety"):
-        check_options({"safety": 1.5})
-    assert check_options({"dtype": "float32", "device": "cuda:1"})["dtype"] == "float32"
+        TorchOptions.from_mapping({"device": "tpu"})
+    with pytest.raises(InputError, match=r"torch backend: option safety = 1.5 is not allowed.*\(0, 1\]"):
+        TorchOptions.from_mapping({"safety": 1.5})
+    with pytest.raises(InputError, match="compile"):
+        TorchOptions.from_mapping({"compile": 3})
+    o = TorchOptions.from_mapping({"dtype": "float32", "device": "cuda:1"})
+    assert (o.dtype, o.device, o.hourglass) == ("float32", "cuda:1", 0.1)
+    torch = pytest.importorskip("torch")
+    assert TorchOptions(dtype=torch.float32).dtype == "float32"
+
+
+def test_options_are_declared_once_and_shared_with_numba():
+    """The explicit options have the same names and defaults on both backends (one declaration),
+    the run docstrings and ``cfm backends --options`` list them, torch adds its own."""
+    from cfm_backends.explicit.options import ExplicitOptions
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+
+    shared = ExplicitOptions.specs()
+    t, n = TorchExplicitBackend.options_class, NumbaExplicitBackend.options_class
+    assert set(shared) < set(t.specs()) and set(shared) < set(n.specs())
+    assert {"device", "dtype", "newton_block"} <= set(t.specs()) - set(n.specs())
+    for name in shared:
+        assert getattr(t(), name) == getattr(n(), name) == getattr(ExplicitOptions(), name)
+    assert "hourglass_wave" in TorchExplicitBackend.run.__doc__ and "newton_block" in TorchExplicitBackend.run.__doc__
+    out = subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "backends", "--options"],
+                         capture_output=True, text=True, check=True).stdout
+    assert "newton_block" in out and "separation_time" in out and "0.0002" in out
 
 
 def test_cuda_not_available_names_what_was_found(monkeypatch):
@@ -82,3 +106,27 @@ def test_cli_device_error_exit_status(tmp_path):
                           "cuda", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "torch.cuda.is_available() = False" in out.stderr
+
+
+def test_gpu_check_without_cuda_exits_2_and_says_why(tmp_path):
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is available here")
+    out = subprocess.run([sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and "no CUDA device" in out.stderr and "Nothing was run" in out.stderr
+
+
+def test_gpu_check_dry_run_on_the_cpu(tmp_path):
+    """The GPU check's own logic (batches, CPU references, limits, files) on a coarse mesh."""
+    import json
+
+    pytest.importorskip("torch")
+    out = subprocess.run([sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path),
+                          "--device", "cpu", "--sizes", "2", "--element-size", "0.004"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+    records = json.loads((tmp_path / "gpu_check.json").read_text())["records"]
+    assert [(r["batch"], r["dtype"]) for r in records] == [(1, "float64"), (1, "float32"), (2, "float64"),
+                                                           (2, "float32")]
+    assert all(r["passed"] and r["host_syncs_per_step"] < 0.1 for r in records)

@@ -114,9 +114,9 @@ def test_element_inversion_is_reported():
 
 def test_arrays_live_on_the_requested_device(small_drop):
     from cfm_backends.torch_explicit import arrays
-    from cfm_backends.torch_explicit.options import check_options
+    from cfm_backends.torch_explicit.options import TorchOptions
 
-    o = check_options({})
+    o = TorchOptions()
     a, uv, k = arrays.build(small_drop, o, torch.device("cpu"), torch.float32)
     tensors = [v for v in vars(a).values() if isinstance(v, torch.Tensor)]
     tensors += [t for v in (a.sphere, a.plane) for t in v]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -22,27 +23,15 @@ import time
 
 
 def drop_test(thickness: float, size: float):
-    """The built-in drop-test scene (cfm_core.scene.builder) with the given thickness and element size."""
-    from cfm_core.material.registry import make_material
+    """The built-in drop-test scene with the given thickness and element size (m)."""
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
 
-    material = make_material("cfm", {}, "long-term", False)
-    try:
-        from dataclasses import replace
-
-        from cfm_core.scene.builder import build_model
-        from cfm_core.scene.scene import builtin_scene
-
-        scene = builtin_scene("drop-test")
-        spec = replace(scene.specimen, thickness=thickness, element_size=size)
-        return build_model(replace(scene, specimen=spec), material)
-    except Exception:  # scene API not as expected: the backend's own structured model
-        from .fixtures import drop_test_model
-
-        return drop_test_model(material, thickness=thickness, h=size, end_time=0.085)
+    return build_model(builtin_scene("drop-test").with_overrides(thickness=thickness, element_size=size))
 
 
 def _timed_run(model, **options):
-    from . import NumbaExplicitBackend
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
 
     start = time.perf_counter()
     res = NumbaExplicitBackend().run(model, **options)
@@ -52,7 +41,7 @@ def _timed_run(model, **options):
 def cold(thickness: float, size: float) -> dict:
     """Run once in a fresh interpreter with an empty kernel cache; timings as a dict."""
     code = ("import json, time; t0 = time.perf_counter(); "
-            "from cfm_backends.numba_explicit.benchmark import drop_test, _timed_run; "
+            "from cfm_verification.benchmarks.numba import drop_test, _timed_run; "
             f"m = drop_test({thickness!r}, {size!r}); total, r = _timed_run(m); "
             "print(json.dumps({'total': time.perf_counter() - t0, 'run': total, "
             "'compile': r.info['compile_time'], 'wall': r.wall_time, 'steps': r.steps}))")
@@ -62,12 +51,114 @@ def cold(thickness: float, size: float) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+PHASES = r"""
+import json, time, tempfile, pathlib
+t0 = time.perf_counter()
+from cfm_core.runs import pipeline
+from cfm_core.post import plots, writers
+from cfm_core.scene.builder import build_model
+from cfm_core.scene.scene import builtin_scene
+from cfm_core.simulation.registry import get_backend
+t1 = time.perf_counter()
+scene = builtin_scene("drop-test").with_overrides(thickness=THICK, element_size=SIZE)
+model = build_model(scene)
+t2 = time.perf_counter()
+result = get_backend("numba").run(model)
+t3 = time.perf_counter()
+outcome = pipeline.drop_test_outcome(scene, model, result)
+t4 = time.perf_counter()
+out = pathlib.Path(tempfile.mkdtemp())
+writers.write_drop_test(out, outcome.t, outcome.a_raw, outcome.a_cfc, outcome.summary)
+t5 = time.perf_counter()
+plots.plot_acceleration(out / "acceleration.png", outcome.t, outcome.a_raw, outcome.a_cfc, "drop test")
+t6 = time.perf_counter()
+print(json.dumps({"imports": t1 - t0, "model": t2 - t1, "kernels": result.info["compile_time"],
+                  "solve": result.wall_time, "run_other": t3 - t2 - result.wall_time - result.info["compile_time"],
+                  "post": t4 - t3, "write": t5 - t4, "plot": t6 - t5, "total": t6 - t0}))
+"""
+
+
+def warm_end_to_end(thickness: float, size: float) -> dict:
+    """Phases (s) of a warm drop test in a fresh interpreter (kernels in the disk cache), and the
+    wall time of the command ``cfm drop-test --quiet`` itself (interpreter start included)."""
+    code = PHASES.replace("THICK", repr(thickness)).replace("SIZE", repr(size))
+    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)  # fill the cache
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    phases = json.loads(out.stdout.strip().splitlines()[-1])
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "drop-test", "--quiet", "--thickness",
+                        str(thickness), "--element-size", str(size), "--out", folder], capture_output=True, check=True)
+        phases["command"] = time.perf_counter() - start
+    return phases
+
+
+def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
+    """CPU time per element-cycle (ns, one thread) of the step's parts at the state of t_state (s).
+
+    Runs the compiled loop to t_state (the impactor near its deepest point), then times with
+    ``time.process_time`` (CPU time of this process: much less disturbed by other processes than
+    wall time) the whole step (``advance`` over a few steps), the parallel parts on their own
+    (element pass, gather and update, energies) and, in isolation, the material derivatives and the
+    eigen-decomposition per element; the rest of a step is the serial part (contact, step
+    minimum, history row, chunk loop).
+    """
+    import numba
+    import numpy as np
+
+    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_backends.numba_explicit.kernels import layout as K
+    from cfm_backends.numba_explicit.options import NumbaOptions
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        mod = codegen.load(model.material)
+        solver.warm_up(mod, model.material)
+        prep = solver.prepare(model, NumbaOptions())
+        hist = np.zeros((64, K.H_N))
+        while prep.sc[K.S_T] < t_state:
+            solver.advance(mod, prep, hist, t_state)
+        ne = model.n_elements
+        conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
+        p, gam, tau = prep.mat
+        x, v, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st
+        decay, gain = np.zeros(gam.size), np.zeros(gam.size)
+        mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
+
+        def cpu(fn, n=repeat):
+            best = math.inf
+            for _ in range(3):
+                t0 = time.process_time()
+                for _ in range(n):
+                    fn()
+                best = min(best, (time.process_time() - t0) / n)
+            return best / ne * 1e9
+
+        steps0 = prep.sc[K.S_STEPS]
+        t0 = time.process_time()
+        solver.advance(mod, prep, np.zeros((repeat, K.H_N)), math.inf)
+        step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
+        xs, vs = x.copy(), v.copy()
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, B, G, V0, L, hgfac, p, decay, gain, prep.par[K.P_GINF],
+                                               H.copy(), S0old.copy(), Sold.copy(), Eold.copy(), fe, dte, status,
+                                               errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
+        copies = cpu(lambda: (H.copy(), S0old.copy(), Sold.copy(), Eold.copy()))
+        gather = cpu(lambda: mod.gather_update(ef, ptr, inc, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
+        energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
+        return {"step": step, "element_pass": element - copies, "gather_update": gather, "energy": energy,
+                "serial_rest": step - (element - copies) - gather - energy}
+    finally:
+        numba.set_num_threads(old)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--thickness", type=float, default=8e-3, help="specimen thickness (m)")
     ap.add_argument("--size", type=float, default=1e-3, help="element size (m)")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (fresh cache) run")
     ap.add_argument("--repeat", type=int, default=2, help="warm runs per thread count (best is kept)")
+    ap.add_argument("--no-end-to-end", action="store_true", help="skip the warm cfm drop-test phases")
     args = ap.parse_args(argv)
 
     model = drop_test(args.thickness, args.size)
@@ -78,6 +169,17 @@ def main(argv=None) -> None:
         c = cold(args.thickness, args.size)
         print(f"cold (fresh process, empty cache): {c['total']:.2f} s in all, run() {c['run']:.2f} s "
               f"of which code generation + compilation {c['compile']:.2f} s, solver {c['wall']:.2f} s")
+    if not args.no_end_to_end:
+        p = warm_end_to_end(args.thickness, args.size)
+        print(f"warm 'cfm drop-test --quiet' (fresh process, kernels cached): {p['command']:.2f} s end to end; in "
+              f"a fresh interpreter: imports {p['imports']:.2f} s, model {p['model']:.2f} s, kernels loaded "
+              f"{p['kernels']:.2f} s, solve {p['solve']:.2f} s, other run set-up {p['run_other']:.2f} s, "
+              f"post-processing {p['post']:.2f} s, writing {p['write']:.2f} s, plotting {p['plot']:.2f} s "
+              f"(sum {p['total']:.2f} s)", flush=True)
+    sp = split(model)
+    print(f"CPU time per element-cycle, one thread, at t = 6 ms: step {sp['step']:.0f} ns = element pass "
+          f"{sp['element_pass']:.0f} + gather and update {sp['gather_update']:.0f} + energies {sp['energy']:.0f} + "
+          f"serial rest (contact, step minimum, record, chunk loop) {sp['serial_rest']:.0f} ns", flush=True)
     _timed_run(model, threads=1)  # compile or load the kernels in this process
     best = {}
     for threads in (1, 2):

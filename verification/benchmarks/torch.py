@@ -10,6 +10,12 @@
    on torch (float64, and float32 for information) with the same mesh and step rule: relative L2
    difference of the CFC 600 filtered impactor acceleration over the common 50 kHz samples, peaks,
    step counts.
+4. Batches (``--batch``, or only them with ``--batch-only``): B = 1, 4, 16, 64 drop tests of the
+   default mesh with different fibre stiffness k2 and impact velocity in one batched torch run
+   (float64, CPU, one thread), simulated for ``--batch-time`` seconds; per-run solver time (batch
+   time / B) against numba on one thread in the same process (the mean over the same runs), host
+   synchronisations per step, and memory per run (persistent tensors, and the growth of the
+   process's peak resident memory over the batch, sizes in increasing order).
 3. Speed: solver wall time (compilation excluded, reported apart) and nanoseconds per
    element-cycle (wall / (elements x steps)) of numba and of torch on the CPU (eager float64 and
    float32; compiled with ``--compile``) with the same thread count (``--threads``, default 1),
@@ -58,7 +64,7 @@ def point_agreement() -> dict:
     from cfm_core.material import reference
     from cfm_core.material.registry import make_material
 
-    from . import TorchExplicitBackend
+    from cfm_backends.torch_explicit import TorchExplicitBackend
 
     material = make_material("cfm")
     t = np.linspace(0.0, 0.01, 401)
@@ -92,7 +98,7 @@ def timed(backend: str, model, repeat: int, **options):
 def agreement(thickness: float) -> None:
     from cfm_backends.numba_explicit import NumbaExplicitBackend
 
-    from . import TorchExplicitBackend
+    from cfm_backends.torch_explicit import TorchExplicitBackend
 
     model = scene_model(thickness)
     ref = NumbaExplicitBackend().run(model)
@@ -128,6 +134,50 @@ def speed(label: str, model, repeat: int, compile_: bool, threads: list[int]) ->
               f"{r.steps:6d} steps  {ratio:5.2f} x numba{extra}", flush=True)
 
 
+def batch_models(b: int, end_time: float, element_size: float = 0.001):
+    """b drop tests on the default mesh: k2 from 1.4 to 2.0, impact velocity from 0.9 to 1.1 m/s."""
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    base = builtin_scene("drop-test").with_overrides(element_size=element_size)
+    out = []
+    for i in range(b):
+        f = i / max(b - 1, 1)
+        scene = base.with_overrides(parameters={"k2": 1.4 + 0.6 * f}, velocity=0.9 + 0.2 * ((7 * i) % b) / max(b - 1, 1))
+        out.append(replace(build_model(scene), end_time=end_time))
+    return out
+
+
+def batches(sizes: list[int], end_time: float, numba_runs: int = 4) -> None:
+    """Per-run solver time of torch batches against numba (one thread each), memory per run."""
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+
+    models = batch_models(max(sizes), end_time)
+    ne = models[0].n_elements
+    nb = NumbaExplicitBackend()
+    nb.run(models[0], threads=1)                                       # compile / load
+    ref = [nb.run(m, threads=1) for m in models[:numba_runs]]
+    per_numba = sum(r.wall_time for r in ref) / len(ref)
+    steps = sum(r.steps for r in ref) / len(ref)
+    print(f"  numba, 1 thread: {per_numba:.3f} s per run ({steps:.0f} steps, {ne} hexahedra, "
+          f"{per_numba / (steps * ne) * 1e9:.0f} ns per element-cycle; mean of {len(ref)} runs)", flush=True)
+    import resource
+
+    tb = TorchExplicitBackend()
+    for b in sorted(sizes):
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0      # MiB (Linux: KiB)
+        res = tb.run_batch(models[:b], threads=1)
+        grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0 - before
+        r0 = res[0]
+        per = r0.info["batch_wall_time"] / b
+        ns = r0.info["batch_wall_time"] / (sum(r.steps for r in res) * ne) * 1e9
+        print(f"  torch batch B = {b:3d}: {per:.3f} s per run ({per / per_numba:5.2f} x numba), {ns:.0f} ns per "
+              f"element-cycle, {r0.info['host_syncs_per_step']:.2f} host syncs per step, "
+              f"{r0.info['tensor_bytes_per_run'] / 2**20:.1f} MiB of state and geometry tensors per run, process "
+              f"peak memory grew {grown:.0f} MiB ({grown / b:.1f} MiB per run)", flush=True)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=2, help="runs per configuration (the fastest is kept)")
@@ -137,11 +187,22 @@ def main(argv=None) -> None:
     ap.add_argument("--skip-refined", action="store_true", help="skip the refined drop test")
     ap.add_argument("--threads", type=int, nargs="+", default=[1],
                     help="thread counts to time, the same for both backends (default: 1)")
+    ap.add_argument("--batch", action="store_true", help="also time batched torch runs (section 4)")
+    ap.add_argument("--batch-only", action="store_true", help="only the batched runs (section 4)")
+    ap.add_argument("--batch-sizes", type=int, nargs="+", default=[1, 4, 16, 64], help="batch sizes B")
+    ap.add_argument("--batch-time", type=float, default=0.004,
+                    help="simulated time of the batched drop tests, s (default 0.004: through the peak)")
     args = ap.parse_args(argv)
 
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs "
           f"(timings are only meaningful on an idle machine)", flush=True)
     t0 = time.perf_counter()
+    if args.batch or args.batch_only:
+        print(f"\n4. batched drop tests (8 mm, 1 mm elements, first {1e3 * args.batch_time:g} ms), per run:")
+        batches(args.batch_sizes, args.batch_time)
+        if args.batch_only:
+            print(f"\nbenchmark took {time.perf_counter() - t0:.0f} s")
+            return
     print("\n1. material point vs cfm_core.material.reference.stress_history (max |d sigma| / max |sigma|):")
     pa = point_agreement()
     print(f"  float64 {pa['float64']:.2e}, float32 {pa['float32']:.2e}", flush=True)

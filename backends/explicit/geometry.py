@@ -1,4 +1,4 @@
-"""Reference-configuration geometry of hex8 elements for the explicit solver (numpy, SI units).
+"""Reference-configuration geometry of hex8 elements for the explicit solvers (numpy, SI units).
 
 Per element (Flanagan & Belytschko 1981, "uniform strain" hexahedron):
 
@@ -92,3 +92,45 @@ def lumped_mass(hexes: np.ndarray, V0: np.ndarray, rho: float, n_nodes: int) -> 
     """Nodal masses (kg): rho V0 / 8 from every element a node belongs to."""
     return np.bincount(np.asarray(hexes).ravel(), weights=np.repeat(rho * V0 / 8.0, 8),
                        minlength=n_nodes)
+
+
+def constraints(model, nodes: np.ndarray, hexes: np.ndarray, V0: np.ndarray):
+    """Lumped masses and the free / prescribed dof masks of a model.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.model.Model
+        The model (density kg/m^3, fixed dofs, prescribed motion).
+    nodes : (n, 3) ndarray
+        Reference coordinates (m).
+    hexes : (e, 8) ndarray of int
+        Connectivity (VTK order).
+    V0 : (e,) ndarray
+        Element volumes (m^3) from :func:`hex_geometry`.
+
+    Returns
+    -------
+    mass : (n,) ndarray
+        Lumped nodal masses (kg); 1 on massless nodes (which are held fixed).
+    free : (n, 3) ndarray
+        1 on free dofs, 0 on fixed, massless and prescribed ones.
+    pmask : (n, 3) ndarray
+        1 on prescribed dofs.
+    pnodes : (p,) ndarray of int64
+        The prescribed nodes (empty when none).
+    """
+    n = nodes.shape[0]
+    mass = lumped_mass(hexes, V0, float(model.density), n)
+    free = np.ones((n, 3))
+    free[mass <= 0.0] = 0.0
+    mass = np.where(mass > 0.0, mass, 1.0)
+    fixed = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
+    free[fixed[:, 0], fixed[:, 1]] = 0.0
+    pmask = np.zeros((n, 3))
+    pnodes = np.zeros(0, dtype=np.int64)
+    pr = model.prescribed
+    if pr is not None:
+        pnodes = np.ascontiguousarray(pr.nodes, dtype=np.int64)
+        free[pnodes, pr.dof] = 0.0
+        pmask[pnodes, pr.dof] = 1.0
+    return mass, free, pmask, pnodes

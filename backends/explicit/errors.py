@@ -1,0 +1,63 @@
+"""The NumericalErrors of an explicit run: each names where (element) and when (time, s).
+
+One wording for both explicit backends; the solvers only say what failed.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cfm_core.errors import NumericalError
+from cfm_core.material.diagnose import describe_nonfinite, nonfinite_term
+
+
+def inverted(model, element: int, t: float, J: float) -> NumericalError:
+    """Element ``element`` has det F = J <= 0 at time t (s)."""
+    return NumericalError(
+        f"element {element} inverted at t = {t:.6g} s (J = det F = {J:.4g} <= 0) in model "
+        f"'{model.name}': the mesh cannot follow this deformation; refine the mesh, lower the load "
+        f"or raise the hourglass coefficient.", time=t, element=element, quantity="J")
+
+
+def nonfinite(material, where: str, m, J: float, t: float, index: int, float32: bool = False) -> NumericalError:
+    """inf / NaN material derivatives at the eigenvalues m (3,) of C, in ``where`` (e.g. "element 3 at t = ...").
+
+    The material's terms are evaluated one by one in float64 (:mod:`cfm_core.material.diagnose`)
+    and the message names the term that failed and its inputs (the volumetric term at J -> 0, a
+    fibre exponential beyond exp(709), ...). ``float32``: the run was in float32; when every term
+    is finite in float64, the message says that the scene needs float64 (exp overflows float32 at
+    an argument of 88.7).
+    """
+    if float32 and nonfinite_term(material, m) is None:
+        return NumericalError(
+            f"non-finite stress in {where}: the energy derivatives of material '{material.name}' overflow float32 at "
+            f"the eigenvalues of C = ({m[0]:.4g}, {m[1]:.4g}, {m[2]:.4g}), J = {J:.4g} (exp overflows float32 "
+            f"once its argument exceeds about 88.7, float64 only at 709; every term is finite in float64 here): "
+            f"this scene needs float64; run it with dtype='float64' (CLI: --dtype float64).",
+            time=t, element=index, quantity="overflow of the material energy derivative (float32)")
+    return NumericalError(f"non-finite stress in {where} (J = {J:.4g}): {describe_nonfinite(material, m)}.",
+                          time=t, element=index, quantity=f"non-finite energy derivative of material '{material.name}'")
+
+
+def collapse(model, t: float, element: int, dtc: float, dt0: float, fraction: float) -> NumericalError:
+    """The stable step dtc (s) of ``element`` fell below ``fraction`` x the first step dt0 (s), or is not finite."""
+    if not math.isfinite(dtc):
+        return NumericalError(
+            f"no finite stable time step at t = {t:.6g} s in model '{model.name}': every element has zero "
+            f"stiffness (material '{model.material.name}'); give the option dt_max (s).", time=t, quantity="time step")
+    return NumericalError(
+        f"time-step collapse at t = {t:.6g} s: the stable step of element {element} fell to {dtc:.3g} s, below "
+        f"{fraction:g} x the first step {dt0:.3g} s (element crushed or material stiffening without bound).",
+        time=t, element=element, quantity="time step")
+
+
+def state(model, t: float) -> NumericalError:
+    """Non-finite kinetic energy, momentum or impactor position at time t (s)."""
+    return NumericalError(f"non-finite kinematic state at t = {t:.6g} s in model '{model.name}'.",
+                          time=t, quantity="state")
+
+
+def max_steps(model, steps: int, t: float) -> NumericalError:
+    """The option max_steps was reached at time t (s) before the end time."""
+    return NumericalError(f"model '{model.name}': {steps} steps reached at t = {t:.6g} s before the end "
+                          f"time {float(model.end_time):g} s (option max_steps).", time=t, quantity="steps")

@@ -1,0 +1,91 @@
+"""The history of an explicit run (one row per step) and the Result assembled from it.
+
+Both explicit backends record the same 15 columns per step (forces, impulses and energies of the
+full model, i.e. times ``model.symmetry_factor``; SI units) and build their Result here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cfm_core.simulation.result import Result
+
+COLUMNS = ("t", "force", "impulse", "z", "v", "reaction", "kinetic", "internal", "hourglass", "contact",
+           "external", "internal_force_work", "dt", "penetration", "momentum_z")
+"""History columns: t^n (s); contact force on the impactor, + decelerating (N); impulse (N s);
+impactor centre z (m) and velocity (m/s); reaction at prescribed nodes (N); kinetic, internal,
+hourglass, contact energy and external work (J); work of the internal nodal forces (J, diagnostic);
+the step dt_{n+1/2} taken from t^n (s); largest sphere penetration after correction (m); z momentum
+of nodes and impactor (kg m/s)."""
+
+COL = {name: i for i, name in enumerate(COLUMNS)}
+ENERGIES = ("kinetic", "internal", "hourglass", "contact", "external")
+
+
+def assemble(model, h: np.ndarray, *, backend: str, steps: int, wall: float, dt0: float, dtmin: float,
+             dtmax: float, maxpen: float, frames: list, stop: str, options, info: dict) -> Result:
+    """The Result of an explicit run from its history.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.model.Model
+        The model that was run.
+    h : (steps, 15) ndarray
+        History rows in :data:`COLUMNS` order.
+    backend : str
+        Backend name.
+    steps : int
+        Steps taken.
+    wall : float
+        Solver wall time (s), compilation excluded.
+    dt0, dtmin, dtmax : float
+        First stable step, smallest and largest step taken (s).
+    maxpen : float
+        Largest sphere penetration left after the contact correction (m).
+    frames : list of (float, (n, 3) ndarray)
+        Stored (t s, displacement m) frames.
+    stop : str
+        Stop reason ("end_time", "separated").
+    options : ExplicitOptions
+        The run's options (hourglass, hourglass_wave, safety are recorded).
+    info : dict
+        Backend-specific entries (threads, compile_time, device, ...), merged into ``Result.info``.
+
+    Returns
+    -------
+    Result
+        Histories, energies and ``info`` (elements, nodes, stop reason, ns per element-cycle,
+        energy error, hourglass ratio, ...).
+    """
+    ne = model.n_elements
+    sphere = model.sphere is not None
+    mass_full = model.mass_full if model.mass_full else (model.sphere.mass * model.symmetry_factor if sphere else None)
+    col = {name: h[:, i] for i, name in enumerate(COLUMNS)}
+    duration = float(col["t"][-1]) if len(h) else 0.0
+    pz = col["momentum_z"]
+    res = Result(
+        t=col["t"], backend=backend, steps=steps, wall_time=wall,
+        contact_force=col["force"] if sphere else None,
+        impulse=col["impulse"] if sphere else None,
+        acceleration=col["force"] / mass_full if sphere else None,
+        impactor_z=col["z"] if sphere else None,
+        impactor_v=col["v"] if sphere else None,
+        reaction_force=col["reaction"] if model.prescribed is not None else None,
+        energies={k: col[k] for k in ENERGIES}, dt_min=float(dtmin), dt_max=float(dtmax), frames=frames,
+        info={
+            "n_elements": ne, "n_nodes": model.n_nodes, "material": model.material.name,
+            "hourglass": options.hourglass, "hourglass_wave": options.hourglass_wave, "safety": options.safety,
+            **info, "stop_reason": stop,
+            "dt_first": dt0, "steps_at_first_dt": int(math.ceil(duration / dt0)) if dt0 > 0 else None,
+            "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
+            "max_sphere_penetration": float(maxpen),
+            "internal_force_work": float(col["internal_force_work"][-1]) if len(h) else 0.0,
+            "momentum_z_drift": float(np.max(np.abs(pz - pz[0]))) if len(h) else 0.0,
+            "prony_terms": int(np.asarray(model.material.prony_arrays()[0]).size),
+        },
+    )
+    res.info["energy_error"] = res.energy_error()
+    res.info["hourglass_ratio"] = res.hourglass_ratio()
+    return res

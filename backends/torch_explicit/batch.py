@@ -1,0 +1,450 @@
+"""Batched drop tests on torch: one simulation advances B runs that share a mesh.
+
+The B runs may differ in material parameter values (same material definition, same number of
+Prony terms), impact velocity, impactor mass and start height, and end time; they share the mesh,
+density, constraints, contact node sets, sphere radius and friction. The batch is one mesh of B
+disconnected copies: elements (B N) and nodes (B n), run b's at b N + e and b n + i, so the
+element pass (``element``) is the single run's, unchanged; every per-run quantity (time t, step dt,
+sphere height and velocity, energy sums, stop rule, failure) is a (B,) tensor on the device. Each
+run takes its own stable step and keeps its own time, so each result equals the same run done alone
+to round-off (relative L2 of the filtered acceleration < 1e-10 in float64,
+tests/backends/test_torch_batch.py). A run that has stopped (end time, separation, failure) keeps
+being computed with the others until all have stopped; its records are dropped.
+
+Host synchronisations: none inside a step when ``sync_free`` (default on CUDA): the eigen
+fallback (C isotropic to round-off) takes m = diag C, Q = I under a mask
+(``eigen.patch_fallback_isotropic``), the contact Newton iteration runs a fixed number of
+iterations, and failures, unconverged contacts and stops are flags read once per chunk of
+``CHUNK`` steps together with the history rows, so the step can be captured as a CUDA graph (not
+done yet: no GPU was available to test it). On the CPU (default ``sync_free=False``) a step reads
+whether any eigen fallback is needed (then Jacobi, as a single run) and whether every run has
+stopped, and the Newton iteration checks convergence every ``newton_block`` iterations;
+``info['host_syncs_per_step']`` counts them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from cfm_backends.explicit import errors, history
+from cfm_core.errors import InputError, NumericalError
+
+from . import arrays as arr
+from . import material as mat
+from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
+
+CHUNK = 32            # steps between host reads of the history rows and the run flags
+
+# error codes per run (flags on the device)
+OK, INVERTED, NONFINITE, COLLAPSE, STATE, NEWTON, FALLBACK = 0, 1, 2, 3, 4, 5, 6
+
+
+def check_batch(models) -> None:
+    """InputError unless the models can run as one batch (see the module docstring)."""
+    if not models:
+        raise InputError("torch batch: no models given.")
+    m0 = models[0]
+    if m0.sphere is None or m0.prescribed is not None:
+        raise InputError(f"torch batch: model '{m0.name}' is not a drop test (a rigid sphere and no prescribed "
+                         f"motion); run it alone with TorchExplicitBackend().run.")
+    k0 = len(mat.prony(m0.material)[0])
+    for i, m in enumerate(models[1:], 1):
+        same = [("nodes", np.array_equal(m.nodes, m0.nodes)), ("hexes", np.array_equal(m.hexes, m0.hexes)),
+                ("density", m.density == m0.density),
+                ("fixed_dofs", np.array_equal(np.asarray(m.fixed_dofs), np.asarray(m0.fixed_dofs))),
+                ("sphere_nodes", np.array_equal(m.sphere_nodes, m0.sphere_nodes)),
+                ("plane_nodes", np.array_equal(m.plane_nodes, m0.plane_nodes)),
+                ("plane", m.plane == m0.plane), ("friction", m.friction == m0.friction),
+                ("gravity", m.gravity == m0.gravity), ("symmetry_factor", m.symmetry_factor == m0.symmetry_factor),
+                ("stop_after_separation", m.stop_after_separation == m0.stop_after_separation),
+                ("material", m.material.spec == m0.material.spec and len(mat.prony(m.material)[0]) == k0),
+                ("sphere", m.sphere is not None and m.sphere.radius == m0.sphere.radius
+                 and tuple(m.sphere.center[:2]) == tuple(m0.sphere.center[:2])),
+                ("prescribed", m.prescribed is None)]
+        bad = [name for name, ok in same if not ok]
+        if bad:
+            raise InputError(f"torch batch: model {i} ('{m.name}') differs from model 0 ('{m0.name}') in "
+                             f"{', '.join(bad)}; a batch shares the mesh, density, constraints, contact, sphere "
+                             f"radius and the material definition (values, Prony terms, velocity, impactor mass "
+                             f"and end time may differ). Run it in another batch.")
+
+
+def run_batch(models, progress=None, raise_errors: bool = True, sync_free: bool | None = None, **options):
+    """Run drop tests sharing a mesh as one batch; list of Results (or NumericalErrors).
+
+    See :meth:`cfm_backends.torch_explicit.TorchExplicitBackend.run_batch`.
+    """
+    import torch
+
+    o = TorchOptions.from_mapping(options)
+    if o.frame_interval is not None:
+        raise InputError("torch batch: frame_interval is not supported in batched runs; run the model alone.")
+    check_batch(models)
+    device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
+    if sync_free is None:
+        sync_free = device.type == "cuda"
+    old_threads = torch.get_num_threads()
+    threads = o.threads
+    if threads is None and device.type == "cpu" and models[0].n_elements * len(models) < PARALLEL_MIN:
+        threads = 1
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    try:
+        with torch.inference_mode():
+            out = _Batch(models, o, device, dtype, progress, bool(sync_free)).loop()
+    finally:
+        torch.set_num_threads(old_threads)
+    if raise_errors:
+        for r in out:
+            if isinstance(r, NumericalError):
+                raise r
+    return out
+
+
+class _Batch:
+    def __init__(self, models, o: TorchOptions, device, dtype, progress, sync_free: bool):
+        import torch
+
+        from . import element
+        from .batch_contact import BatchSphere
+        from .contact import PlaneNodes
+
+        t0 = time.perf_counter()
+        self.models, self.o, self.device, self.dtype, self.progress = models, o, device, dtype, progress
+        self.sync_free = sync_free
+        m0 = models[0]
+        B = self.B = len(models)
+        a, uv, k = arr.build(m0, o, device, dtype)
+        n, N = a.n, a.ne
+        self.n, self.N, self.k = n, N, k
+        T = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=dtype, device=device)  # noqa: E731
+        rep = lambda x: x.repeat(*([1] * (x.dim() - 1)), B)  # noqa: E731  (last axis tiled B times)
+        offs = torch.arange(B, device=device, dtype=torch.int64)
+        self.idx = (a.idx.view(8, 1, N) + (offs * n).view(1, B, 1)).reshape(-1)
+        self.flat = element.flat_index(self.idx, B * n)
+        self.Bm, self.BV, self.G = rep(a.B), rep(a.BV), rep(a.G)
+        self.L, self.V0, self.hgc = rep(a.L), rep(a.V0), rep(a.hgc)
+        self.mass, self.free = rep(a.mass), rep(a.free)
+        self.uv = rep(uv).contiguous()
+        sn = a.sphere
+        s = sn.nodes.shape[0]
+        self.sphere = BatchSphere((sn.nodes.view(1, s) + (offs * n).view(B, 1)).reshape(-1),
+                                  sn.X.view(3, 1, s).repeat(1, B, 1), sn.mass.view(1, s).repeat(B, 1),
+                                  sn.free.view(3, 1, s).repeat(1, B, 1))
+        self.plane = None
+        if a.plane is not None:
+            pl = a.plane
+            self.p_count = pl.nodes.shape[0]
+            self.plane = PlaneNodes((pl.nodes.view(1, -1) + (offs * n).view(B, 1)).reshape(-1), rep(pl.Xz),
+                                    rep(pl.free))
+        # per-run material and impactor
+        self.ghd = mat.grad_hess_diag(m0.material)
+        P = np.array([mat.parameters(m.material) for m in models])                  # (B, P)
+        self.p = [T(P[:, j]).view(B, 1) for j in range(P.shape[1])]
+        pr = [mat.prony(m.material) for m in models]
+        T64 = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=torch.float64, device=device)  # noqa: E731
+        self.gam = T64([g for g, _, _ in pr]).view(B, k)
+        self.tau = T64([t for _, t, _ in pr]).view(B, k)
+        self.ginf = T([gi for _, _, gi in pr]).repeat_interleave(N)
+        # per-run scalars (time, step, impactor, energy sums) are float64 whatever the field dtype,
+        # as the single run's host arithmetic
+        self.M = T64([m.sphere.mass for m in models])
+        self.Z0 = T64([m.sphere.center[2] for m in models])
+        self.V0s = T64([m.sphere.velocity for m in models])
+        self.end = T64([m.end_time for m in models])
+        self.state = arr.initial_state(k, B * N, dtype, device)
+        self.stages = element.Stages.make(o.compile)
+        self.tol = 1e-16 * torch.finfo(dtype).eps / torch.finfo(torch.float64).eps
+        self.block = 0 if sync_free else (o.newton_block or 1)
+        self.syncs = 0
+        if o.warm_up:
+            self._element_pass(torch.zeros(B, dtype=torch.float64, device=device), torch.ones(B, dtype=torch.bool,
+                                                                                         device=device))
+        self.syncs = 0
+        self.compile_time = time.perf_counter() - t0
+
+    def _ghd(self, m1, m2, m3, p):
+        B = self.B
+        return [x.reshape(-1) for x in self.ghd(m1.view(B, -1), m2.view(B, -1), m3.view(B, -1), p)]
+
+    def _factors(self, dtp):
+        """Prony (decay, gain) of each run's previous step, per element: (2, k, B N); numba's formulas."""
+        import torch
+
+        if self.k == 0:
+            return torch.zeros((2, 0, 1), dtype=self.dtype, device=self.device)
+        x = dtp[:, None] / self.tau
+        small = x < 1e-8
+        decay = torch.where(small, 1.0 - x, torch.exp(-x))
+        gain = self.gam * torch.where(small, 1.0 - 0.5 * x, -torch.expm1(-x) / torch.where(small, 1.0, x))
+        f = torch.stack([decay, gain]).permute(0, 2, 1).to(self.dtype)              # (2, k, B)
+        return f[:, :, :, None].expand(2, self.k, self.B, self.N).reshape(2, self.k, -1)
+
+    def _element_pass(self, dtp, alive):
+        """(kin, resp, unsafe-fallback flag) of all runs (no host sync when sync_free)."""
+        from . import element
+        from .eigen import patch_fallback, patch_fallback_isotropic
+
+        st = self.stages
+        kin, D = st.front(element.gather(self.uv, self.flat, self.B * self.N), self.Bm, self.G, self._ghd, self.p)
+        alive_e = alive[:, None].expand(self.B, self.N).reshape(-1)
+        fb = kin.fallback & alive_e
+        overflow = None
+        patched = False
+        if self.sync_free:
+            m, Q, overflow = patch_fallback_isotropic(kin.C, kin.m, kin.Q, fb)
+            patched = True
+        else:
+            self.syncs += 1
+            if bool(fb.any()):
+                m, Q = patch_fallback(kin.C, kin.m, kin.Q, fb)
+                patched = True
+        if patched:
+            kin = kin._replace(m=m, Q=Q, fallback=kin.fallback & False)
+            D = element.derivatives(self._ghd, self.p, kin.m)
+        args = (self.state, self._factors(dtp), self.ginf, self.BV, self.G, self.L, self.V0, self.hgc,
+                float(self.models[0].density), 0 if self.o.hourglass_wave == "shear" else 1)
+        return kin, element.response(kin, D, *args, stages=st), overflow
+
+    def loop(self):
+        import torch
+
+        from . import batch_contact
+        from .contact import plane_contact
+        from .element import scatter
+
+        o, B, N, n = self.o, self.B, self.N, self.n
+        m0 = self.models[0]
+        dev, dt_ = self.device, self.dtype
+        z = lambda: torch.zeros(B, dtype=torch.float64, device=dev)  # noqa: E731
+        F = lambda x: x.to(dt_)  # noqa: E731  (a per-run float64 scalar where it meets the fields)
+        sym = float(m0.symmetry_factor)
+        grav = abs(float(m0.gravity))
+        mu = float(m0.friction)
+        cx, cy, R = float(m0.sphere.center[0]), float(m0.sphere.center[1]), float(m0.sphere.radius)
+        M = self.M
+        u, v = self.uv[0:3], self.uv[3:6]
+        vold, dvc = torch.zeros_like(u), torch.zeros_like(u)
+        t, dtp, Z, V = z(), z(), self.Z0.clone(), self.V0s.clone()
+        IE, WINT, WHG, WC, WEXT, IMP, DT0, SEPT = (z() for _ in range(8))
+        seen = torch.zeros(B, dtype=torch.bool, device=dev)
+        alive = torch.ones(B, dtype=torch.bool, device=dev)
+        steps = torch.zeros(B, dtype=torch.int64, device=dev)
+        dtmin, dtmax, maxpen = torch.full((B,), math.inf, dtype=torch.float64, device=dev), z(), z()
+        code = torch.zeros(B, dtype=torch.int64, device=dev)
+        err = torch.zeros((B, 7), dtype=torch.float64, device=dev)   # element, t, value, m0, m1, m2, dt0
+        separated = torch.zeros(B, dtype=torch.bool, device=dev)
+        ar = torch.arange(N, device=dev)
+        rows, masks, chunks = [], [], []
+        tick = float(max(m.end_time for m in self.models)) / 100.0
+        next_progress = tick
+        total = 0
+        start = time.perf_counter()
+        while True:
+            # 1. elements at x^n
+            kin, resp, overflow = self._element_pass(dtp, alive)
+            bad = resp.bad.view(B, N)
+            first_bad = torch.where(bad != 0, ar, N).amin(1)
+            failed = alive & (first_bad < N)
+            fb = first_bad.clamp(max=N - 1)
+            ge = torch.arange(B, device=dev) * N + fb
+            kind = torch.where(bad.gather(1, fb[:, None])[:, 0] == 1, INVERTED, NONFINITE)
+            self._flag(code, err, failed, kind, fb, t, kin.J.index_select(0, ge), kin.m.index_select(1, ge), DT0)
+            if overflow is not None:
+                self._flag(code, err, alive & overflow, FALLBACK, fb * 0, t, t, kin.m[:, :B], DT0)
+            alive = alive & ~failed
+            IE = IE + resp.work_e.view(B, N).sum(1).double()
+            # 2. stable step per run
+            dmin, emin = resp.dte.view(B, N).min(1)
+            dtc = o.safety * dmin.double()
+            DT0 = torch.where((DT0 == 0.0) & torch.isfinite(dtc), dtc, DT0)
+            dt = torch.clamp(dtc, max=o.dt_max)
+            coll = alive & (~((dt > 0.0) & torch.isfinite(dt)) | (dtc < o.collapse * DT0))
+            self._flag(code, err, coll, COLLAPSE, emin, t, dtc, kin.m[:, :B], DT0)
+            alive = alive & ~coll
+            dt = torch.where(alive, dt, torch.where(dtp > 0.0, dtp, 1.0))
+            dtn = 0.5 * (dtp + dt)
+            # 3. central differences
+            nodal = scatter(resp.fint, resp.fhg, self.idx, B * n)
+            fint, fhg = nodal[0:3], nodal[3:6]
+            vold.copy_(v)
+            v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (F(dtn)[:, None] / self.mass.view(B, n))).mul_(
+                self.free.view(3, B, n))
+            u.view(3, B, n).add_(v.view(3, B, n) * F(dt)[:, None])
+            Vo, Zn = V, Z
+            Vs = Vo - dtn * grav
+            Zs = Zn + dt * Vs
+            # 4. contact
+            dvc.zero_()
+            dZ, dV, pen, checks, unconv = batch_contact.sphere_contact(
+                u, v, dvc, self.sphere, cx, cy, F(Zs), F(Vs), R, F(M), mu, F(dt), alive, self.tol, self.block)
+            dZ, dV, pen = dZ.double(), dV.double(), pen.double()
+            self.syncs += checks
+            self._flag(code, err, alive & unconv, NEWTON, emin * 0, t, dt, kin.m[:, :B], DT0)
+            if self.plane is not None:
+                plane_contact(u, v, dvc, self.plane, float(m0.plane.z), mu,
+                              F(dt).repeat_interleave(self.p_count))
+            Zs = Zs + dZ
+            Vs = Vs + dV
+            force = M * dV / dtn
+            Vf = Vo + dtp / (dtp + dt) * (Vs - Vo)
+            # 5. energies and the record of step n
+            en = self._energies(v, vold, nodal, dvc, F(dtn)).double()
+            ke, ai, bi, ah, bh, ac, bc, pz = en.unbind(0)
+            ke = ke + 0.5 * M * Vo * Vs
+            fs = 0.5 * M * dV
+            ac = ac + fs * Vo
+            bc = bc + fs * Vs
+            fg = -0.5 * dtn * M * grav
+            ax, bx = fg * Vo, fg * Vs
+            pz = pz + M * Vs
+            rows.append(torch.stack([t, force * sym, (IMP + 0.5 * dtp * force) * sym, Zn, Vf, z(), ke * sym,
+                                     IE * sym, -(WHG + ah) * sym, -(WC + ac) * sym, (WEXT + ax) * sym,
+                                     (WINT + ai) * sym, dt, pen, pz * sym], dim=1))
+            masks.append(alive.clone())
+            WINT, WHG, WC, WEXT = WINT + ai + bi, WHG + ah + bh, WC + ac + bc, WEXT + ax + bx
+            IMP = IMP + force * dtn
+            nonfin = alive & ~torch.isfinite(ke + pz + Zs)
+            t_n = t
+            Z, V = torch.where(alive, Zs, Z), torch.where(alive, Vs, V)
+            t = torch.where(alive, t + dt, t)
+            dtp = torch.where(alive, dt, dtp)
+            steps = steps + alive.to(torch.int64)
+            dtmin = torch.where(alive, torch.minimum(dtmin, dt), dtmin)
+            dtmax = torch.where(alive, torch.maximum(dtmax, dt), dtmax)
+            maxpen = torch.where(alive, torch.maximum(maxpen, pen), maxpen)
+            self.state = resp.state
+            self._flag(code, err, nonfin, STATE, emin * 0, t_n, t_n, kin.m[:, :B], DT0)   # as the single run: t^n
+            alive = alive & ~nonfin
+            done = t_n >= self.end
+            if m0.stop_after_separation:
+                pos = force > 0.0
+                up = seen & (Vf > 0.0) & ~pos
+                SEPT = torch.where(pos, 0.0, torch.where(up, SEPT + dt, 0.0))
+                seen = seen | pos
+                sep = alive & ~done & up & (SEPT >= o.separation_time)
+                separated = separated | sep
+                done = done | sep
+            alive = alive & ~done
+            total += 1
+            if not self.sync_free:          # CPU: stop as soon as every run has (one cheap read)
+                self.syncs += 1
+                if not bool(alive.any()):
+                    break
+            if total % CHUNK == 0 or total >= o.max_steps:
+                chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
+                rows, masks = [], []
+                self.syncs += 1
+                if not bool(alive.any()):
+                    break
+                tmin = float(torch.where(alive, t, math.inf).min())
+                if self.progress is not None and tmin >= next_progress:
+                    self.progress(min(tmin, tick * 100.0))
+                    next_progress = (math.floor(tmin / tick) + 1) * tick
+                if total >= o.max_steps:
+                    break
+        if rows:
+            chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
+        wall = time.perf_counter() - start
+        host = [x.to("cpu") for x in (steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t)]
+        self.memory = self._memory(vold, dvc)
+        return self._results(chunks, wall, total, *host)
+
+    def _memory(self, *extra) -> dict:
+        """Bytes per run: the persistent tensors (geometry, state), and the device's peak on CUDA."""
+        import torch
+
+        tensors = [self.idx, self.Bm, self.BV, self.G, self.L, self.V0, self.hgc, self.mass, self.free, self.uv,
+                   self.ginf, *self.state, *self.sphere, *extra]
+        if self.plane is not None:
+            tensors += list(self.plane)
+        out = {"tensor_bytes_per_run": sum(t.numel() * t.element_size() for t in tensors) / self.B}
+        if self.device.type == "cuda":
+            out["peak_device_bytes_per_run"] = torch.cuda.max_memory_allocated(self.device) / self.B
+        return out
+
+    @staticmethod
+    def _flag(code, err, where, kind, element, t, value, m, dt0):
+        """Record the first failure of each run in ``where`` (device ops only)."""
+        import torch
+
+        new = where & (code == OK)
+        code.copy_(torch.where(new, kind, code))          # kind: a Python int or a (B,) tensor (no copy to the device)
+        vals = torch.stack([element.to(err.dtype), t.to(err.dtype), value.to(err.dtype),
+                            m[0].to(err.dtype), m[1].to(err.dtype), m[2].to(err.dtype), dt0.to(err.dtype)], dim=1)
+        err.copy_(torch.where(new[:, None], vals, err))
+
+    def _energies(self, v, vold, nodal, dvc, dtn):
+        """(8, B): kinetic energy, A/B work halves of internal, hourglass, contact forces, z momentum."""
+        import torch
+
+        B, n = self.B, self.n
+        h = 0.5 * dtn
+        mh = (0.5 * self.mass) * dvc
+        prods = torch.stack([nodal[0:3] * vold, nodal[0:3] * v, nodal[3:6] * vold, nodal[3:6] * v, mh * vold,
+                             mh * v, self.mass * (vold * v)]).view(7, 3, B, n).sum((1, 3))
+        pz = (self.mass * v[2]).view(B, n).sum(1)
+        return torch.stack([0.5 * prods[6], -h * prods[0], -h * prods[1], h * prods[2], h * prods[3], prods[4],
+                            prods[5], pz])
+
+    def _results(self, chunks, wall, total, steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t):
+        import torch
+
+        rows = torch.cat([c[0] for c in chunks]).numpy()          # (steps, B, 15)
+        masks = torch.cat([c[1] for c in chunks]).numpy()         # (steps, B)
+        out = []
+        for b, model in enumerate(self.models):
+            c = int(code[b])
+            e = err[b].tolist()
+            if c != OK:
+                out.append(self._error(b, model, c, e))
+                continue
+            if bool(alive[b]):
+                out.append(errors.max_steps(model, int(steps[b]), float(t[b])))
+                continue
+            h = rows[masks[:, b], b, :]
+            res = history.assemble(
+                model, h, backend="torch", steps=int(steps[b]), wall=wall / self.B, dt0=float(DT0[b]),
+                dtmin=float(dtmin[b]), dtmax=float(dtmax[b]), maxpen=float(maxpen[b]), frames=[],
+                stop="separated" if bool(separated[b]) else "end_time", options=self.o,
+                info={"device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
+                      "threads": torch.get_num_threads(), "compile": self.o.compile,
+                      "compile_time": self.compile_time / self.B, "batch_size": self.B, "batch_index": b,
+                      "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free, **self.memory,
+                      "host_syncs_per_step": self.syncs / max(total, 1)})
+            out.append(res)
+        return out
+
+    def _error(self, b, model, c, e):
+        import torch
+
+        el, t, val, m = int(e[0]), e[1], e[2], e[3:6]
+        where = f"batch run {b} ('{model.name}')"
+        if c == INVERTED:
+            err = errors.inverted(model, el, t, val)
+        elif c == NONFINITE:
+            err = errors.nonfinite(model.material, f"element {el} at t = {t:.6g} s", m, val, t, el,
+                                   float32=self.dtype == torch.float32)
+        elif c == COLLAPSE:
+            err = errors.collapse(model, t, el, val, e[6], self.o.collapse)
+        elif c == STATE:
+            err = errors.state(model, t)
+        elif c == NEWTON:
+            err = NumericalError(f"contact Newton iteration of the sphere did not converge in "
+                                 f"{_fixed()} iterations at t = {t:.6g} s (sync-free batch); run with "
+                                 f"sync_free=False.", time=t, quantity="contact")
+        else:
+            err = NumericalError(f"an element needed the Jacobi eigen fallback for a C that is not isotropic to "
+                                 f"round-off at t = {t:.6g} s (sync-free batch); run with sync_free=False.",
+                                 time=t, quantity="eigen fallback")
+        err.args = (f"{where}: {err.args[0]}",) + err.args[1:]
+        return err
+
+
+def _fixed() -> int:
+    from .batch_contact import FIXED_ITERATIONS
+
+    return FIXED_ITERATIONS

@@ -1,0 +1,138 @@
+"""GPU check of the torch backend, sized for a short lease of one large GPU (< 8 minutes).
+
+    python -m cfm_backends.torch_explicit.gpu_check --out DIR [--sizes 64 1024] [--budget 420]
+
+On CUDA: the paper's 8 mm drop test (1 mm hexahedra, quarter model) alone and in batches of 64
+and 1024 (half of each batch with the paper's k2 = 1.66, half with k2 = 2.5, so that runs mixed
+up would show; every step free of host synchronisation, ``sync_free``), in float64 and float32; each run is checked against the CPU float64 result of
+the same model (relative L2 of the CFC 600 filtered acceleration; limits 1e-10 in float64, 1e-4
+in float32), and the script prints per-run solver time, ns per element-cycle, host syncs per step
+and device memory per run. Results go to DIR/gpu_check.json and DIR/gpu_check.txt. A
+configuration that would start after ``--budget`` seconds is skipped (and said so). Without a
+usable CUDA device it exits with status 2 and says why; ``--device cpu`` (with ``--sizes 3
+--element-size 0.002``) is a dry run of the script on the CPU, 20 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+LIMITS = {"float64": 1e-10, "float32": 1e-4}
+
+
+def _models(element_size: float):
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    base = builtin_scene("drop-test").with_overrides(element_size=element_size)
+    return build_model(base), build_model(base.with_overrides(parameters={"k2": 2.5}))
+
+
+def _filtered(result, model) -> np.ndarray:
+    from cfm_core.post import acceleration_histories
+
+    return acceleration_histories(result, model.mass_full)[2]
+
+
+def _rel(a: np.ndarray, b: np.ndarray) -> float:
+    from cfm_core.post import relative_l2
+
+    n = min(a.size, b.size)
+    return float(relative_l2(a[:n], b[:n]))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True, help="folder for gpu_check.json and gpu_check.txt")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 1024], help="batch sizes (default 64 1024)")
+    ap.add_argument("--budget", type=float, default=420.0,
+                    help="seconds after which no new configuration starts (default 420)")
+    ap.add_argument("--device", default="cuda", help="CUDA device (default 'cuda'; 'cpu' for a dry run of the "
+                    "script itself)")
+    ap.add_argument("--element-size", type=float, default=0.001, help="hexahedron edge, m (default 0.001)")
+    args = ap.parse_args(argv)
+    import torch
+
+    if args.device.startswith("cuda") and not torch.cuda.is_available():
+        built = getattr(torch.version, "cuda", None)
+        print(f"gpu_check: no CUDA device is usable here (torch.cuda.is_available() = False, torch "
+              f"{torch.__version__} built {'with CUDA ' + built if built else 'without CUDA'}); this check needs "
+              f"an NVIDIA GPU. Nothing was run.", file=sys.stderr)
+        return 2
+    from . import TorchExplicitBackend
+
+    start = time.perf_counter()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    lines = []
+
+    def say(text: str) -> None:
+        print(text, flush=True)
+        lines.append(text)
+
+    be = TorchExplicitBackend()
+    models = _models(args.element_size)
+    ne = models[0].n_elements
+    cuda = args.device.startswith("cuda")
+    name = torch.cuda.get_device_name(args.device) if cuda else "CPU (dry run)"
+    say(f"gpu_check: {name}, torch {torch.__version__}; 8 mm drop test, "
+        f"{ne} hexahedra (quarter model)")
+    refs = []
+    for m in models:
+        r = be.run(m, device="cpu", dtype="float64")
+        refs.append(_filtered(r, m))
+        say(f"  CPU float64 reference (k2 = {m.material.values['k2']:g}): {r.steps} steps, {r.wall_time:.1f} s")
+    records = []
+    configs = [(1, dt) for dt in ("float64", "float32")] + [(b, dt) for b in args.sizes for dt in ("float64", "float32")]
+    for b, dtype in configs:
+        elapsed = time.perf_counter() - start
+        if elapsed > args.budget:
+            say(f"  B = {b}, {dtype}: skipped ({elapsed:.0f} s elapsed > budget {args.budget:g} s)")
+            records.append({"batch": b, "dtype": dtype, "skipped": True})
+            continue
+        batch = [models[i % 2] for i in range(b)]
+        if cuda:
+            torch.cuda.reset_peak_memory_stats(args.device)
+        t0 = time.perf_counter()
+        try:
+            res = be.run_batch(batch, device=args.device, dtype=dtype, raise_errors=False, sync_free=True)
+        except Exception as exc:  # report and go on: the other configurations still say something
+            say(f"  B = {b}, {dtype}: FAILED {type(exc).__name__}: {exc}")
+            records.append({"batch": b, "dtype": dtype, "error": str(exc)})
+            continue
+        total = time.perf_counter() - t0
+        errs = [r for r in res if isinstance(r, Exception)]
+        ok = [(i, r) for i, r in enumerate(res) if not isinstance(r, Exception)]
+        worst = max((_rel(_filtered(r, batch[i]), refs[i % 2]) for i, r in ok), default=float("nan"))
+        info = ok[0][1].info if ok else {}
+        wall = info.get("batch_wall_time", float("nan"))
+        steps = sum(r.steps for _, r in ok)
+        rec = {"batch": b, "dtype": dtype, "per_run_s": wall / b, "total_s": total,
+               "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
+               "host_syncs_per_step": info.get("host_syncs_per_step"),
+               "peak_device_MiB_per_run": (info["peak_device_bytes_per_run"] / 2**20
+                                           if "peak_device_bytes_per_run" in info else None),
+               "worst_rel_l2_vs_cpu": worst, "limit": LIMITS[dtype], "failed_runs": len(errs),
+               "passed": bool(not errs and worst < LIMITS[dtype])}
+        records.append(rec)
+        mib = rec["peak_device_MiB_per_run"]
+        say(f"  B = {b:4d} {dtype}: {rec['per_run_s']:.3f} s per run, {rec['ns_per_element_cycle']:.2f} ns per "
+            f"element-cycle, {'n/a' if mib is None else f'{mib:.1f}'} MiB per run (device peak), "
+            f"{rec['host_syncs_per_step']:.3f} host syncs per step, worst rel. L2 vs CPU {worst:.1e} "
+            f"(limit {LIMITS[dtype]:g}) {'ok' if rec['passed'] else 'FAILED'}"
+            + (f", {len(errs)} failed runs: {errs[0]}" if errs else ""))
+    say(f"gpu_check took {time.perf_counter() - start:.0f} s")
+    (out / "gpu_check.json").write_text(json.dumps({"device": name,
+                                                    "elements": ne, "records": records}, indent=2))
+    (out / "gpu_check.txt").write_text("\n".join(lines) + "\n")
+    return 0 if all(r.get("passed", False) for r in records if not r.get("skipped")) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
