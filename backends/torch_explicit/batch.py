@@ -31,6 +31,7 @@ import numpy as np
 
 from cfm_backends.explicit import errors, history
 from cfm_core.errors import InputError, NumericalError
+from cfm_core.simulation.checks import Monitor
 
 from . import arrays as arr
 from . import material as mat
@@ -242,6 +243,9 @@ class _Batch:
         tick = float(max(m.end_time for m in self.models)) / 100.0
         next_progress = tick
         total = 0
+        # physics checks of every run (cfm_core.simulation.checks), at the chunk reads below
+        self.monitors = [Monitor(m) for m in self.models]
+        self.check_errors: dict = {}
         start = time.perf_counter()
         while True:
             # 1. elements at x^n
@@ -340,6 +344,7 @@ class _Batch:
                 self.syncs += 1
                 if not bool(alive.any()):
                     break
+                self._monitor(alive, t, u, Z)
                 tmin = float(torch.where(alive, t, math.inf).min())
                 if self.progress is not None and tmin >= next_progress:
                     self.progress(min(tmin, tick * 100.0))
@@ -349,9 +354,32 @@ class _Batch:
         if rows:
             chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
         wall = time.perf_counter() - start
+        self._monitor(alive, t, u, Z, final=True, ok=(code == OK).to("cpu").numpy())
         host = [x.to("cpu") for x in (steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t)]
         self.memory = self._memory(vold, dvc)
         return self._results(chunks, wall, total, *host)
+
+    def _monitor(self, alive, t, u, Z, final: bool = False, ok=None) -> None:
+        """Run the physics checks of the runs that are due (``final``: every run that finished
+        without a failure, ``ok`` (B,) bool); a run whose check fails stops here (its entry
+        becomes the NumericalError) and the others go on."""
+        import torch
+
+        th, al = t.to("cpu", torch.float64).numpy(), alive.to("cpu").numpy()
+        runs = [b for b in range(self.B) if b not in self.check_errors
+                and ((final and not al[b] and ok[b]) or (not final and al[b] and self.monitors[b].due(float(th[b]))))]
+        if not runs:
+            return
+        uh = u.to("cpu", torch.float64).view(3, self.B, self.n).numpy()
+        zh = Z.to("cpu", torch.float64).numpy()
+        nodes = np.asarray(self.models[0].nodes, dtype=np.float64)
+        for b in runs:
+            check = self.monitors[b].final if final else self.monitors[b].check
+            try:
+                check(float(th[b]), nodes + uh[:, b].T, float(zh[b]))
+            except NumericalError as exc:
+                self.check_errors[b] = exc
+                alive[b] = False
 
     def _memory(self, *extra) -> dict:
         """Bytes per run: the persistent tensors (geometry, state), and the device's peak on CUDA."""
@@ -399,6 +427,9 @@ class _Batch:
         for b, model in enumerate(self.models):
             c = int(code[b])
             e = err[b].tolist()
+            if b in self.check_errors:
+                out.append(self.check_errors[b])
+                continue
             if c != OK:
                 out.append(self._error(b, model, c, e))
                 continue
@@ -415,6 +446,7 @@ class _Batch:
                       "compile_time": self.compile_time / self.B, "batch_size": self.B, "batch_index": b,
                       "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free, **self.memory,
                       "host_syncs_per_step": self.syncs / max(total, 1)})
+            res.info["checks"] = self.monitors[b].report()
             out.append(res)
         return out
 

@@ -112,3 +112,17 @@ def test_float32_batch_keeps_the_run_scalars_in_float64():
         alone = TorchExplicitBackend().run(m, dtype="float32")
         assert r.steps == alone.steps and rel_l2(r, alone, m) < 5e-6
         assert f.steps == alone.steps and rel_l2(f, alone, m) < 5e-6
+
+
+def test_batch_runs_get_the_physics_checks_each_on_its_own(models):
+    """A 220 kg impactor (grams written as kg) in a batch stops with the penetration check, naming
+    node and time, like the run alone; the other run of the batch completes with its check report."""
+    heavy = build_model(BASE.with_overrides(mass=220.0))
+    with pytest.raises(NumericalError) as alone_err:
+        TorchExplicitBackend().run(heavy)
+    out = TorchExplicitBackend().run_batch([models[0], heavy], raise_errors=False)
+    assert isinstance(out[1], NumericalError)
+    # same node and check; the depth and time differ a little (the batch checks at its chunk reads)
+    assert str(out[1]).split(" is ")[0] == str(alone_err.value).split(" is ")[0]
+    assert out[1].quantity == alone_err.value.quantity and abs(out[1].time - alone_err.value.time) < 1e-3
+    assert out[0].info["checks"]["monitor_calls"] > 10 and out[0].info["checks"]["worst_plate"] < 1e-4
