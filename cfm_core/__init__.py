@@ -14,7 +14,7 @@
 SI units everywhere: m, s, kg, Pa.
 """
 
-from . import plugins
+from . import compat, plugins
 from .errors import InputError, NumericalError
 from .material import (Material, MaterialSpec, Parameter, PronySeries, Term, get_material, get_term, isochoric,
                        make_material, nonnegative, positive, register_material, register_term, sym, volumetric)
@@ -24,6 +24,15 @@ from .scene import Model, Scene, build_model, builtin_scene, builtin_scenes, loa
 from .simulation import Backend, Result, get_backend, register_backend
 
 __version__ = "0.2.0"
+
+compat.install()
+
+
+def __getattr__(name: str):
+    """``from cfm_core import simulate`` and the other module names of version 0.1 (deprecated)."""
+    if name in compat.MOVED:
+        return compat.old_name(name)
+    raise AttributeError(f"module 'cfm_core' has no attribute {name!r}")
 
 __all__ = [
     "plugins", "InputError", "NumericalError", "Material", "MaterialSpec", "Parameter", "PronySeries", "Term",

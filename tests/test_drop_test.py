@@ -11,7 +11,7 @@ pytest.importorskip("numba")
 from cfm_core import make_material
 from cfm_core.simulation import point as pt
 from cfm_core.scene.builder import build_model
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.scene.scene import builtin_scene
 from cfm_core.runs.pipeline import run_model
 

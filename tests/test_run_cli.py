@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cfm_core.scene.builder import build_model
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.errors import InputError
 from cfm_core.simulation.point import uniaxial
 from cfm_core.simulation.registry import get_backend

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.errors import NumericalError
 from cfm_core.runs import drop_test
 from cfm_core.scene import builtin_scene

@@ -61,7 +61,7 @@ def test_options_are_declared_once_and_shared_with_numba():
     for name in shared:
         assert getattr(t(), name) == getattr(n(), name) == getattr(ExplicitOptions(), name)
     assert "hourglass_wave" in TorchExplicitBackend.run.__doc__ and "newton_block" in TorchExplicitBackend.run.__doc__
-    out = subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "backends", "--options"],
+    out = subprocess.run([sys.executable, "-m", "cfm_core.cli", "backends", "--options"],
                          capture_output=True, text=True, check=True).stdout
     assert "newton_block" in out and "separation_time" in out and "0.0002" in out
 
@@ -102,7 +102,7 @@ def test_cli_device_error_exit_status(tmp_path):
 
     if torch.cuda.is_available():
         pytest.skip("a CUDA device is available here")
-    out = subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "drop-test", "--backend", "torch", "--device",
+    out = subprocess.run([sys.executable, "-m", "cfm_core.cli", "drop-test", "--backend", "torch", "--device",
                           "cuda", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert out.returncode == 2, out.stderr
     assert "torch.cuda.is_available() = False" in out.stderr

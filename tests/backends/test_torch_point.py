@@ -69,7 +69,7 @@ def test_inverted_point():
 
 
 def test_cli_point_with_torch(tmp_path):
-    from cfm_core.cli.main import main
+    from cfm_core.cli import main
 
     t, F = history(11)
     path = tmp_path / "F.csv"

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.errors import InputError
 from cfm_core.post.compare import read_run
 from cfm_core.scene import builtin_scene

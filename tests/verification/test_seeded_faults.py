@@ -18,7 +18,7 @@ import pytest
 
 from cfm_backends.numba_explicit import NumbaExplicitBackend
 from cfm_backends.torch_explicit import TorchExplicitBackend
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.material import prony
 from cfm_verification import runs as vruns
 from cfm_verification.suite import run_suite

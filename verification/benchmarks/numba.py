@@ -87,7 +87,7 @@ def warm_end_to_end(thickness: float, size: float) -> dict:
     phases = json.loads(out.stdout.strip().splitlines()[-1])
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "cfm_core.cli.main", "drop-test", "--quiet", "--thickness",
+        subprocess.run([sys.executable, "-m", "cfm_core.cli", "drop-test", "--quiet", "--thickness",
                         str(thickness), "--element-size", str(size), "--out", folder], capture_output=True, check=True)
         phases["command"] = time.perf_counter() - start
     return phases

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.errors import NumericalError
 from cfm_core.material.diagnose import describe_nonfinite, nonfinite_term
 from cfm_core.material.registry import make_material

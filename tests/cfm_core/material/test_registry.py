@@ -101,7 +101,7 @@ def test_importing_core_and_listing_backends_imports_no_heavy_library():
         "import cfm_core\n"
         "from cfm_core import plugins\n"
         "plugins.entries('backends'); plugins.entries('materials')\n"
-        "from cfm_core.cli.main import main\n"
+        "from cfm_core.cli import main\n"
         "main(['backends'])\n"
         "heavy = [m for m in ('numba', 'torch', 'skfem') if m in sys.modules]\n"
         "assert not heavy, heavy\n"

@@ -7,7 +7,7 @@ import pytest
 
 from cfm_core import make_material
 from cfm_core.simulation import point as pt
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_verification.truths import cauchy_mp  # the paper's Eq. 2-7 in mpmath, independent of codegen
 
 HEADER = "t,F11,F12,F13,F21,F22,F23,F31,F32,F33"

@@ -9,7 +9,7 @@ from cfm_core.studies import calibrate
 from cfm_core.studies import measured as measured_data
 
 from cfm_core.runs import pipeline as simulate
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.studies.dask_runner import open_runner
 from cfm_core.errors import InputError
 from cfm_core.scene.scene import builtin_scene, load_scene, scene_to_toml

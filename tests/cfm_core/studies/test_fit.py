@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.material import make_material
 from cfm_core.material import reference as ref
 from cfm_core.scene.scene import load_scene

@@ -67,7 +67,7 @@ def test_shared_case_twin_g2_g3(tmp_path, capsys):
     pytest.importorskip("numba")
     import json
 
-    from cfm_core.cli.main import main
+    from cfm_core.cli import main
 
     out = tmp_path / "fit"
     assert main(["calibrate", "--scene", str(DATA / "scene.toml"), "--data", f"{DATA / 'meas_twin8.csv'}:0.008",

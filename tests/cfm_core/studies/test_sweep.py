@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from cfm_core.studies import sweep
-from cfm_core.cli.main import main
+from cfm_core.cli import main
 from cfm_core.studies.dask_runner import WORKER_ENV, SerialRunner, open_runner
 from cfm_core.errors import InputError
 from cfm_core.scene.scene import builtin_scene, scene_to_toml

@@ -1,0 +1,7 @@
+"""``python -m cfm_core.cli ...``: the ``cfm`` command."""
+
+import sys
+
+from .app import main
+
+sys.exit(main())
