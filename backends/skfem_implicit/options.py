@@ -20,20 +20,29 @@ DEFAULTS = {
     "grow_iterations": 4,        # ... i.e. in at most this many iterations
     "cut": 0.5,                  # step reduction factor after a failed step (-)
     "max_iterations": 15,        # Newton iterations per step before the step is cut
-    "rtol": 1e-9,                # residual tolerance relative to the largest force term (-)
+    "rtol": None,                # residual tolerance relative to the largest force term (-); None:
+                                 # 1e-6 for dynamic runs (forces to 1 ppm), 1e-9 quasi-static
     "atol": None,                # absolute residual tolerance (N); None: 1e-10 kappa0 h^2
-    "penalty": None,             # contact penalty (N/m per node); None: penalty_factor kappa0 h
-    "penalty_factor": 1e4,       # (-), see penalty
-    "penalty_gap": 1e-3,         # (-) x h: the penalty force is C^1, quadratic over this first gap
-    "linear_solver": "auto",     # "direct" (SuperLU), "cg" (block-Jacobi CG) or "auto"
-    "direct_limit": 6000,        # "auto": direct below this many dofs (or for quasi-static runs)
+    "contact": "augmented",      # "augmented" (multipliers updated every step) or "penalty" (plain)
+    "penalty": None,             # contact augmentation / penalty stiffness (N/m per node); None: penalty_factor kappa0 h
+    "penalty_factor": 1e3,       # (-), see penalty
+    "error_tol": 2e-3,           # local error tolerance of a dynamic step (-, relative to the step's
+                                 # displacement increment); None: steps set by Newton only (grow/cut)
+    "linear_solver": "auto",     # "pardiso", "superlu", "direct" (pardiso if installed, else superlu),
+                                 # "cg" (compiled block-Jacobi CG) or "auto"
+    "direct_limit": 6000,        # "auto": direct below this many dofs (or for quasi-static runs), else cg
+    "cg_rtol": 1e-8,             # CG: relative residual of each linear solve (-)
+    "cg_maxiter": 400,           # CG: iterations before falling back to the direct solver
+    "kernels": "numba",          # element and Gauss-point work: "numba" (compiled) or "numpy" (reference)
     "separation_time": 2e-4,     # s after the impactor left the specimen before stopping
     "frame_interval": None,      # s; store (t, displacement (n, 3)) frames this often
     "max_steps": 1_000_000,      # guard against runaway runs
     "record_newton": False,      # keep every step's residual sequence in info["newton"]
 }
 
-_CHOICES = {"volumetric": ("mean-dilatation", "full"), "linear_solver": ("auto", "direct", "cg")}
+_CHOICES = {"volumetric": ("mean-dilatation", "full"), "contact": ("augmented", "penalty"),
+            "linear_solver": ("auto", "direct", "pardiso", "superlu", "cg"),
+            "kernels": ("numba", "numpy")}
 
 
 def _positive(o, key, allow_none=False, unit="s"):
@@ -59,10 +68,9 @@ def check_options(options: dict) -> dict:
         _positive(o, key, allow_none=True)
     _positive(o, "penalty", allow_none=True, unit="N/m")
     _positive(o, "atol", allow_none=True, unit="N")
-    if isinstance(o["penalty_gap"], bool) or not isinstance(o["penalty_gap"], (int, float)) or not 0.0 <= o["penalty_gap"] < 0.1:
-        raise InputError(f"skfem backend: penalty_gap = {o['penalty_gap']!r} (-, fraction of the element size) "
-                         f"must be in [0, 0.1); 0 gives the plain (C^0) penalty law.")
-    for key in ("penalty_factor", "rtol", "separation_time"):
+    _positive(o, "error_tol", allow_none=True, unit="(-)")
+    _positive(o, "rtol", allow_none=True, unit="(-)")
+    for key in ("penalty_factor", "separation_time", "cg_rtol"):
         _positive(o, key, unit="" if key != "separation_time" else "s")
     r = o["rho_inf"]
     if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 <= r <= 1.0:
@@ -70,7 +78,7 @@ def check_options(options: dict) -> dict:
                          f"acceleration, no numerical damping; 0: strongest damping of the highest modes).")
     if not (1.0 < o["grow"] <= 4.0 and 0.0 < o["cut"] < 1.0):
         raise InputError(f"skfem backend: grow = {o['grow']!r} must be in (1, 4] and cut = {o['cut']!r} in (0, 1).")
-    for key in ("segment_steps", "grow_iterations", "max_iterations", "max_steps", "direct_limit"):
+    for key in ("segment_steps", "grow_iterations", "max_iterations", "max_steps", "direct_limit", "cg_maxiter"):
         v = o[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             raise InputError(f"skfem backend: {key} = {v!r} must be an integer >= 1.")
