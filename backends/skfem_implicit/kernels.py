@@ -95,20 +95,17 @@ def eig_sym3(A, Q, m):
 
 
 @njit(cache=True, error_model="numpy")
-def material_point(F, p, decay, gain, ginf, feff, Hq, S0q, full, tangent, S, D, work):
+def material_point(F, p, decay, gain, ginf, feff, Hq, S0q, full, tangent, S, D, A, Q, H, m, th, Na, M):
     """Stress S (6,) and tangent D (6, 6) (Pa) at one Gauss point; updates Hq (k, 6), S0q (6,).
 
     F (3, 3); decay, gain (k,): the step's Prony factors (:func:`cfm_core.prony.step_factors`);
     ginf = 1 - sum gamma; feff = ginf + sum gain (consistent tangent factor); full: add the
     volumetric term here (material points, the "full" element). Returns the status (0 ok,
-    2 non-finite material derivative). ``work`` (3, 3, 2) is scratch.
+    2 non-finite material derivative). A, Q, H (3, 3), m, th (3,), Na, M (3, 6) are scratch.
     """
-    A = work[:, :, 0]
-    Q = work[:, :, 1]
     for i in range(3):
         for j in range(3):
             A[i, j] = F[0, i] * F[0, j] + F[1, i] * F[1, j] + F[2, i] * F[2, j]
-    m = np.empty(3)
     eig_sym3(A, Q, m)
     g = psi_grad(m[0], m[1], m[2], p)
     chk = g[0] + g[1] + g[2] + g[3] + g[4] + g[5]
@@ -145,7 +142,6 @@ def material_point(F, p, decay, gain, ginf, feff, Hq, S0q, full, tangent, S, D, 
     gt0 = fi * g[0] + fv * g[3]
     gt1 = fi * g[1] + fv * g[4]
     gt2 = fi * g[2] + fv * g[5]
-    H = np.empty((3, 3))
     H[0, 0] = fi * h[0] + fv * h[6]
     H[1, 1] = fi * h[1] + fv * h[7]
     H[2, 2] = fi * h[2] + fv * h[8]
@@ -156,8 +152,7 @@ def material_point(F, p, decay, gain, ginf, feff, Hq, S0q, full, tangent, S, D, 
     H[2, 1] = H[1, 2]
     H[2, 0] = H[0, 2]
     gt = (gt0, gt1, gt2)
-    th = np.empty(3)  # pairs (0,1), (1,2), (0,2)
-    for kk in range(3):
+    for kk in range(3):  # pairs (0,1), (1,2), (0,2)
         a = 0 if kk != 1 else 1
         b = 1 if kk == 0 else 2
         dm = m[a] - m[b]
@@ -165,8 +160,6 @@ def material_point(F, p, decay, gain, ginf, feff, Hq, S0q, full, tangent, S, D, 
             th[kk] = 0.5 * (H[a, a] + H[b, b]) - H[a, b]
         else:
             th[kk] = (gt[a] - gt[b]) / dm
-    Na = np.empty((3, 6))
-    M = np.empty((3, 6))
     for v in range(6):
         i = VI[v]
         j = VJ[v]
@@ -219,143 +212,156 @@ def elements(u, conn, dN, w, vol, p, decay, gain, ginf, feff, H_old, S0_old, H_n
     E = conn.shape[0]
     nq = w.shape[1]
     k = decay.shape[0]
-    for e in prange(E):
-        status[e] = ST_OK
+    nchunk = min(E, 64)
+    for ch in prange(nchunk):
+        # scratch allocated once per chunk of elements (allocation costs more than an element's work)
         F = np.empty((3, 3))
         Finv = np.empty((3, 3))
         S = np.empty(6)
         D = np.empty((6, 6))
         B = np.empty((6, 24))
         DB = np.empty((6, 24))
-        work = np.empty((3, 3, 2))
+        A3 = np.empty((3, 3))
+        Q3 = np.empty((3, 3))
+        H3 = np.empty((3, 3))
+        m3 = np.empty(3)
+        th3 = np.empty(3)
+        Na = np.empty((3, 6))
+        M6 = np.empty((3, 6))
         nsp = np.empty((8, 3))
-        gv = np.zeros(24)
-        hv = np.zeros((24, 24))
+        gv = np.empty(24)
+        hv = np.empty((24, 24))
         ue = np.empty((8, 3))
-        for a in range(8):
-            for i in range(3):
-                ue[a, i] = u[conn[e, a], i]
-        for i in range(24):
-            fe[e, i] = 0.0
-        if tangent:
-            for i in range(24):
-                for j in range(24):
-                    Ke[e, i, j] = 0.0
-        vsum = 0.0
-        for q in range(nq):
-            pidx = e * nq + q
-            wq = w[e, q]
-            for i in range(3):
-                for J in range(3):
-                    s = 1.0 if i == J else 0.0
-                    for a in range(8):
-                        s += ue[a, i] * dN[e, q, a, J]
-                    F[i, J] = s
-            det = (F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
-                   - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0])
-                   + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]))
-            if not (det > 0.0):
-                status[e] = ST_INVERTED
-                jbad[e] = det
-                break
-            for r in range(k):
-                for v in range(6):
-                    H_new[r, pidx, v] = H_old[r, pidx, v]
-            for v in range(6):
-                S0_new[pidx, v] = S0_old[pidx, v]
-            st = material_point(F, p, decay, gain, ginf, feff, H_new[:, pidx, :], S0_new[pidx, :],
-                                full, tangent, S, D, work)
-            if st != ST_OK:
-                status[e] = st
-                break
-            # B (6, 24): dE_v / du_(a,i); shear rows engineering
+        for e in range(ch * E // nchunk, (ch + 1) * E // nchunk):
+            status[e] = ST_OK
+            gv[:] = 0.0
+            hv[:, :] = 0.0
             for a in range(8):
                 for i in range(3):
-                    c = 3 * a + i
-                    for v in range(6):
-                        I = VI[v]
-                        Jj = VJ[v]
-                        if I == Jj:
-                            B[v, c] = F[i, I] * dN[e, q, a, I]
-                        else:
-                            B[v, c] = F[i, I] * dN[e, q, a, Jj] + F[i, Jj] * dN[e, q, a, I]
-            for c in range(24):
-                s = 0.0
-                for v in range(6):
-                    s += B[v, c] * S[v]
-                fe[e, c] += wq * s
+                    ue[a, i] = u[conn[e, a], i]
+            for i in range(24):
+                fe[e, i] = 0.0
             if tangent:
+                for i in range(24):
+                    for j in range(24):
+                        Ke[e, i, j] = 0.0
+            vsum = 0.0
+            wsum = 0.0  # the element volume summed in the same order as vsum: theta = 1 exactly at rest
+            for q in range(nq):
+                pidx = e * nq + q
+                wq = w[e, q]
+                wsum += wq
+                for i in range(3):
+                    for J in range(3):
+                        s = 1.0 if i == J else 0.0
+                        for a in range(8):
+                            s += ue[a, i] * dN[e, q, a, J]
+                        F[i, J] = s
+                det = (F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
+                       - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0])
+                       + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]))
+                if not (det > 0.0):
+                    status[e] = ST_INVERTED
+                    jbad[e] = det
+                    break
+                for r in range(k):
+                    for v in range(6):
+                        H_new[r, pidx, v] = H_old[r, pidx, v]
                 for v in range(6):
-                    for c in range(24):
-                        s = 0.0
-                        for x in range(6):
-                            s += D[v, x] * B[x, c]
-                        DB[v, c] = wq * s
-                for c in range(24):
-                    for d in range(c, 24):
-                        s = 0.0
-                        for v in range(6):
-                            s += B[v, c] * DB[v, d]
-                        Ke[e, c, d] += s
-                # geometric term: w dN_a . S . dN_b on the diagonal of the (a, b) blocks
-                for a in range(8):
-                    sa0 = S[0] * dN[e, q, a, 0] + S[3] * dN[e, q, a, 1] + S[5] * dN[e, q, a, 2]
-                    sa1 = S[3] * dN[e, q, a, 0] + S[1] * dN[e, q, a, 1] + S[4] * dN[e, q, a, 2]
-                    sa2 = S[5] * dN[e, q, a, 0] + S[4] * dN[e, q, a, 1] + S[2] * dN[e, q, a, 2]
-                    for b in range(a, 8):
-                        gab = wq * (sa0 * dN[e, q, b, 0] + sa1 * dN[e, q, b, 1] + sa2 * dN[e, q, b, 2])
-                        for i in range(3):
-                            Ke[e, 3 * a + i, 3 * b + i] += gab
-            if not full:
-                # spatial gradients n_a,i = dN_a,J Finv_Ji; g += wJ n; hv += wJ (n_ai n_bk - n_ak n_bi)
-                idet = 1.0 / det
-                Finv[0, 0] = (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) * idet
-                Finv[0, 1] = (F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]) * idet
-                Finv[0, 2] = (F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]) * idet
-                Finv[1, 0] = (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]) * idet
-                Finv[1, 1] = (F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]) * idet
-                Finv[1, 2] = (F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]) * idet
-                Finv[2, 0] = (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]) * idet
-                Finv[2, 1] = (F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]) * idet
-                Finv[2, 2] = (F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]) * idet
-                wJ = wq * det
-                vsum += wJ
+                    S0_new[pidx, v] = S0_old[pidx, v]
+                st = material_point(F, p, decay, gain, ginf, feff, H_new[:, pidx, :], S0_new[pidx, :],
+                                    full, tangent, S, D, A3, Q3, H3, m3, th3, Na, M6)
+                if st != ST_OK:
+                    status[e] = st
+                    break
+                # B (6, 24): dE_v / du_(a,i); shear rows engineering
                 for a in range(8):
                     for i in range(3):
-                        nsp[a, i] = (dN[e, q, a, 0] * Finv[0, i] + dN[e, q, a, 1] * Finv[1, i]
-                                     + dN[e, q, a, 2] * Finv[2, i])
-                        gv[3 * a + i] += wJ * nsp[a, i]
+                        c = 3 * a + i
+                        for v in range(6):
+                            I = VI[v]
+                            Jj = VJ[v]
+                            if I == Jj:
+                                B[v, c] = F[i, I] * dN[e, q, a, I]
+                            else:
+                                B[v, c] = F[i, I] * dN[e, q, a, Jj] + F[i, Jj] * dN[e, q, a, I]
+                for c in range(24):
+                    s = 0.0
+                    for v in range(6):
+                        s += B[v, c] * S[v]
+                    fe[e, c] += wq * s
                 if tangent:
+                    for v in range(6):
+                        for c in range(24):
+                            s = 0.0
+                            for x in range(6):
+                                s += D[v, x] * B[x, c]
+                            DB[v, c] = wq * s
+                    for c in range(24):
+                        for d in range(c, 24):
+                            s = 0.0
+                            for v in range(6):
+                                s += B[v, c] * DB[v, d]
+                            Ke[e, c, d] += s
+                    # geometric term: w dN_a . S . dN_b on the diagonal of the (a, b) blocks
+                    for a in range(8):
+                        sa0 = S[0] * dN[e, q, a, 0] + S[3] * dN[e, q, a, 1] + S[5] * dN[e, q, a, 2]
+                        sa1 = S[3] * dN[e, q, a, 0] + S[1] * dN[e, q, a, 1] + S[4] * dN[e, q, a, 2]
+                        sa2 = S[5] * dN[e, q, a, 0] + S[4] * dN[e, q, a, 1] + S[2] * dN[e, q, a, 2]
+                        for b in range(a, 8):
+                            gab = wq * (sa0 * dN[e, q, b, 0] + sa1 * dN[e, q, b, 1] + sa2 * dN[e, q, b, 2])
+                            for i in range(3):
+                                Ke[e, 3 * a + i, 3 * b + i] += gab
+                if not full:
+                    # spatial gradients n_a,i = dN_a,J Finv_Ji; g += wJ n; hv += wJ (n_ai n_bk - n_ak n_bi)
+                    idet = 1.0 / det
+                    Finv[0, 0] = (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) * idet
+                    Finv[0, 1] = (F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]) * idet
+                    Finv[0, 2] = (F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]) * idet
+                    Finv[1, 0] = (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]) * idet
+                    Finv[1, 1] = (F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]) * idet
+                    Finv[1, 2] = (F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]) * idet
+                    Finv[2, 0] = (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]) * idet
+                    Finv[2, 1] = (F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]) * idet
+                    Finv[2, 2] = (F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]) * idet
+                    wJ = wq * det
+                    vsum += wJ
                     for a in range(8):
                         for i in range(3):
-                            c = 3 * a + i
-                            for b in range(8):
-                                for kk in range(3):
-                                    d = 3 * b + kk
-                                    if d >= c:
-                                        hv[c, d] += wJ * (nsp[a, i] * nsp[b, kk] - nsp[a, kk] * nsp[b, i])
-            else:
-                vsum += wq * det
-        if status[e] != ST_OK:
-            continue
-        th = vsum / vol[e]
-        theta[e] = th
-        if not full:
-            dU, d2U = volumetric_derivatives(th, p)
-            if not math.isfinite(dU + d2U):
-                status[e] = ST_NONFINITE
+                            nsp[a, i] = (dN[e, q, a, 0] * Finv[0, i] + dN[e, q, a, 1] * Finv[1, i]
+                                         + dN[e, q, a, 2] * Finv[2, i])
+                            gv[3 * a + i] += wJ * nsp[a, i]
+                    if tangent:
+                        for a in range(8):
+                            for i in range(3):
+                                c = 3 * a + i
+                                for b in range(8):
+                                    for kk in range(3):
+                                        d = 3 * b + kk
+                                        if d >= c:
+                                            hv[c, d] += wJ * (nsp[a, i] * nsp[b, kk] - nsp[a, kk] * nsp[b, i])
+                else:
+                    vsum += wq * det
+            if status[e] != ST_OK:
                 continue
-            for c in range(24):
-                fe[e, c] += dU * gv[c]
-            if tangent:
-                cg = d2U / vol[e]
+            th = vsum / wsum
+            theta[e] = th
+            if not full:
+                dU, d2U = volumetric_derivatives(th, p)
+                if not math.isfinite(dU + d2U):
+                    status[e] = ST_NONFINITE
+                    continue
                 for c in range(24):
-                    for d in range(c, 24):
-                        Ke[e, c, d] += cg * gv[c] * gv[d] + dU * hv[c, d]
-        if tangent:
-            for c in range(24):
-                for d in range(c + 1, 24):
-                    Ke[e, d, c] = Ke[e, c, d]
+                    fe[e, c] += dU * gv[c]
+                if tangent:
+                    cg = d2U / wsum
+                    for c in range(24):
+                        for d in range(c, 24):
+                            Ke[e, c, d] += cg * gv[c] * gv[d] + dU * hv[c, d]
+            if tangent:
+                for c in range(24):
+                    for d in range(c + 1, 24):
+                        Ke[e, d, c] = Ke[e, c, d]
 
 
 @njit(cache=True)
@@ -376,10 +382,11 @@ def scatter_vector(fe, edofs, out):
             out[edofs[e, i]] += fe[e, i]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _spmv(indptr, indices, data, x, y):
-    """y = A x for a CSR matrix (parallel over rows)."""
-    for i in prange(indptr.shape[0] - 1):
+    """y = A x for a CSR matrix. Serial on purpose: a parallel region per CG iteration waits for
+    every thread to be scheduled, which on a shared machine costs more than the product itself."""
+    for i in range(indptr.shape[0] - 1):
         s = 0.0
         for p in range(indptr[i], indptr[i + 1]):
             s += data[p] * x[indices[p]]

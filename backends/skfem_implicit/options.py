@@ -25,7 +25,7 @@ DEFAULTS = {
     "atol": None,                # absolute residual tolerance (N); None: 1e-10 kappa0 h^2
     "contact": "augmented",      # "augmented" (multipliers updated every step) or "penalty" (plain)
     "penalty": None,             # contact augmentation / penalty stiffness (N/m per node); None: penalty_factor kappa0 h
-    "penalty_factor": 1e3,       # (-), see penalty
+    "penalty_factor": 100.0,     # (-), see penalty (measured: 2.2-2.5 Newton iterations per step at 100, 3.4 at 1e3)
     "error_tol": 2e-3,           # local error tolerance of a dynamic step (-, relative to the step's
                                  # displacement increment); None: steps set by Newton only (grow/cut)
     "linear_solver": "auto",     # "pardiso", "superlu", "direct" (pardiso if installed, else superlu),
