@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cfm_core import prony
+from cfm_core.material import prony
 from cfm_core.errors import InputError, NumericalError
 
 from .discretization import Discretization
@@ -58,7 +58,7 @@ def module_source(material) -> str:
 
 def load(material):
     """The imported generated module for ``material`` (written on first use, then reused)."""
-    from cfm_core.cache import cache_dir
+    from cfm_core.material.cache import cache_dir
 
     text = module_source(material)
     digest = hashlib.sha256(text.encode()).hexdigest()[:20]

@@ -5,10 +5,10 @@ import pytest
 
 pytest.importorskip("skfem")
 
-from cfm_core.builder import build_model
-from cfm_core.model import RigidPlane, RigidSphere
-from cfm_core.registry import get_backend
-from cfm_core.scene import builtin_scene
+from cfm_core.scene.builder import build_model
+from cfm_core.scene.model import RigidPlane, RigidSphere
+from cfm_core.simulation.registry import get_backend
+from cfm_core.scene.scene import builtin_scene
 from cfm_backends.skfem_implicit import contact
 
 SMALL = dict(width=0.02, element_size=0.002, thickness=0.008)

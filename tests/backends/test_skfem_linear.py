@@ -7,8 +7,8 @@ import scipy.sparse.linalg as sla
 pytest.importorskip("skfem")
 pytest.importorskip("numba")
 
-from cfm_core.builder import build_model
-from cfm_core.scene import builtin_scene
+from cfm_core.scene.builder import build_model
+from cfm_core.scene.scene import builtin_scene
 from cfm_backends.skfem_implicit import linear
 from cfm_backends.skfem_implicit.stepper import generalized_alpha
 from cfm_backends.skfem_implicit.system import System
