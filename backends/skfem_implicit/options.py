@@ -57,7 +57,8 @@ class SkfemOptions(Options):
                                 choices=("auto", "direct", "pardiso", "superlu", "cg"))
     direct_limit: int = option(6000, "-", "'auto': direct solver below this many dofs and for quasi-static runs",
                                low=1)
-    cg_rtol: float = option(1e-8, "-", "relative residual of each CG solve", low=0.0, high=1.0, low_open=True,
+    cg_rtol: float = option(1e-4, "-", "CG: largest relative residual of a linear solve (smaller near Newton "
+                            "convergence: at most 0.1 x the Newton tolerance)", low=0.0, high=1.0, low_open=True,
                             high_open=True)
     cg_maxiter: int = option(400, "-", "CG iterations before the direct solver takes over", low=1)
     separation_time: float = option(2e-4, "s", "time after the impactor left the specimen before stopping",

@@ -18,6 +18,7 @@ from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
+from .linear import dot
 from .options import check_options
 from .stepper import State, StepFailure, Stepper
 from .system import System
@@ -214,12 +215,7 @@ def _linear_solver(sys_: System, o: dict, quasi: bool):
     kind = o["linear_solver"]
     mod = sys_.compiled.mod if sys_.compiled is not None else None
     if kind == "auto":
-        kind = "direct" if (quasi or sys_.n <= o["direct_limit"] or mod is None) else "cg"
-    if kind == "cg" and mod is None:
-        raise InputError("skfem backend: linear_solver = 'cg' needs the compiled kernels (kernels = 'numba').")
-    if kind == "cg":  # compile (or load) the CG kernel now, not inside the timed loop
-        mod.pcg(np.array([0, 1], dtype=np.int32), np.array([0], dtype=np.int32), np.ones(1), np.ones(1),
-                np.ones((0, 3, 3)), np.ones(1), np.zeros(1), 1e-8, 5)
+        kind = "direct" if (quasi or sys_.n <= o["direct_limit"]) else "cg"
     if kind == "pardiso" and not linear.pardiso_available():
         raise InputError("skfem backend: linear_solver = 'pardiso' needs pypardiso (pip install pypardiso); "
                          "use 'superlu' (scipy only) or 'auto'.")
@@ -290,16 +286,16 @@ class _Recorder:
             if sys_.has_w:  # the impactor's momentum change less that of gravity: exact for the integrator
                 m_s = float(sys_.mass[sys_.w_dof])
                 self.impulse += m_s * float(s.v[sys_.w_dof] - prev.v[sys_.w_dof]) - float(sys_.f_ext[sys_.w_dof]) * dt
-            self.w_int += 0.5 * float(np.dot(prev.f_int + s.f_int, dq))
-            self.w_c += 0.5 * float(np.dot(prev.f_c + s.f_c, dq))
+            self.w_int += 0.5 * dot(prev.f_int + s.f_int, dq)
+            self.w_c += 0.5 * dot(prev.f_c + s.f_c, dq)
             self.diss += s.dissipation
-            self.w_ext += 0.5 * float(np.dot(sys_.f_ext + sys_.f_ext, dq))
+            self.w_ext += 0.5 * dot(sys_.f_ext + sys_.f_ext, dq)
             d = sys_.presc_dofs
             if d.size:
                 self.w_ext += 0.5 * (self.reaction(prev) + self.reaction(s)) * float(dq[d].mean())
         self.pen_s = max(self.pen_s, s.pen_sphere)
         self.pen_p = max(self.pen_p, s.pen_plane)
-        ke = 0.5 * float(np.dot(sys_.mass, s.v * s.v))
+        ke = 0.5 * dot(sys_.mass, s.v * s.v)
         wz = s.q[sys_.w_dof] if sys_.has_w else 0.0
         zc = sys_.sphere.center[2] + wz if sys_.has_w else 0.0
         vz = s.v[sys_.w_dof] if sys_.has_w else 0.0

@@ -5,6 +5,7 @@ import pytest
 
 pytest.importorskip("skfem")
 
+from cfm_core import post as postprocess
 from cfm_core.scene.builder import build_model
 from cfm_core.scene.model import RigidPlane, RigidSphere
 from cfm_core.simulation.registry import get_backend
@@ -53,9 +54,9 @@ def test_forces_and_hessian_against_finite_differences():
     d = x[sn] - c
     g = sphere.radius - np.linalg.norm(d, axis=1)
     p = np.maximum(0.0, lam_s + k * g)
-    np.testing.assert_allclose(cs.p_sphere, p, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(cs.force_on_impactor, np.sum(p * d[:, 2] / np.linalg.norm(d, axis=1)) * -1.0, rtol=1e-12)
-    np.testing.assert_allclose(cs.p_plane, np.maximum(0.0, lam_p + k * (plane.z - x[pn, 2])), rtol=1e-12)
+    np.testing.assert_allclose(cs.p_sphere, p, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(cs.force_on_impactor, np.sum(p * d[:, 2] / np.linalg.norm(d, axis=1)) * -1.0, rtol=1e-9)
+    np.testing.assert_allclose(cs.p_plane, np.maximum(0.0, lam_p + k * (plane.z - x[pn, 2])), rtol=1e-9, atol=1e-12)
     # Hessian = derivative of the forces, away from the switching points
     y = np.append(x.ravel(), w)
     eps = 1e-10
@@ -69,16 +70,19 @@ def test_forces_and_hessian_against_finite_differences():
 
 
 def test_peak_does_not_depend_on_the_contact_stiffness():
-    """Loading phase (4 ms, small mesh): impulse within 0.2 % for a 30x change of k; penetration small."""
+    """Loading phase (4 ms, small mesh), a 30x change of k: impulse within 0.2 %, filtered (CFC 600)
+    acceleration within 0.5 % at its largest value and in rel. L2; penetration small."""
     m = build_model(builtin_scene("drop-test").with_overrides(end_time=0.004, **SMALL))
     b = get_backend("skfem")
     runs = {f: b.run(m, penalty_factor=f) for f in (30.0, 1000.0)}
     imp = {f: r.impulse[-1] for f, r in runs.items()}
-    peak = {f: r.contact_force.max() for f, r in runs.items()}
-    print("impulse (N s):", imp, "peak force (N):", peak,
+    acc = {f: postprocess.acceleration_histories(r, m.mass_full) for f, r in runs.items()}
+    peak = {f: a[2].max() for f, a in acc.items()}
+    l2 = postprocess.compare_histories(acc[30.0][0], acc[30.0][2], acc[1000.0][0], acc[1000.0][2])["rel_l2"]
+    print("impulse (N s):", imp, "filtered peak (m/s^2):", peak, f"rel L2 {l2:.2e}",
           "penetration / h:", {f: r.info["penetration_ratio"] for f, r in runs.items()})
     assert abs(imp[30.0] - imp[1000.0]) < 2e-3 * imp[1000.0]
-    assert abs(peak[30.0] - peak[1000.0]) < 5e-3 * peak[1000.0]
+    assert abs(peak[30.0] - peak[1000.0]) < 5e-3 * peak[1000.0] and l2 < 5e-3
     assert all(r.info["penetration_ratio"] < 0.01 for r in runs.values())
     # Newton stays fast through the contact changes
     for r in runs.values():
