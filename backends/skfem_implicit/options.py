@@ -53,10 +53,8 @@ class SkfemOptions(Options):
     penalty_factor: float = option(100.0, "-", "penalty in units of kappa0 h (kappa0 small-strain bulk modulus, "
                                    "h element size)", low=0.0, low_open=True)
     linear_solver: str = option("auto", "-", "linear solver ('direct': pardiso if installed, else superlu; "
-                                "'auto': cg for large dynamic systems, else direct)",
+                                "'auto': cg for dynamic runs, direct for quasi-static ones)",
                                 choices=("auto", "direct", "pardiso", "superlu", "cg"))
-    direct_limit: int = option(6000, "-", "'auto': direct solver below this many dofs and for quasi-static runs",
-                               low=1)
     cg_rtol: float = option(1e-4, "-", "CG: largest relative residual of a linear solve (smaller near Newton "
                             "convergence: at most 0.1 x the Newton tolerance)", low=0.0, high=1.0, low_open=True,
                             high_open=True)

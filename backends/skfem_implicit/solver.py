@@ -215,7 +215,7 @@ def _linear_solver(sys_: System, o: dict, quasi: bool):
     kind = o["linear_solver"]
     mod = sys_.compiled.mod if sys_.compiled is not None else None
     if kind == "auto":
-        kind = "direct" if (quasi or sys_.n <= o["direct_limit"]) else "cg"
+        kind = "direct" if quasi else "cg"
     if kind == "pardiso" and not linear.pardiso_available():
         raise InputError("skfem backend: linear_solver = 'pardiso' needs pypardiso (pip install pypardiso); "
                          "use 'superlu' (scipy only) or 'auto'.")
