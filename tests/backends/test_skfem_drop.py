@@ -32,7 +32,7 @@ def test_result_format(run):
         a = getattr(r, name)
         assert a.shape == r.t.shape and np.isfinite(a).all(), name
     assert r.reaction_force is None
-    assert set(r.energies) == {"kinetic", "internal", "hourglass", "contact", "external"}
+    assert set(r.energies) == {"kinetic", "internal", "hourglass", "contact", "external", "numerical_dissipation"}
     assert not r.energies["hourglass"].any()
     np.testing.assert_allclose(r.acceleration, r.contact_force / m.mass_full)
     assert 0 < r.dt_min <= r.dt_max <= OPTIONS["dt_max"] * (1 + 1e-12)
