@@ -60,6 +60,12 @@ def load(material):
     """The imported generated module for ``material`` (written on first use, then reused)."""
     from cfm_core.material.cache import cache_dir
 
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        raise InputError("skfem backend: option kernels = 'numba' (the default) needs numba "
+                         "(pip install numba, or the skfem extra); kernels = 'numpy' runs the slow "
+                         "numpy reference instead.") from None
     text = module_source(material)
     digest = hashlib.sha256(text.encode()).hexdigest()[:20]
     mod = _MODULES.get(digest)

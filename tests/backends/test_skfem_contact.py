@@ -70,20 +70,24 @@ def test_forces_and_hessian_against_finite_differences():
 
 
 def test_peak_does_not_depend_on_the_contact_stiffness():
-    """Loading phase (4 ms, small mesh), a 30x change of k: impulse within 0.2 %, filtered (CFC 600)
-    acceleration within 0.5 % at its largest value and in rel. L2; penetration small."""
-    m = build_model(builtin_scene("drop-test").with_overrides(end_time=0.004, **SMALL))
+    """Whole pulse (small mesh): the default k (100 kappa h) and a 10x stiffer one give the same
+    filtered peak to 0.5 % and the same impulse to 0.2 %; the plain penalty at the default k is
+    softer by several per cent (what the augmentation removes). Penetration stays below 1 % of h
+    and Newton at about 2-3 iterations per step."""
+    m = build_model(builtin_scene("drop-test").with_overrides(**SMALL))
     b = get_backend("skfem")
-    runs = {f: b.run(m, penalty_factor=f) for f in (30.0, 1000.0)}
-    imp = {f: r.impulse[-1] for f, r in runs.items()}
-    acc = {f: postprocess.acceleration_histories(r, m.mass_full) for f, r in runs.items()}
-    peak = {f: a[2].max() for f, a in acc.items()}
-    l2 = postprocess.compare_histories(acc[30.0][0], acc[30.0][2], acc[1000.0][0], acc[1000.0][2])["rel_l2"]
-    print("impulse (N s):", imp, "filtered peak (m/s^2):", peak, f"rel L2 {l2:.2e}",
-          "penetration / h:", {f: r.info["penetration_ratio"] for f, r in runs.items()})
-    assert abs(imp[30.0] - imp[1000.0]) < 2e-3 * imp[1000.0]
-    assert abs(peak[30.0] - peak[1000.0]) < 5e-3 * peak[1000.0] and l2 < 5e-3
-    assert all(r.info["penetration_ratio"] < 0.01 for r in runs.values())
-    # Newton stays fast through the contact changes
-    for r in runs.values():
-        assert r.info["newton_iterations"] / r.steps < 3.5
+    runs = {("augmented", f): b.run(m, penalty_factor=f) for f in (100.0, 1000.0)}
+    runs[("penalty", 100.0)] = b.run(m, penalty_factor=100.0, contact="penalty")
+    peak = {k: postprocess.acceleration_histories(r, m.mass_full)[2].max() for k, r in runs.items()}
+    imp = {k: r.impulse[-1] for k, r in runs.items()}
+    print("filtered peak (m/s^2):", peak, "impulse (N s):", imp,
+          "penetration / h:", {k: r.info["penetration_ratio"] for k, r in runs.items()})
+    ref = ("augmented", 1000.0)
+    assert abs(peak[("augmented", 100.0)] - peak[ref]) < 5e-3 * peak[ref]
+    assert abs(imp[("augmented", 100.0)] - imp[ref]) < 2e-3 * imp[ref]
+    assert peak[("penalty", 100.0)] < peak[ref] * (1 - 0.02)
+    for k, r in runs.items():
+        assert r.info["penetration_ratio"] < 0.02
+        if k[0] == "augmented":
+            assert r.info["penetration_ratio"] < 0.01
+            assert r.info["newton_iterations"] / r.steps < 3.0
