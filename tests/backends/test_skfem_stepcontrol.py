@@ -49,13 +49,18 @@ def test_steps_follow_the_tolerance(runs):
 
 
 @pytest.mark.slow
-def test_error_falls_with_the_tolerance(model, runs):
-    """Against a run with small steps (20 us cap, tolerance 1e-4): the error falls with the tolerance."""
-    ref = get_backend("skfem").run(model, error_tol=1e-4, dt_max=2e-5)
-    err = {tol: _filtered_error(r, ref, model.mass_full) for tol, r in runs.items()}
-    print("tolerance -> (peak difference, rel. L2):", err)
-    assert err[1e-3][1] < 0.7 * err[1e-2][1]
-    assert abs(err[1e-3][0]) < 0.01 and err[1e-3][1] < 0.02
+def test_error_falls_with_the_tolerance():
+    """Whole pulse, steps set by the estimate alone (dt_max 1 ms), against numba on the same mesh:
+    the filtered history's error falls with the tolerance (measured: rel. L2 8.6 % at 1e-2, 2.3 %
+    at 3e-4)."""
+    pytest.importorskip("numba")
+    m = build_model(builtin_scene("drop-test").with_overrides(**SMALL))
+    ref = get_backend("numba").run(m)
+    b = get_backend("skfem")
+    err = {tol: _filtered_error(b.run(m, error_tol=tol, dt_max=1e-3), ref, m.mass_full) for tol in (1e-2, 3e-4)}
+    print("tolerance -> (peak difference, rel. L2) vs numba:", err)
+    assert err[3e-4][1] < 0.5 * err[1e-2][1]
+    assert abs(err[3e-4][0]) < 0.04 and err[3e-4][1] < 0.04
 
 
 def test_energy_balance_closes_with_the_numerical_dissipation():
