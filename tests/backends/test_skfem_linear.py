@@ -86,3 +86,21 @@ def test_pardiso_solves_an_indefinite_system(system_matrix):
     A = s.pattern.matrix(shifted).tocsc()
     x, _ = linear.Pardiso(s.pattern).solve(shifted, b)
     assert np.linalg.norm(A @ x - b) <= 1e-8 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("options", [dict(kernels="numpy"), dict(linear_solver="superlu"),
+                                     dict(linear_solver="pardiso"), dict(linear_solver="direct")])
+def test_runs_agree_across_kernels_and_solvers(options):
+    """1 ms of the small drop test: the numpy reference kernels and every linear solver give the
+    compiled / CG run's impulse and contact force to 1e-6 (the Newton tolerance, not the path)."""
+    if options.get("linear_solver") == "pardiso" and not linear.pardiso_available():
+        pytest.skip("pypardiso not installed")
+    from cfm_core.simulation.registry import get_backend
+
+    m = build_model(builtin_scene("drop-test").with_overrides(end_time=1e-3, **SMALL))
+    b = get_backend("skfem")
+    base = b.run(m, dt_max=2e-5, error_tol=None)
+    r = b.run(m, dt_max=2e-5, error_tol=None, **options)
+    assert r.steps == base.steps and r.info["kernels"] == options.get("kernels", "numba")
+    np.testing.assert_allclose(r.impulse, base.impulse, rtol=1e-6, atol=1e-9 * np.abs(base.impulse).max())
+    np.testing.assert_allclose(r.contact_force, base.contact_force, rtol=1e-5, atol=1e-6 * np.abs(base.contact_force).max())
