@@ -115,7 +115,6 @@ class CompiledElements:
         self.conn = np.ascontiguousarray(disc.conn, dtype=np.int64)
         self.dN = np.ascontiguousarray(disc.dN)
         self.w = np.ascontiguousarray(disc.w)
-        self.vol = np.ascontiguousarray(disc.volume)
         self.fe = np.zeros((E, 24))
         self.Ke = np.zeros((E, 24, 24))
         self.theta = np.zeros(E)
@@ -139,7 +138,7 @@ class CompiledElements:
         H_new = np.empty_like(hist.H)
         S0_new = np.empty_like(hist.S0)
         u = np.ascontiguousarray(u, dtype=np.float64)
-        self.mod.elements(u, self.conn, self.dN, self.w, self.vol, self.params, decay, gain, ginf, feff,
+        self.mod.elements(u, self.conn, self.dN, self.w, self.params, decay, gain, ginf, feff,
                           hist.H, hist.S0, H_new, S0_new, self.full, tangent, self.fe, self.Ke, self.theta,
                           self.status, self.jbad)
         if self.status.any():

@@ -199,12 +199,13 @@ def volumetric_derivatives(theta, p):
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def elements(u, conn, dN, w, vol, p, decay, gain, ginf, feff, H_old, S0_old, H_new, S0_new,
+def elements(u, conn, dN, w, p, decay, gain, ginf, feff, H_old, S0_old, H_new, S0_new,
              full, tangent, fe, Ke, theta, status, jbad):
     """Forces fe (E, 24) in N and stiffness Ke (E, 24, 24) in N/m of all elements (parallel).
 
-    u (n, 3) nodal displacements (m); conn (E, 8); dN (E, Q, 8, 3) (1/m); w (E, Q) (m^3); vol (E,)
-    (m^3); H_old/H_new (k, E*Q, 6), S0_old/S0_new (E*Q, 6) Prony state (Pa), the new state written
+    u (n, 3) nodal displacements (m); conn (E, 8); dN (E, Q, 8, 3) (1/m); w (E, Q) (m^3) (the
+    element volume is their sum, taken in the kernel so that theta = 1 exactly at rest);
+    H_old/H_new (k, E*Q, 6), S0_old/S0_new (E*Q, 6) Prony state (Pa), the new state written
     from the old (the old one is untouched, so a rejected iterate costs nothing); full: volumetric
     term at every Gauss point instead of mean dilatation. theta (E,) volume ratios (-); status (E,)
     0 ok, 1 inverted (jbad = J), 2 non-finite material derivative.
