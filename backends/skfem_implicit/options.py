@@ -27,8 +27,9 @@ class SkfemOptions(Options):
     rho_inf: float = option(0.0, "-", "generalized-alpha spectral radius at infinite frequency (1: Newmark "
                             "average acceleration, no damping; 0: strongest damping of the highest modes)",
                             low=0.0, high=1.0)
-    error_tol: float = option(2e-3, "-", "local error tolerance of a dynamic step (Zienkiewicz-Xie estimate, "
-                              "mass-weighted RMS relative to the displacement)", low=0.0, low_open=True,
+    error_tol: float = option("auto", "-", "local error tolerance of a dynamic step (Zienkiewicz-Xie estimate, "
+                              "mass-weighted RMS relative to the displacement); 'auto': 2e-3 for impact scenes "
+                              "(rigid impactor), None for the others", kind="any", low=0.0, low_open=True,
                               none="steps set by Newton only (grow / cut)")
     dt: float = option(None, "s", "first step", low=0.0, low_open=True,
                        none="output interval / 10 (dynamic) or segment / segment_steps")
@@ -43,7 +44,7 @@ class SkfemOptions(Options):
                         high_open=True)
     max_iterations: int = option(15, "-", "Newton iterations per step before the step is cut", low=1)
     rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term", low=0.0,
-                         low_open=True, none="1e-6 dynamic, 1e-9 quasi-static")
+                         low_open=True, none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
     atol: float = option(None, "N", "absolute Newton residual tolerance", low=0.0, low_open=True,
                          none="1e-10 kappa0 h^2")
     contact: str = option("augmented", "-", "contact: augmented Lagrangian (multipliers updated every step) or "
@@ -70,6 +71,19 @@ class SkfemOptions(Options):
 DEFAULTS = {name: getattr(SkfemOptions, name) for name in SkfemOptions.specs()}
 
 
+def _check_error_tol(value):
+    """error_tol: 'auto', None or a number > 0 (InputError otherwise)."""
+    if value is None or value == "auto":
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value < float("inf")):
+        from cfm_core.errors import InputError
+
+        raise InputError(f"skfem backend: option error_tol = {value!r} (-) is not allowed; expected 'auto', None "
+                         f"(steps set by Newton only) or a number in (0, inf) (local error tolerance of a "
+                         f"dynamic step).")
+    return float(value)
+
+
 def check_options(options: dict) -> dict:
     """The checked options as a dict (name -> value), defaults filled in.
 
@@ -79,4 +93,6 @@ def check_options(options: dict) -> dict:
         An unknown option (the allowed names are listed) or a value outside its declaration (the
         option, its value, unit and the allowed values are named).
     """
-    return SkfemOptions.from_mapping(options).as_dict()
+    o = SkfemOptions.from_mapping(options).as_dict()
+    o["error_tol"] = _check_error_tol(o["error_tol"])
+    return o

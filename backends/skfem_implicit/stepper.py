@@ -96,7 +96,7 @@ class Stepper:
         self.linear_solver = linear_solver  # an object of .linear with solve(data, b) -> (x, iterations)
         self.constraints = Constraints(system.pattern, system.constrained)
         self.atol = atol
-        self.rtol = o["rtol"] if o["rtol"] is not None else (1e-9 if system.quasi_static else 1e-6)
+        self.rtol = o["rtol"] if o["rtol"] is not None else (1e-6 if system.has_w else 1e-9)
         self.dynamic = not system.quasi_static
         self.alpha_m, self.alpha_f, self.beta, self.gamma = generalized_alpha(o["rho_inf"])
         self.times = system.times  # s per phase, shared with the system and the linear solver
@@ -191,11 +191,13 @@ class Stepper:
         augment = o["contact"] == "augmented"
         diss = 0.0
         if self.dynamic:
-            # the integrator's energy identity: dq . R = dK + dW_int + dW_c + D - dW_ext, with
+            # the integrator's energy identity on the free dofs (where R = 0 is solved; the work of
+            # the prescribed ones is the reaction's, recorded as external work):
+            # dq . R = dK + dW_int + dW_c + D - dW_ext, with
             # D = dq . M abar - dK + (1/2 - alpha_f) dq . (f_(n+1) - f_n)   (J, modelled part)
-            dqs = q - s.q
+            dqs = np.where(free, q - s.q, 0.0)
             abar = (1.0 - am) * a1 + am * s.a
-            dK = 0.5 * dot(sys.mass * (v1 + s.v), v1 - s.v)
+            dK = 0.5 * dot(np.where(free, sys.mass * (v1 + s.v), 0.0), v1 - s.v)
             diss = (dot(dqs, sys.mass * abar) - dK
                     + (0.5 - af) * dot(dqs, f_new - s.f_int - s.f_c))
             # local error of the step (Zienkiewicz-Xie): e = (beta - 1/6) dt^2 (a_(n+1) - a_n) (m),
