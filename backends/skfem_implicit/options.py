@@ -51,6 +51,9 @@ class SkfemOptions(Options):
                           "plain penalty", choices=("augmented", "penalty"))
     penalty: float = option(None, "N/m", "contact augmentation (penalty) stiffness per node", low=0.0,
                             low_open=True, none="penalty_factor x kappa0 x h")
+    penetration_tol: float = option(0.01, "-", "augmented contact: largest penetration (fraction of the element "
+                                    "size) before the multipliers are updated again within a step", low=0.0,
+                                    low_open=True)
     penalty_factor: float = option(100.0, "-", "penalty in units of kappa0 h (kappa0 small-strain bulk modulus, "
                                    "h element size)", low=0.0, low_open=True)
     linear_solver: str = option("auto", "-", "linear solver ('direct': pardiso if installed, else superlu; "

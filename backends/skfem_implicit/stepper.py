@@ -127,9 +127,13 @@ class Stepper:
         r0 = None
         lam = (s.lam_sphere, s.lam_plane) if s.lam_sphere is not None else None
         times = self.times
+        augment = o["contact"] == "augmented"
+        pen_tol = o["penetration_tol"] * sys.disc.size
+        augmentations = 0
+        k_step = sys.penalty
         for it in range(o["max_iterations"] + 1):
             try:
-                ev = sys.evaluate(q, s.hist, dt, tangent=True, lam=lam)
+                ev = sys.evaluate(q, s.hist, dt, tangent=True, lam=lam, k=k_step)
             except Inverted as exc:
                 raise StepFailure(f"J = {exc.value:.4g} <= 0 in element {exc.element}", "J", exc.element, exc.value)
             except NumericalError as exc:
@@ -157,6 +161,18 @@ class Stepper:
             if not np.isfinite(rn):
                 raise StepFailure("non-finite residual", "residual")
             if rn <= tol:
+                cs = ev.contact
+                if (augment and cs is not None and augmentations < 5
+                        and max(cs.max_pen_sphere, cs.max_pen_plane) > pen_tol):
+                    # penetration above the tolerance: update the multipliers within the step
+                    # (an Uzawa iteration; from the second one on with a 4x stiffer k for this step,
+                    # where the tissue is much stiffer than k) and continue Newton from here
+                    lam = (cs.p_sphere, cs.p_plane)
+                    augmentations += 1
+                    if augmentations >= 2:
+                        k_step *= 4.0
+                    r0 = None
+                    continue
                 info.iterations = it
                 break
             if r0 is None:
@@ -188,7 +204,6 @@ class Stepper:
             pr = sys.model.prescribed
             v1[sys.presc_dofs] = pr.velocity(t1 - 1e-12 * dt) if self.dynamic else 0.0
         cs = ev.contact
-        augment = o["contact"] == "augmented"
         diss = 0.0
         if self.dynamic:
             # the integrator's energy identity on the free dofs (where R = 0 is solved; the work of

@@ -101,10 +101,11 @@ class System:
         return q[: 3 * self.n_nodes].reshape(-1, 3)
 
     def evaluate(self, q: np.ndarray, hist: History | None, dt: float, tangent: bool = True,
-                 lam: tuple[np.ndarray, np.ndarray] | None = None) -> Evaluation:
+                 lam: tuple[np.ndarray, np.ndarray] | None = None, k: float | None = None) -> Evaluation:
         """Internal and contact forces (N) and tangent (N/m, without the mass term) at q for a step dt (s).
 
-        lam: contact multipliers (N) of the sphere and plane candidate nodes (None: zero).
+        lam: contact multipliers (N) of the sphere and plane candidate nodes (None: zero); k: contact
+        stiffness (N/m per node; None: ``self.penalty``).
         Raises :class:`element.Inverted` (J <= 0) and NumericalError (non-finite material values).
         """
         u = self.displacement(q)
@@ -129,7 +130,8 @@ class System:
             w = float(q[self.w_dof]) if self.has_w else 0.0
             lam_s, lam_p = lam if lam is not None else self.zero_multipliers()
             cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
-                                  self.plane_nodes, self.penalty, self.w_dof, lam_s, lam_p, tangent=tangent)
+                                  self.plane_nodes, self.penalty if k is None else k, self.w_dof, lam_s, lam_p,
+                                  tangent=tangent)
             for dofs, vals in cs.grad:
                 np.add.at(f_c, dofs, vals)
         if tangent:
