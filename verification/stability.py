@@ -42,12 +42,8 @@ EXPECTED = {
 #: Rows that fail today, by the verdict's name for them, with what is known. They still FAIL the
 #: suite (the 1 % rule is the project's); tests/verification/test_verify_quick.py accepts exactly
 #: these and fails when one disappears, so that a fix removes its entry.
-KNOWN_DEFECTS = {
-    "stability / k2 = 50 / skfem": "energy-balance error 1.05 % in quick mode (generalized-alpha, rho_inf = 0, "
-                                   "with penalty contact); the skfem backend is being rewritten",
-    "stability / 2 mm specimen / skfem": "energy-balance error 1.87 % in quick mode",
-    "stability / impact at 5 m/s / skfem": "energy-balance error 6.09 % in quick mode",
-}
+KNOWN_DEFECTS: dict[str, str] = {}  # none since the skfem rewrite (issue 12): its energy balance
+#: counts the integrator's numerical dissipation as its own term, and the 5 m/s impact completes
 
 
 def expected(case: str, backend: dict) -> str:

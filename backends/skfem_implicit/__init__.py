@@ -1,42 +1,48 @@
-"""Implicit dynamics and quasi-static analysis with scikit-fem: the ``skfem`` backend.
+"""Implicit dynamics and quasi-static analysis of hexahedral meshes: the ``skfem`` backend.
 
-Total Lagrangian hex8 elements assembled with scikit-fem's hexahedral basis (2 x 2 x 2 Gauss
-points), locking free through the mean-dilatation (Q1/P0, equivalently F-bar) treatment of the
-volumetric term; Newton's method with the consistent tangent taken from the material's single
-definition (generated psi_grad / psi_hess and :func:`cfm_core.material.kinematics.tangent_from_principal`,
-exact at repeated principal stretches; Prony history at the Gauss points with the tangent factor
-:func:`cfm_core.material.prony.effective_factor`); generalized-alpha time integration for dynamic scenes
-(rho_inf = 1 is Newmark average acceleration; the default rho_inf = 0 damps the penalty-contact
-chatter, which makes the trapezoidal rule gain energy), a quasi-static mode (no inertia) for
-scenes with ``model.meta["quasi_static"]``; adaptive steps (cut and retry when Newton fails,
-grow when it converges fast); nodal penalty contact with the rigid sphere and plane, the sphere
-being a rigid body with one dof (z) solved monolithically with the specimen (docs/conventions.md
-section 5). scikit-fem is imported only when a run starts.
+What scikit-fem does here (:mod:`.discretization`, once per run): the mesh object (``MeshHex1``),
+the trilinear hexahedron (``ElementHex1``) and its 2 x 2 x 2 Gauss rule, the isoparametric map
+(``Basis``): shape-function gradients dN/dX and integration weights w = weight x det J at every
+Gauss point, from which the lumped masses are summed. Everything after that is this project's own
+code, because scikit-fem's form assembly is built for linear forms evaluated once, not for a
+Newton iteration every few milliseconds:
 
-Options of :meth:`SkfemImplicitBackend.run` (all optional, see ``options.DEFAULTS``):
-``quasi_static`` (None: from the model), ``volumetric`` ("mean-dilatation" | "full"),
-``rho_inf`` (generalized-alpha, default 0), ``dt``, ``dt_min``, ``dt_max`` (s; default dt_max =
-the model's output interval, so histories are recorded at least that often), ``segment_steps``
-(steps per moving segment of a prescribed motion, default 50), ``grow``, ``grow_iterations``,
-``cut``, ``max_iterations``, ``rtol``, ``atol`` (N), ``penalty`` (N/m per node; default
-``penalty_factor`` (1e4) x kappa0 x h, kappa0 the small-strain bulk modulus, h the element size:
-penetration well below 1 % of h), ``penalty_gap`` (default 1e-3 x h: the penalty force rises
-quadratically over this first gap, so it is C^1 and Newton converges through contact changes),
-``linear_solver`` ("auto" | "direct" | "cg"), ``direct_limit``,
-``separation_time`` (s, default 2e-4), ``frame_interval`` (s), ``max_steps``, ``record_newton``
-(residual sequences in info["newton"]).
+- :mod:`.kernels` / :mod:`.compiled`: the Gauss-point and element work, compiled with numba from
+  the material's generated scalar code (the single definition the numba backend also compiles):
+  F, eigen-decomposition of C, stress, consistent tangent (exact at repeated principal stretches),
+  Prony history, B^T D B, geometric and mean-dilatation (F-bar type, locking-free) terms;
+  :mod:`.element` with :mod:`.constitutive` is the numpy reference of the same (``kernels="numpy"``),
+  against which the tests check the compiled path;
+- :mod:`.linear`: a fixed CSR pattern assembled in place, Dirichlet rows, and the solvers: MKL
+  PARDISO via ctypes (pypardiso's library; ordering and symbolic analysis once per run, symmetric
+  indefinite), block-Jacobi CG (compiled), SuperLU (scipy only);
+- :mod:`.contact`: frictionless node-to-rigid-surface contact with the sphere (a rigid body with
+  one dof, solved monolithically) and the plane, augmented Lagrangian with one multiplier update
+  per step and semi-smooth Newton;
+- :mod:`.stepper` / :mod:`.solver`: generalized-alpha (rho_inf = 0 by default; 1 is Newmark
+  average acceleration) or quasi-static steps, Newton with the consistent tangent, step size from
+  a local error estimate (Zienkiewicz-Xie) with the tolerance ``error_tol``, the integrator's
+  numerical dissipation as its own energy term.
 
-Result.info: elements, dofs, linear_solver, volumetric, integrator, element_size (m),
-newton_iterations, rejected_steps, linear_iterations (CG), setup_time (s); with contact: penalty
-(N/m), penalty_gap (m), max_penetration_sphere / max_penetration_plane (m), penetration_ratio (-, over h), separated.
+Options of :meth:`SkfemImplicitBackend.run`: :class:`.options.SkfemOptions` (name, default, unit,
+range and meaning of each; bad values raise InputError naming the option).
+
+Result.info: elements, dofs, linear_solver, kernels, volumetric, integrator, element_size (m),
+newton_iterations, rejected_steps (Newton failures), error_rejections (steps redone for accuracy),
+linear_iterations (CG), setup_time (s, mesh, compilation or loading of the kernels, symbolic
+analysis; not in wall_time), times (s per phase: element, assembly, factorization, solve), counts,
+error_tol, failures; with contact: contact, penalty (N/m), max_penetration_sphere /
+max_penetration_plane (m), penetration_ratio (-, over h), separated.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cfm_core.simulation.backend import Backend
 from cfm_core.errors import InputError
+from cfm_core.simulation.backend import Backend
+
+from .options import SkfemOptions
 
 __all__ = ["SkfemImplicitBackend"]
 
@@ -47,8 +53,10 @@ class SkfemImplicitBackend(Backend):
     name = "skfem"
     kind = "implicit"
     quasi_static = True
-    description = ("implicit total Lagrangian hex8 (2x2x2 Gauss, mean dilatation), Newton with the "
-                   "consistent tangent, Newmark or quasi-static, adaptive steps, penalty contact; scikit-fem")
+    description = ("implicit total Lagrangian hex8 (scikit-fem basis, 2x2x2 Gauss, mean dilatation, compiled "
+                   "kernels), Newton with the consistent tangent, generalized-alpha or quasi-static, "
+                   "error-controlled steps, augmented-Lagrangian contact, PARDISO / CG")
+    options = SkfemOptions
     needs_tangent = True
     devices = ("cpu",)
     dtypes = ("float64",)
@@ -57,7 +65,7 @@ class SkfemImplicitBackend(Backend):
     def run(self, model, *, progress=None, **options):
         """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
 
-        See the module docstring for the options. Raises InputError (unsupported model or bad
+        Options: :class:`.options.SkfemOptions`. Raises InputError (unsupported model or bad
         option) or NumericalError (step failure at the smallest step, naming element, time (s)
         and quantity).
         """

@@ -1,19 +1,26 @@
-"""Nodal penalty contact with a rigid sphere (one dof: its z displacement w) and a rigid plane.
+"""Frictionless node-to-rigid-surface contact: augmented Lagrangian, semi-smooth Newton (project code).
 
-Penetrations (m, positive when inside): sphere g = R - |d|, d = x - c(w), c(w) = c0 + w e_z;
-plane g = z_p - x_z. Penalty force p(g) (N) with stiffness k (N/m per node), made C^1 over a
-small gap g0 (m) so that Newton keeps converging when nodes enter or leave contact:
+Penetrations (m, positive when inside): sphere g = R - |d|, d = x - c(w), c(w) = c0 + w e_z (w the
+impactor's z displacement, its only dof); plane g = z_p - x_z. Each candidate node carries a
+multiplier lambda (N, its contact force at the last converged step). Within a step lambda is fixed
+and the nodal contact force is
 
-    p = 0 (g <= 0),   k g^2 / (2 g0) (0 < g < g0),   k (g - g0/2) (g >= g0)
-    phi = int_0^g p = k g^3 / (6 g0)  or  k (g^2/2 - g0 g/2 + g0^2/6)     (energy, J)
+    p = max(0, lambda + k g)                                     (N)
 
-With y = (x, w) and d = B y - c0, B = [I, -e_z]:
+with k (N/m) the augmentation (penalty) stiffness. Newton sees the generalised derivative of
+this semi-smooth law (dp/dg = k on active nodes, 0 otherwise), so once the active set settles it
+converges quadratically; after each converged step lambda <- p (one augmentation per step,
+"Uzawa per step"), so the penetration that remains is the change of the force over one step
+divided by k, not the force divided by k: the force, and the peak, no longer depend on k (test
+``test_skfem_contact``). ``contact="penalty"`` keeps lambda = 0 (the plain penalty law).
 
-    dPhi/dy   = p dg/dy,               dg/dy = -B^T n,   n = d / |d|
-    d2Phi/dy2 = p' dg dg^T + p d2g,    d2g   = -B^T (I - n n^T) B / |d|
+With y = (x, w) and d = B y - c0, B = [I, -e_z] (n = d / |d|):
 
-the exact Hessian (symmetric). The contact force on the impactor (N, +z, modelled part) is
--dPhi/dw = -sum k g n_z, positive when the specimen decelerates a downward-moving impactor.
+    f = p dg/dy,                  dg/dy = -B^T n
+    K = dp/dg dg dg^T + p d2g,    d2g   = -B^T (I - n n^T) B / |d|
+
+the exact (generalised) Hessian, symmetric. The force on the impactor (N, +z, modelled part) is
+-f_w = -sum p n_z, positive when the specimen decelerates a downward-moving impactor.
 Frictionless: a friction coefficient other than 0 is rejected by the solver.
 """
 
@@ -26,13 +33,17 @@ import numpy as np
 
 @dataclass
 class ContactState:
-    """Active nodes and their contributions (modelled part).
+    """Contributions of the candidate nodes (modelled part).
 
-    energy (J); force_on_impactor (N, +z); max_pen_sphere / max_pen_plane (m);
-    grad: list of (dofs (m,), values (m,)); hess: list of (rows, cols, values) COO triplets.
+    p_sphere (ns,), p_plane (np,): nodal contact forces (N) of the sphere and plane candidates, in
+    the order of the candidate lists (the new multipliers once the step is accepted);
+    force_on_impactor (N, +z); max_pen_sphere / max_pen_plane (m, largest penetration);
+    grad: list of (dofs (m,), values (m,)) (N); hess: list of (rows, cols, values) COO triplets (N/m);
+    n_active: active nodes.
     """
 
-    energy: float
+    p_sphere: np.ndarray
+    p_plane: np.ndarray
     force_on_impactor: float
     max_pen_sphere: float
     max_pen_plane: float
@@ -41,41 +52,34 @@ class ContactState:
     n_active: int
 
 
-def penalty_law(g: np.ndarray, k: float, g0: float):
-    """(p, dp/dg, phi) of the C^1 penalty law for penetrations g > 0 (m): N, N/m, J."""
-    lo = g < g0
-    p = np.where(lo, 0.5 * k * g * g / g0, k * (g - 0.5 * g0))
-    dp = np.where(lo, k * g / g0, k)
-    phi = np.where(lo, k * g ** 3 / (6.0 * g0), k * (0.5 * g * g - 0.5 * g0 * g + g0 * g0 / 6.0))
-    return p, dp, phi
-
-
 def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, plane_nodes: np.ndarray,
-             k: float, w_dof: int, tangent: bool = True, g0: float = 0.0) -> ContactState:
+             k: float, w_dof: int, lam_sphere: np.ndarray, lam_plane: np.ndarray,
+             tangent: bool = True) -> ContactState:
     """Contact contributions at current positions x (n, 3) (m) and impactor displacement w (m).
 
-    g0 (m): smoothing gap of the penalty law (0: the plain k/2 <g>^2).
+    k: augmentation stiffness (N/m per node); lam_sphere (ns,), lam_plane (np,): multipliers (N) of
+    the candidate nodes ``sphere_nodes`` / ``plane_nodes``.
     """
-    g0 = max(float(g0), 1e-300)
-    energy, fz, pen_s, pen_p, n_active = 0.0, 0.0, 0.0, 0.0, 0
+    fz, pen_s, pen_p, n_active = 0.0, 0.0, 0.0, 0
     grad, hess = [], []
+    p_s = np.zeros(len(sphere_nodes))
+    p_p = np.zeros(len(plane_nodes))
     if sphere is not None and len(sphere_nodes):
         c = np.array(sphere.center, dtype=np.float64)
         c[2] += w
         d = x[sphere_nodes] - c
         r = np.sqrt(np.einsum("ni,ni->n", d, d))
         g = sphere.radius - r
-        act = g > 0.0
+        pen_s = max(0.0, float(g.max()))
+        trial = lam_sphere + k * g
+        act = trial > 0.0
         if act.any():
-            nodes, g, r, d = sphere_nodes[act], g[act], r[act], d[act]
+            p_s[act] = trial[act]
+            nodes, r, d, p = sphere_nodes[act], r[act], d[act], trial[act]
             n = d / r[:, None]
             m = nodes.size
             n_active += m
-            p, dp, phi = penalty_law(g, k, g0)
-            energy += float(np.sum(phi))
-            pen_s = float(g.max())
-            # gradient over (x_node (3), w): a = [-n, n_z]
-            a = np.concatenate([-n, n[:, 2:3]], axis=1)  # (m, 4)
+            a = np.concatenate([-n, n[:, 2:3]], axis=1)  # dg/d(x_node, w), (m, 4)
             dofs = np.concatenate([3 * nodes[:, None] + np.arange(3)[None, :],
                                    np.full((m, 1), w_dof)], axis=1)  # (m, 4)
             grad.append((dofs.ravel(), (p[:, None] * a).ravel()))
@@ -85,22 +89,22 @@ def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, p
                 Bm = np.zeros((m, 3, 4))
                 Bm[:, :, :3] = np.eye(3)
                 Bm[:, 2, 3] = -1.0
-                d2g = -np.einsum("mij,mjk,mkl->mil", Bm.transpose(0, 2, 1), P, Bm) / r[:, None, None]
-                H = dp[:, None, None] * a[:, :, None] * a[:, None, :] + p[:, None, None] * d2g  # (m, 4, 4)
+                d2g = -np.einsum("mji,mjk,mkl->mil", Bm, P, Bm) / r[:, None, None]
+                H = k * a[:, :, None] * a[:, None, :] + p[:, None, None] * d2g  # (m, 4, 4)
                 rows = np.broadcast_to(dofs[:, :, None], H.shape)
                 cols = np.broadcast_to(dofs[:, None, :], H.shape)
                 hess.append((rows.ravel(), cols.ravel(), H.ravel()))
     if plane is not None and len(plane_nodes):
         g = plane.z - x[plane_nodes, 2]
-        act = g > 0.0
+        pen_p = max(0.0, float(g.max()))
+        trial = lam_plane + k * g
+        act = trial > 0.0
         if act.any():
-            nodes, g = plane_nodes[act], g[act]
+            p_p[act] = trial[act]
+            nodes = plane_nodes[act]
             n_active += nodes.size
-            p, dp, phi = penalty_law(g, k, g0)
-            energy += float(np.sum(phi))
-            pen_p = float(g.max())
             dofs = 3 * nodes + 2
-            grad.append((dofs, -p))
+            grad.append((dofs, -trial[act]))
             if tangent:
-                hess.append((dofs, dofs, dp))
-    return ContactState(energy, fz, pen_s, pen_p, grad, hess, n_active)
+                hess.append((dofs, dofs, np.full(nodes.size, k)))
+    return ContactState(p_s, p_p, fz, pen_s, pen_p, grad, hess, n_active)

@@ -1,79 +1,101 @@
-"""Options of the skfem backend's ``run``, their defaults and checks (InputError on a bad one)."""
+"""Options of the skfem backend's ``run``: one typed declaration (unit, default, range, meaning).
+
+:class:`SkfemOptions` is a frozen dataclass of :func:`cfm_core.simulation.options.option` fields;
+constructing it checks every value (InputError naming the option, the value, its unit and what is
+allowed). :func:`check_options` returns the checked options as a dict for the solver.
+"""
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
 
-from cfm_core.errors import InputError
+from cfm_core.simulation.options import Options, document, option
 
-DEFAULTS = {
-    "quasi_static": None,        # None: model.meta["quasi_static"]; True: no inertia; False: Newmark
-    "volumetric": "mean-dilatation",  # locking-free element; "full": U(J) at every Gauss point
-    "rho_inf": 0.0,              # generalized-alpha spectral radius at infinite frequency (-);
-                                 # 1: Newmark average acceleration (trapezoidal rule, no damping),
-                                 # which chatters and gains energy with stiff penalty contact
-    "dt": None,                  # first step (s); None: dt_max / 10 (dynamic) or segment / segment_steps
-    "dt_min": None,              # smallest step (s) before giving up; None: 1e-5 x dt_max
-    "dt_max": None,              # largest step (s); None: the model's output_interval
-    "segment_steps": 50,         # at least this many steps per moving segment of a prescribed motion
-    "grow": 1.5,                 # step growth factor after a fast Newton convergence (-)
-    "grow_iterations": 4,        # ... i.e. in at most this many iterations
-    "cut": 0.5,                  # step reduction factor after a failed step (-)
-    "max_iterations": 15,        # Newton iterations per step before the step is cut
-    "rtol": 1e-9,                # residual tolerance relative to the largest force term (-)
-    "atol": None,                # absolute residual tolerance (N); None: 1e-10 kappa0 h^2
-    "penalty": None,             # contact penalty (N/m per node); None: penalty_factor kappa0 h
-    "penalty_factor": 1e4,       # (-), see penalty
-    "penalty_gap": 1e-3,         # (-) x h: the penalty force is C^1, quadratic over this first gap
-    "linear_solver": "auto",     # "direct" (SuperLU), "cg" (block-Jacobi CG) or "auto"
-    "direct_limit": 6000,        # "auto": direct below this many dofs (or for quasi-static runs)
-    "separation_time": 2e-4,     # s after the impactor left the specimen before stopping
-    "frame_interval": None,      # s; store (t, displacement (n, 3)) frames this often
-    "max_steps": 1_000_000,      # guard against runaway runs
-    "record_newton": False,      # keep every step's residual sequence in info["newton"]
-}
+@document
+@dataclass(frozen=True)
+class SkfemOptions(Options):
+    """Options of the implicit scikit-fem backend (SI units)."""
 
-_CHOICES = {"volumetric": ("mean-dilatation", "full"), "linear_solver": ("auto", "direct", "cg")}
+    owner = "skfem backend"
+
+    quasi_static: bool = option(None, "-", "no inertia (True) or generalized-alpha dynamics (False)", kind="bool",
+                                none="from the model's meta['quasi_static']")
+    volumetric: str = option("mean-dilatation", "-", "volumetric treatment: locking-free mean dilatation, or "
+                             "U(J) at every Gauss point", choices=("mean-dilatation", "full"))
+    kernels: str = option("numba", "-", "Gauss-point and element work: compiled (numba) or the numpy reference",
+                          choices=("numba", "numpy"))
+    rho_inf: float = option(0.0, "-", "generalized-alpha spectral radius at infinite frequency (1: Newmark "
+                            "average acceleration, no damping; 0: strongest damping of the highest modes)",
+                            low=0.0, high=1.0)
+    error_tol: float = option("auto", "-", "local error tolerance of a dynamic step (Zienkiewicz-Xie estimate, "
+                              "mass-weighted RMS relative to the displacement); 'auto': 2e-3 for impact scenes "
+                              "(rigid impactor), None for the others", kind="any", low=0.0, low_open=True,
+                              none="steps set by Newton only (grow / cut)")
+    dt: float = option(None, "s", "first step", low=0.0, low_open=True,
+                       none="output interval / 10 (dynamic) or segment / segment_steps")
+    dt_min: float = option(None, "s", "smallest step before giving up", low=0.0, low_open=True, none="1e-5 dt_max")
+    dt_max: float = option(None, "s", "largest step", low=0.0, low_open=True,
+                           none="2.5 output intervals with error control, else one output interval")
+    segment_steps: int = option(50, "-", "at least this many steps per moving segment of a prescribed motion", low=1)
+    grow: float = option(1.5, "-", "step growth after a fast Newton convergence (error_tol None)", low=1.0,
+                         high=4.0, low_open=True)
+    grow_iterations: int = option(4, "-", "'fast' means at most this many Newton iterations", low=1)
+    cut: float = option(0.5, "-", "step reduction after a failed step", low=0.0, high=1.0, low_open=True,
+                        high_open=True)
+    max_iterations: int = option(15, "-", "Newton iterations per step before the step is cut", low=1)
+    rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term", low=0.0,
+                         low_open=True, none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
+    atol: float = option(None, "N", "absolute Newton residual tolerance", low=0.0, low_open=True,
+                         none="1e-10 kappa0 h^2")
+    contact: str = option("augmented", "-", "contact: augmented Lagrangian (multipliers updated every step) or "
+                          "plain penalty", choices=("augmented", "penalty"))
+    penalty: float = option(None, "N/m", "contact augmentation (penalty) stiffness per node", low=0.0,
+                            low_open=True, none="penalty_factor x kappa0 x h")
+    penetration_tol: float = option(0.01, "-", "augmented contact: largest penetration (fraction of the element "
+                                    "size) before the multipliers are updated again within a step", low=0.0,
+                                    low_open=True)
+    penalty_factor: float = option(100.0, "-", "penalty in units of kappa0 h (kappa0 small-strain bulk modulus, "
+                                   "h element size)", low=0.0, low_open=True)
+    linear_solver: str = option("auto", "-", "linear solver ('direct': pardiso if installed, else superlu; "
+                                "'auto': cg for dynamic runs, direct for quasi-static ones)",
+                                choices=("auto", "direct", "pardiso", "superlu", "cg"))
+    cg_rtol: float = option(1e-4, "-", "CG: largest relative residual of a linear solve (smaller near Newton "
+                            "convergence: at most 0.1 x the Newton tolerance)", low=0.0, high=1.0, low_open=True,
+                            high_open=True)
+    cg_maxiter: int = option(400, "-", "CG iterations before the direct solver takes over", low=1)
+    separation_time: float = option(2e-4, "s", "time after the impactor left the specimen before stopping",
+                                    low=0.0, low_open=True)
+    frame_interval: float = option(None, "s", "store (t, displacement) frames this often", low=0.0,
+                                   low_open=True, none="no frames")
+    max_steps: int = option(1_000_000, "-", "guard against runaway runs", low=1)
+    record_newton: bool = option(False, "-", "keep every step's residual sequence in info['newton']")
 
 
-def _positive(o, key, allow_none=False, unit="s"):
-    v = o[key]
-    if v is None and allow_none:
-        return
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise InputError(f"skfem backend: {key} = {v!r} {unit} must be a finite number > 0"
-                         f"{' or None (automatic)' if allow_none else ''}.")
+DEFAULTS = {name: getattr(SkfemOptions, name) for name in SkfemOptions.specs()}
+
+
+def _check_error_tol(value):
+    """error_tol: 'auto', None or a number > 0 (InputError otherwise)."""
+    if value is None or value == "auto":
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value < float("inf")):
+        from cfm_core.errors import InputError
+
+        raise InputError(f"skfem backend: option error_tol = {value!r} (-) is not allowed; expected 'auto', None "
+                         f"(steps set by Newton only) or a number in (0, inf) (local error tolerance of a "
+                         f"dynamic step).")
+    return float(value)
 
 
 def check_options(options: dict) -> dict:
-    """Options merged over DEFAULTS; unknown names and bad values raise InputError."""
-    unknown = set(options) - set(DEFAULTS)
-    if unknown:
-        raise InputError(f"skfem backend: unknown option(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(DEFAULTS)}.")
-    o = {**DEFAULTS, **options}
-    for key, allowed in _CHOICES.items():
-        if o[key] not in allowed:
-            raise InputError(f"skfem backend: {key} = {o[key]!r}; use one of {', '.join(map(repr, allowed))}.")
-    for key in ("dt", "dt_min", "dt_max", "frame_interval"):
-        _positive(o, key, allow_none=True)
-    _positive(o, "penalty", allow_none=True, unit="N/m")
-    _positive(o, "atol", allow_none=True, unit="N")
-    if isinstance(o["penalty_gap"], bool) or not isinstance(o["penalty_gap"], (int, float)) or not 0.0 <= o["penalty_gap"] < 0.1:
-        raise InputError(f"skfem backend: penalty_gap = {o['penalty_gap']!r} (-, fraction of the element size) "
-                         f"must be in [0, 0.1); 0 gives the plain (C^0) penalty law.")
-    for key in ("penalty_factor", "rtol", "separation_time"):
-        _positive(o, key, unit="" if key != "separation_time" else "s")
-    r = o["rho_inf"]
-    if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 <= r <= 1.0:
-        raise InputError(f"skfem backend: rho_inf = {r!r} (-) must be in [0, 1] (1: Newmark average "
-                         f"acceleration, no numerical damping; 0: strongest damping of the highest modes).")
-    if not (1.0 < o["grow"] <= 4.0 and 0.0 < o["cut"] < 1.0):
-        raise InputError(f"skfem backend: grow = {o['grow']!r} must be in (1, 4] and cut = {o['cut']!r} in (0, 1).")
-    for key in ("segment_steps", "grow_iterations", "max_iterations", "max_steps", "direct_limit"):
-        v = o[key]
-        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-            raise InputError(f"skfem backend: {key} = {v!r} must be an integer >= 1.")
-    if o["quasi_static"] not in (None, True, False):
-        raise InputError(f"skfem backend: quasi_static = {o['quasi_static']!r} must be True, False or None.")
+    """The checked options as a dict (name -> value), defaults filled in.
+
+    Raises
+    ------
+    InputError
+        An unknown option (the allowed names are listed) or a value outside its declaration (the
+        option, its value, unit and the allowed values are named).
+    """
+    o = SkfemOptions.from_mapping(options).as_dict()
+    o["error_tol"] = _check_error_tol(o["error_tol"])
     return o

@@ -14,15 +14,16 @@ point, a non-finite material value or a failed linear solve); the driver then cu
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from cfm_core.errors import NumericalError
 
-from .constitutive import History
 from .element import Inverted
-from .linear import LinearSolveError, constrain, solve
+from .linear import Constraints, LinearSolveError, dot, norm
 from .system import System
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -30,19 +31,25 @@ _EPS = float(np.finfo(np.float64).eps)
 
 @dataclass
 class State:
-    """Converged state at time t (s): q, v, a (m, m/s, m/s^2), Prony history, forces (N, modelled)."""
+    """Converged state at time t (s): q, v, a (m, m/s, m/s^2), Prony history, forces (N, modelled part).
+
+    lam_sphere, lam_plane: contact multipliers (N) of the candidate nodes (see :mod:`.contact`);
+    dissipation (J): the integrator's numerical dissipation in the step that led here.
+    """
 
     t: float
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray
-    hist: History | None
+    hist: object | None
     f_int: np.ndarray
     f_c: np.ndarray
     fz: float = 0.0
-    contact_energy: float = 0.0
+    lam_sphere: np.ndarray | None = None
+    lam_plane: np.ndarray | None = None
     pen_sphere: float = 0.0
     pen_plane: float = 0.0
+    dissipation: float = 0.0
 
 
 class StepFailure(Exception):
@@ -57,9 +64,12 @@ class StepFailure(Exception):
 
 @dataclass
 class StepInfo:
+    """Newton iterations, residual norms (N), linear (CG) iterations and the local error estimate (-)."""
+
     iterations: int = 0
     residuals: list = field(default_factory=list)
     linear_iterations: int = 0
+    error: float = 0.0
 
 
 def generalized_alpha(rho_inf: float) -> tuple[float, float, float, float]:
@@ -80,13 +90,16 @@ def generalized_alpha(rho_inf: float) -> tuple[float, float, float, float]:
 class Stepper:
     """Newton solver of one step for a :class:`System` with the checked options ``o``."""
 
-    def __init__(self, system: System, o: dict, linear_solver: str, atol: float):
+    def __init__(self, system: System, o: dict, linear_solver, atol: float):
         self.sys = system
         self.o = o
-        self.linear_solver = linear_solver
+        self.linear_solver = linear_solver  # an object of .linear with solve(data, b) -> (x, iterations)
+        self.constraints = Constraints(system.pattern, system.constrained)
         self.atol = atol
+        self.rtol = o["rtol"] if o["rtol"] is not None else (1e-6 if system.has_w else 1e-9)
         self.dynamic = not system.quasi_static
         self.alpha_m, self.alpha_f, self.beta, self.gamma = generalized_alpha(o["rho_inf"])
+        self.times = system.times  # s per phase, shared with the system and the linear solver
 
     def _worst_element(self, R: np.ndarray) -> int | None:
         """An element holding the node with the largest residual (None: the impactor dof)."""
@@ -112,9 +125,15 @@ class Stepper:
         c0 = 1.0 / (self.beta * dt * dt) if self.dynamic else 0.0
         info = StepInfo()
         r0 = None
+        lam = (s.lam_sphere, s.lam_plane) if s.lam_sphere is not None else None
+        times = self.times
+        augment = o["contact"] == "augmented"
+        pen_tol = o["penetration_tol"] * sys.disc.size
+        augmentations = 0
+        k_step = sys.penalty
         for it in range(o["max_iterations"] + 1):
             try:
-                ev = sys.evaluate(q, s.hist, dt, tangent=True)
+                ev = sys.evaluate(q, s.hist, dt, tangent=True, lam=lam, k=k_step)
             except Inverted as exc:
                 raise StepFailure(f"J = {exc.value:.4g} <= 0 in element {exc.element}", "J", exc.element, exc.value)
             except NumericalError as exc:
@@ -129,17 +148,31 @@ class Stepper:
             f_new = ev.f_int + ev.f_c
             R = inertia + (1.0 - af) * f_new + af * (s.f_int + s.f_c) - sys.f_ext
             Rf = np.where(free, R, 0.0)
-            rn = float(np.linalg.norm(Rf))
-            scale = max(float(np.linalg.norm(ev.f_int)), float(np.linalg.norm(inertia)),
-                        float(np.linalg.norm(ev.f_c)), float(np.linalg.norm(sys.f_ext)))
+            with np.errstate(over="ignore", invalid="ignore"):  # a diverging iterate is rejected below
+                rn = norm(Rf)
+                scale = max(norm(ev.f_int), norm(inertia),
+                            norm(ev.f_c), norm(sys.f_ext))
             # round-off floor: the inertia term evaluates (1 - alpha_m) c0 M q with q ~ |u|, which
             # at small dt carries an absolute error ~ eps c0 M |q|
-            floor = 100.0 * _EPS * (1.0 - am) * c0 * float(np.linalg.norm(sys.mass * np.abs(q)))
-            tol = o["rtol"] * scale + self.atol + floor
+            with np.errstate(over="ignore", invalid="ignore"):
+                floor = 100.0 * _EPS * (1.0 - am) * c0 * norm(sys.mass * np.abs(q))
+            tol = self.rtol * scale + self.atol + floor
             info.residuals.append(rn)
             if not np.isfinite(rn):
                 raise StepFailure("non-finite residual", "residual")
             if rn <= tol:
+                cs = ev.contact
+                if (augment and cs is not None and augmentations < 5
+                        and max(cs.max_pen_sphere, cs.max_pen_plane) > pen_tol):
+                    # penetration above the tolerance: update the multipliers within the step
+                    # (an Uzawa iteration; from the second one on with a 4x stiffer k for this step,
+                    # where the tissue is much stiffer than k) and continue Newton from here
+                    lam = (cs.p_sphere, cs.p_plane)
+                    augmentations += 1
+                    if augmentations >= 2:
+                        k_step *= 4.0
+                    r0 = None
+                    continue
                 info.iterations = it
                 break
             if r0 is None:
@@ -150,12 +183,18 @@ class Stepper:
                                   f"tolerance {tol:.3g} N; largest residual "
                                   f"{'at the impactor' if e is None else f'in element {e}'})",
                                   "Newton residual", element=e, value=rn)
+            tic = time.perf_counter()
             K = (1.0 - af) * ev.K
             if self.dynamic:
-                K = K + _diag((1.0 - am) * c0 * sys.mass)
-            K = constrain(K, sys.constrained)
+                K[sys.pattern.diag] += (1.0 - am) * c0 * sys.mass
+            self.constraints.apply(K)
+            times["assembly"] += time.perf_counter() - tic
             try:
-                dq, nit = solve(K, -Rf, self.linear_solver, sys.n_nodes)
+                # inexact Newton: an iterative solve only as accurate as the Newton tolerance needs
+                eta = min(self.o["cg_rtol"], max(1e-12, 0.1 * tol / rn))
+                dq, nit = self.linear_solver.solve(K, -Rf, rtol=eta)
+                if not np.isfinite(dq).all():
+                    raise LinearSolveError("non-finite solution")
             except LinearSolveError as exc:
                 raise StepFailure(f"linear solve failed: {exc}", "linear solve")
             info.linear_iterations += nit
@@ -165,16 +204,29 @@ class Stepper:
             pr = sys.model.prescribed
             v1[sys.presc_dofs] = pr.velocity(t1 - 1e-12 * dt) if self.dynamic else 0.0
         cs = ev.contact
+        diss = 0.0
+        if self.dynamic:
+            # the integrator's energy identity on the free dofs (where R = 0 is solved; the work of
+            # the prescribed ones is the reaction's, recorded as external work):
+            # dq . R = dK + dW_int + dW_c + D - dW_ext, with
+            # D = dq . M abar - dK + (1/2 - alpha_f) dq . (f_(n+1) - f_n)   (J, modelled part)
+            dqs = np.where(free, q - s.q, 0.0)
+            abar = (1.0 - am) * a1 + am * s.a
+            dK = 0.5 * dot(np.where(free, sys.mass * (v1 + s.v), 0.0), v1 - s.v)
+            diss = (dot(dqs, sys.mass * abar) - dK
+                    + (0.5 - af) * dot(dqs, f_new - s.f_int - s.f_c))
+            # local error of the step (Zienkiewicz-Xie): e = (beta - 1/6) dt^2 (a_(n+1) - a_n) (m),
+            # mass-weighted RMS norm relative to that of the displacement q_(n+1) (-)
+            e = (self.beta - 1.0 / 6.0) * dt * dt * (a1 - s.a)
+            den = dot(sys.mass, q * q)
+            info.error = math.sqrt(dot(sys.mass, e * e) / den) if den > 0.0 else 0.0
         new = State(t=t1, q=q, v=v1, a=a1, hist=ev.history if ev.history is not None else s.hist,
                     f_int=ev.f_int, f_c=ev.f_c,
                     fz=cs.force_on_impactor if cs is not None else 0.0,
-                    contact_energy=cs.energy if cs is not None else 0.0,
+                    lam_sphere=(cs.p_sphere if augment else s.lam_sphere) if cs is not None else None,
+                    lam_plane=(cs.p_plane if augment else s.lam_plane) if cs is not None else None,
                     pen_sphere=cs.max_pen_sphere if cs is not None else 0.0,
-                    pen_plane=cs.max_pen_plane if cs is not None else 0.0)
+                    pen_plane=cs.max_pen_plane if cs is not None else 0.0,
+                    dissipation=diss)
         return new, info
 
-
-def _diag(d: np.ndarray):
-    import scipy.sparse as sps
-
-    return sps.diags(d, format="csr")

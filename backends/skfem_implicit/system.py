@@ -10,10 +10,10 @@ as in the numba backend).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
 
 from cfm_core.errors import InputError
 
@@ -29,7 +29,7 @@ class Evaluation:
 
     f_int: np.ndarray
     f_c: np.ndarray
-    K: sps.csr_matrix | None
+    K: np.ndarray | None  # CSR data (nnz,) in System.pattern (N/m), without mass and constraints
     history: History | None
     contact: contact.ContactState | None
     theta: np.ndarray
@@ -38,11 +38,18 @@ class Evaluation:
 class System:
     """Everything of a model that does not change during the run."""
 
-    def __init__(self, model, volumetric: str = "mean-dilatation", quasi_static: bool = False):
+    def __init__(self, model, volumetric: str = "mean-dilatation", quasi_static: bool = False,
+                 kernels: str = "numba"):
         self.model = model
         self.disc = discretize(model.nodes, model.hexes, model.density if not quasi_static else 0.0)
         self.mat = Constitutive(model.material)
         self.volumetric = volumetric
+        self.kernels = kernels
+        self.compiled = None
+        if kernels == "numba":
+            from .compiled import CompiledElements
+
+            self.compiled = CompiledElements(self.disc, model.material, volumetric)
         self.quasi_static = quasi_static
         nn = self.disc.n_nodes
         self.n_nodes = nn
@@ -72,44 +79,83 @@ class System:
         self.f_ext = np.zeros(self.n)
         if self.has_w and not quasi_static:
             self.f_ext[self.w_dof] = -float(self.sphere.mass) * abs(float(model.gravity))
-        self._pattern = Pattern(self.disc.edofs, self.n)
         self.sphere_nodes = np.asarray(model.sphere_nodes, dtype=np.int64) if self.has_w else np.zeros(0, np.int64)
+        extra = None
+        if self.has_w and self.sphere_nodes.size:  # contact couples each candidate node with the impactor
+            r = (3 * self.sphere_nodes[:, None] + np.arange(3)[None, :]).ravel()
+            extra = (r, np.full(r.size, self.w_dof))
+        self.pattern = Pattern(self.disc.edofs, self.n, extra)
         self.plane = model.plane
         self.plane_nodes = np.asarray(model.plane_nodes, dtype=np.int64) if self.plane is not None else np.zeros(0, np.int64)
         _, _, d2U = self.mat.volumetric(np.ones(1))
         self.kappa0 = float(d2U[0])  # small-strain bulk modulus of the material (Pa)
-        self.penalty = 0.0
-        self.penalty_gap = 0.0
+        #: wall time (s) per phase, accumulated over the run: "element" (Gauss-point and element
+        #: work), "assembly" (global vectors and matrix, contact, mass, constraints),
+        #: "factorization" (direct factorisation or preconditioner set-up), "solve" (triangular solves or CG)
+        self.times = {"element": 0.0, "assembly": 0.0, "factorization": 0.0, "solve": 0.0}
+        self.counts = {"evaluations": 0, "factorizations": 0, "solves": 0}
+        self.penalty = 0.0  # augmentation (penalty) stiffness k (N/m per node), set by the solver
 
     # ------------------------------------------------------------------ evaluation
     def displacement(self, q: np.ndarray) -> np.ndarray:
         return q[: 3 * self.n_nodes].reshape(-1, 3)
 
-    def evaluate(self, q: np.ndarray, hist: History | None, dt: float, tangent: bool = True) -> Evaluation:
-        """Internal and contact forces (and tangent without the mass term) at q for a step dt.
+    def evaluate(self, q: np.ndarray, hist: History | None, dt: float, tangent: bool = True,
+                 lam: tuple[np.ndarray, np.ndarray] | None = None, k: float | None = None) -> Evaluation:
+        """Internal and contact forces (N) and tangent (N/m, without the mass term) at q for a step dt (s).
 
+        lam: contact multipliers (N) of the sphere and plane candidate nodes (None: zero); k: contact
+        stiffness (N/m per node; None: ``self.penalty``).
         Raises :class:`element.Inverted` (J <= 0) and NumericalError (non-finite material values).
         """
         u = self.displacement(q)
-        ev = element.evaluate(self.disc, self.mat, u, hist, dt, tangent=tangent, volumetric=self.volumetric)
+        tic = time.perf_counter()
+        if self.compiled is not None:
+            ev = self.compiled.evaluate(u, hist, dt, tangent=tangent)
+        else:
+            ev = element.evaluate(self.disc, self.mat, u, hist, dt, tangent=tangent, volumetric=self.volumetric)
+        toc = time.perf_counter()
+        self.times["element"] += toc - tic
+        self.counts["evaluations"] += 1
         nn3 = 3 * self.n_nodes
         f_int = np.zeros(self.n)
-        f_int[:nn3] = assemble_vector(self.disc.edofs, ev.force, nn3)
+        if self.compiled is not None:
+            self.compiled.mod.scatter_vector(ev.force, self.disc.edofs, f_int)
+        else:
+            f_int[:nn3] = assemble_vector(self.disc.edofs, ev.force, nn3)
         f_c = np.zeros(self.n)
         cs = None
         K = None
         if self.has_w or (self.plane is not None and self.plane_nodes.size):
             w = float(q[self.w_dof]) if self.has_w else 0.0
+            lam_s, lam_p = lam if lam is not None else self.zero_multipliers()
             cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
-                                  self.plane_nodes, self.penalty, self.w_dof, tangent=tangent,
-                                  g0=self.penalty_gap)
+                                  self.plane_nodes, self.penalty if k is None else k, self.w_dof, lam_s, lam_p,
+                                  tangent=tangent)
             for dofs, vals in cs.grad:
                 np.add.at(f_c, dofs, vals)
         if tangent:
-            K = self._pattern.matrix(ev.stiffness)
+            K = np.zeros(self.pattern.nnz)
+            if self.compiled is not None:
+                self.compiled.mod.scatter_matrix(ev.stiffness, self.pattern.map_el, K)
+            else:
+                K += np.bincount(self.pattern.map_el.ravel(), weights=ev.stiffness.ravel(), minlength=self.pattern.nnz)
             if cs is not None and cs.hess:
                 rows = np.concatenate([h[0] for h in cs.hess])
                 cols = np.concatenate([h[1] for h in cs.hess])
                 vals = np.concatenate([h[2] for h in cs.hess])
-                K = K + sps.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))
+                np.add.at(K, self.pattern.position(rows, cols), vals)
+        self.times["assembly"] += time.perf_counter() - toc
         return Evaluation(f_int, f_c, K, ev.history, cs, ev.theta)
+
+    def zero_multipliers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Contact multipliers (N) of the sphere and plane candidate nodes, all zero."""
+        return np.zeros(self.sphere_nodes.size), np.zeros(self.plane_nodes.size)
+
+    def relaxed_history(self):
+        """The undeformed, relaxed Prony state of every Gauss point (None when elastic)."""
+        if not self.mat.k:
+            return None
+        if self.compiled is not None:
+            return self.compiled.relaxed()
+        return History.relaxed(self.mat.k, self.disc.w.size)

@@ -70,9 +70,11 @@ class Result:
     def energy_error(self) -> float:
         """Largest relative energy-balance error over the run (-).
 
-        With total(t) = kinetic + internal + hourglass + contact - external, the error is
-        max_t |total(t) - total(0)| divided by the largest of kinetic + internal energy and
-        |external work| seen during the run (docs/conventions.md section 5).
+        With total(t) = kinetic + internal + hourglass + contact [+ numerical_dissipation] - external,
+        the error is max_t |total(t) - total(0)| divided by the largest of kinetic + internal energy
+        and |external work| seen during the run (docs/conventions.md section 5).
+        ``numerical_dissipation`` (J), when a backend reports it, is the energy its time integrator
+        removes (the implicit backend's generalized-alpha method).
 
         Returns
         -------
@@ -83,6 +85,8 @@ class Result:
         if not e:
             return float("nan")
         total = e["kinetic"] + e["internal"] + e["hourglass"] + e["contact"] - e["external"]
+        if "numerical_dissipation" in e:
+            total = total + e["numerical_dissipation"]
         scale = max(float(np.max(e["kinetic"] + e["internal"])), float(np.max(np.abs(e["external"]))), 1e-300)
         return float(np.max(np.abs(total - total[0])) / scale)
 

@@ -6,7 +6,15 @@ Sections (default: all; pick some with ``--only newton,point,...``):
 - point:      material-point driver against the numpy reference (relative error, -)
 - single:     single-element reaction force against cfm_core.simulation.point.uniaxial (relative error)
 - relaxation: relaxation scene against the uniaxial driver with hold (relative error)
-- penalty:    drop test (small mesh): filtered peak and penetration against the penalty stiffness
+- speed:      numba and skfem on the same drop tests in one process (8 mm; 1 mm elements, 5000
+              hexahedra, and the coarse 2 mm mesh): per Newton iteration the material + element
+              time, assembly, factorisation (or preconditioner set-up), solve (ms); steps, Newton
+              iterations per step, the skfem / numba solver-time ratio, peak and rel. L2 vs numba,
+              energy-balance error and numerical dissipation
+- tolerance:  drop test (small mesh): error against the step-error tolerance error_tol (steps,
+              peak and rel. L2 against numba), with dt_max 1 ms and with the default dt_max
+- penalty:    drop test (small mesh): filtered peak, penetration and Newton iterations against the
+              contact stiffness, augmented Lagrangian and plain penalty
 - dt:         drop test (small mesh): wall time against accuracy for several dt_max (vs numba)
 - drop:       drop test at the numba backend's mesh (quarter, 1 mm elements) for 5 mm and 8 mm:
               filtered peak difference and relative L2 of the filtered history (CFC 600, 50 kHz)
@@ -22,7 +30,7 @@ import time
 
 import numpy as np
 
-SECTIONS = ("newton", "point", "single", "relaxation", "penalty", "dt", "drop")
+SECTIONS = ("newton", "point", "single", "relaxation", "speed", "tolerance", "penalty", "dt", "drop")
 SMALL = dict(width=0.02, element_size=0.002, thickness=0.008)  # 10 x 10 mm quarter, 2 mm elements
 
 
@@ -144,17 +152,61 @@ def _compare(t, a, t0, a0):
 
 
 def penalty():
-    print("== penalty stiffness (small mesh, 8 mm): filtered peak and largest penetration ==")
+    print("== contact stiffness (small mesh, 8 mm): filtered peak, penetration, Newton iterations per step ==")
     from cfm_core.errors import NumericalError
 
-    for f in (1e2, 1e3, 1e4, 1e5):
-        try:
-            r, t, a, wall, met = _drop("skfem", {"penalty_factor": f}, **SMALL)
-        except NumericalError as exc:
-            print(f"penalty_factor {f:.0e}: failed: {exc}")
-            continue
-        print(f"penalty_factor {f:.0e} (k = {r.info['penalty']:.3g} N/m): peak {met['peak_g']:.3f} g, "
-              f"max penetration / h = {r.info['penetration_ratio']:.1e}, wall {wall:.1f} s")
+    for mode in ("augmented", "penalty"):
+        for f in (1e1, 3e1, 1e2, 1e3, 1e4):
+            try:
+                r, t, a, wall, met = _drop("skfem", {"penalty_factor": f, "contact": mode}, **SMALL)
+            except NumericalError as exc:
+                print(f"{mode} penalty_factor {f:.0e}: failed: {exc}")
+                continue
+            print(f"{mode:9s} penalty_factor {f:.0e} (k = {r.info['penalty']:.3g} N/m): peak {met['peak_g']:.3f} g, "
+                  f"max penetration / h = {r.info['penetration_ratio']:.1e}, "
+                  f"{r.info['newton_iterations'] / r.steps:.2f} Newton iterations per step, wall {wall:.1f} s")
+
+
+def speed(cases=(("8 mm, 1 mm elements (5000 hexahedra)", dict(thickness=0.008)),
+                 ("8 mm, 2 mm elements (676 hexahedra)", dict(thickness=0.008, element_size=0.002)))):
+    print("== speed: numba and skfem on the same drop tests, one process (solver times, s) ==")
+    for label, geo in cases:
+        _drop("numba", **geo)  # compiles or loads numba's kernels outside the timing
+        rn, tn, an, _, metn = _drop("numba", **geo)
+        _drop("skfem", None, end_time=1e-4, **geo)  # compiles or loads skfem's kernels
+        r, t, a, _, met = _drop("skfem", **geo)
+        pk, l2 = _compare(t, a, tn, an)
+        it = r.info["newton_iterations"]
+        tm, cnt = r.info["times"], r.info["counts"]
+        per = {k: 1e3 * v / max(cnt["evaluations"] if k in ("element", "assembly") else cnt["solves"], 1)
+               for k, v in tm.items()}
+        print(f"{label}: {r.info['dofs']} dofs, linear solver {r.info['linear_solver']}")
+        print(f"  numba: {rn.steps} steps, solver {rn.wall_time:.2f} s, peak {metn['peak_g']:.2f} g")
+        print(f"  skfem: {r.steps} steps, {it} Newton iterations ({it / r.steps:.2f} per step), "
+              f"{r.info['rejected_steps']} failed / {r.info['error_rejections']} error-rejected steps, "
+              f"{r.info['linear_iterations']} CG iterations, solver {r.wall_time:.1f} s "
+              f"(set-up {r.info['setup_time']:.1f} s), peak {met['peak_g']:.2f} g")
+        print(f"  skfem per evaluation / solve (ms): material + element {per['element']:.1f}, assembly "
+              f"{per['assembly']:.1f}, factorisation {per['factorization']:.1f}, solve {per['solve']:.1f}; "
+              f"totals (s): " + ", ".join(f"{k} {v:.1f}" for k, v in tm.items()))
+        diss = r.energies["numerical_dissipation"][-1] / r.energies["kinetic"][0]
+        print(f"  skfem / numba solver time: {r.wall_time / rn.wall_time:.1f}; peak {pk:+.2%}, rel L2 {l2:.2%}; "
+              f"energy-balance error {r.energy_error():.1e}, numerical dissipation {diss:.2%} of the initial "
+              f"kinetic energy")
+
+
+def tolerance():
+    print("== step-error tolerance (small mesh, 8 mm): error against error_tol, vs numba ==")
+    _, tn, an, walln, metn = _drop("numba", **SMALL)
+    for cap in (1e-3, None):
+        label = "dt_max 1 ms (the estimate alone)" if cap else "default dt_max (2.5 output intervals)"
+        for tol in (1e-2, 3e-3, 1e-3, 3e-4):
+            opts = {"error_tol": tol, **({"dt_max": cap} if cap else {})}
+            r, t, a, wall, met = _drop("skfem", opts, **SMALL)
+            pk, l2 = _compare(t, a, tn, an)
+            print(f"{label}: error_tol {tol:.0e}: {r.steps} steps (dt {r.dt_min * 1e6:.1f}-{r.dt_max * 1e6:.0f} us), "
+                  f"{r.info['newton_iterations'] / r.steps:.2f} Newton iterations per step, solver {r.wall_time:.1f} s; "
+                  f"vs numba: peak {pk:+.2%}, rel L2 {l2:.2%}")
 
 
 def dt():
