@@ -10,10 +10,14 @@ no source file exists (an interactive session) is never cached.
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import inspect
 import os
+import re
+import sys
 import tempfile
 from pathlib import Path
+
 from . import codegen
 
 
@@ -115,3 +119,67 @@ def codegen_cache(spec, dialect: str, generate) -> str:
     tmp.write_text(text)
     os.replace(tmp, path)
     return text
+
+
+_GENERATED: dict[str, object] = {}
+
+
+def generated_name(text: str, prefix: str, label: str) -> str:
+    """Module name of generated source ``text``: ``{prefix}_{label}_{hash}`` (see :func:`import_generated`).
+
+    Parameters
+    ----------
+    text : str
+        The module's source.
+    prefix : str
+        Start of the name, one per backend.
+    label : str
+        Readable part (a material name; other characters than letters, digits and _ become _).
+
+    Returns
+    -------
+    str
+        A valid module name, the same for the same text in every process.
+    """
+    digest = hashlib.sha256(text.encode()).hexdigest()[:20]
+    return f"{prefix}_{re.sub(r'[^0-9A-Za-z_]', '_', str(label))[:40]}_{digest}"
+
+
+def import_generated(text: str, prefix: str, subdir: str = "numba", label: str = "material"):
+    """Import a generated Python module from its source text, through a file in the cache folder.
+
+    The file is named after ``prefix``, ``label`` and a hash of ``text``, so that compilers that
+    cache by file (numba's ``cache=True``) find their cache again in the next process; the module
+    is imported once per process.
+
+    Parameters
+    ----------
+    text : str
+        The module's source.
+    prefix : str
+        Start of the module name (e.g. ``"cfm_numba"``), one per backend.
+    subdir : str
+        Folder below the cache directory (:func:`cache_dir`).
+    label : str
+        Readable part of the name (a material name; other characters become ``_``).
+
+    Returns
+    -------
+    module
+        The imported module (also in ``sys.modules``).
+    """
+    modname = generated_name(text, prefix, label)
+    mod = _GENERATED.get(modname)
+    if mod is not None:
+        return mod
+    path = cache_dir(subdir) / f"{modname}.py"
+    if not path.exists() or path.read_text() != text:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(modname, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[modname] = mod
+    spec.loader.exec_module(mod)
+    _GENERATED[modname] = mod
+    return mod
