@@ -126,3 +126,54 @@ def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path):
     assert header == ["t", "a_raw", "a_cfc600"] and np.isfinite(data).all()
     assert s["backend"] == "skfem" and s["newton_iterations"] >= s["steps"] and s["peak_g"] > 0
     assert s["units"]["newton_iterations"] == "-" and (out / "acceleration.png").exists()
+
+
+COARSE = ["--element-size", "0.002", "--quiet", "--no-plot"]
+
+
+def test_backend_options_from_the_command_line_change_the_run(tmp_path):
+    """--option NAME=VALUE reaches the backend (half the safety factor: about twice the steps, the
+    same peak); unknown names and bad values exit 2 naming the option."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["drop-test", *COARSE, "--out", str(a)]) == 0
+    assert main(["drop-test", *COARSE, "--option", "safety=0.45", "--out", str(b)]) == 0
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert 1.8 < sb["steps"] / sa["steps"] < 2.2 and abs(sb["peak_g"] / sa["peak_g"] - 1) < 5e-3
+    assert main(["drop-test", *COARSE, "--option", "hourglas=0.1", "--out", str(tmp_path / "c")]) == 2
+    assert main(["drop-test", *COARSE, "--option", "safety=2", "--out", str(tmp_path / "c")]) == 2
+    assert main(["drop-test", *COARSE, "--dtype", "float32", "--out", str(tmp_path / "c")]) == 2
+    assert not (tmp_path / "c").exists()
+
+
+def test_point_backend_refuses_scenes_with_exit_2(tmp_path, capsys):
+    assert main(["drop-test", "--backend", "numpy", *COARSE, "--out", str(tmp_path / "np")]) == 2
+    assert "material points only" in capsys.readouterr().err
+
+
+def test_a_failed_run_removes_the_summary_of_an_earlier_one(tmp_path):
+    out = tmp_path / "run"
+    assert main(["drop-test", *COARSE, "--out", str(out)]) == 0
+    assert main(["drop-test", *COARSE, "--mass", "220", "--out", str(out)]) == 3  # grams typed as kg
+    assert not (out / "summary.json").exists()
+
+
+def test_written_scene_holds_every_parameter_and_repeats_the_run(tmp_path):
+    first, again = tmp_path / "first", tmp_path / "again"
+    assert main(["drop-test", *COARSE, "--param", "k2=3", "--out", str(first)]) == 0
+    text = (first / "scene.toml").read_text()
+    for name in ("c", "k1", "k2", "kappa", "g1", "tau1", "g2", "tau2", "g3", "tau3"):
+        assert f"\n{name} = " in text
+    assert main(["run", "--scene", str(first / "scene.toml"), "--quiet", "--no-plot", "--out", str(again)]) == 0
+    a, b = (np.loadtxt(d / "acceleration.csv", delimiter=",", skiprows=1) for d in (first, again))
+    assert np.array_equal(a, b)
+
+
+def test_every_scene_backend_lists_its_options(capsys):
+    """cfm backends --options prints each scene backend's declared options (skfem's too)."""
+    import re
+
+    assert main(["backends", "--options"]) == 0
+    out = capsys.readouterr().out
+    blocks = dict(re.findall(r"^(\w+) +\w+ +available.*\n((?:(?!^\w).*\n?)*)", out, re.M))
+    for backend, option in (("numba", "hourglass"), ("torch", "device"), ("skfem", "linear_solver")):
+        assert re.search(rf"^\s+{option}\s", blocks[backend], re.M), (backend, blocks.get(backend))

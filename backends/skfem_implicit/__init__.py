@@ -56,7 +56,7 @@ class SkfemImplicitBackend(Backend):
     description = ("implicit total Lagrangian hex8 (scikit-fem basis, 2x2x2 Gauss, mean dilatation, compiled "
                    "kernels), Newton with the consistent tangent, generalized-alpha or quasi-static, "
                    "error-controlled steps, augmented-Lagrangian contact, PARDISO / CG")
-    options = SkfemOptions
+    options_class = SkfemOptions
     needs_tangent = True
     devices = ("cpu",)
     dtypes = ("float64",)

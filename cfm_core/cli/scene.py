@@ -8,6 +8,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..runs import pipeline
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
+from ..simulation.registry import backend_for
 from .options import Progress, add_material_options, out_dir, parse_params
 
 
@@ -21,6 +22,9 @@ def add_parser(sub) -> None:
     p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N; default cpu)")
     p.add_argument("--dtype", choices=["float64", "float32"],
                    help="floating-point type for backends that have a choice (torch; default float64)")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE",
+                   help="a backend option in SI units, repeatable (e.g. hourglass=0.05, safety=0.5, linear_solver=direct; "
+                        "'cfm backends --options' lists them with units and ranges)")
     p.add_argument("--thickness", type=float, help="specimen thickness, m (paper: 0.0048 .. 0.0083; default 0.008)")
     p.add_argument("--element-size", type=float, help="hexahedron edge, m (default 0.001)")
     p.add_argument("--velocity", type=float, help="impact speed, m/s (default 1.0)")
@@ -59,22 +63,59 @@ def _apply_overrides(scene, args, keys=()):
     return scene.with_overrides(**over) if over else scene
 
 
-def _backend_options(args) -> dict:
+def _option_value(text: str, kind: str):
+    """A ``--option`` value in the type its declaration wants (number, integer, True/False, text, None)."""
+    if text.strip().lower() == "none":
+        return None
+    if kind == "bool":
+        if text.strip().lower() in ("true", "false"):
+            return text.strip().lower() == "true"
+        return text
+    if kind in ("float", "int"):
+        try:
+            value = float(text)
+        except ValueError:
+            return text  # the declaration's check names the option, the value and what is allowed
+        return int(value) if kind == "int" and value.is_integer() else value
+    return text
+
+
+def _backend_options(args, backend: str) -> dict:
+    """The backend options of the command line: ``--option NAME=VALUE`` (repeatable), ``--vtu``,
+    ``--device`` and ``--dtype``; InputError for a name the backend does not declare."""
+    declared = getattr(backend_for(backend), "options_class", None)
+    specs = declared.specs() if declared is not None else {}
     options = {}
+    for item in getattr(args, "option", None) or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(f"--option expects NAME=VALUE (SI units), got {item!r}; 'cfm backends --options' "
+                             f"lists each backend's options.")
+        if name not in specs:
+            raise InputError(f"--option {name}: backend '{backend}' has no option of that name; its options are "
+                             f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
+        options[name] = _option_value(value, specs[name].kind)
     if getattr(args, "vtu", False):
         options["frame_interval"] = 2e-4
-    if args.device is not None:
-        options["device"] = args.device
-    if args.dtype is not None:
-        options["dtype"] = args.dtype
+    for flag in ("device", "dtype"):
+        value = getattr(args, flag, None)
+        if value is not None:
+            if flag not in specs:
+                raise InputError(f"--{flag} {value}: backend '{backend}' has no choice of {flag} (only torch has: "
+                                 f"--backend torch --{flag} {value}).")
+            options[flag] = value
     return options
 
 
 def _with_progress(args, run, scene, backend: str, label: str):
     """``run(scene, backend, progress=..., **options)`` with a progress bar unless ``--quiet``."""
+    out = out_dir(args)
+    if (out / "summary.json").exists():  # an earlier run's results must not look like this run's if it fails
+        (out / "summary.json").unlink()
     progress = Progress(scene.end_time, label, enabled=not args.quiet)
     try:
-        outcome = run(scene, backend, progress=progress, **_backend_options(args))
+        outcome = run(scene, backend, progress=progress, **_backend_options(args, backend))
         progress.finish()
     finally:
         progress.close()
@@ -111,6 +152,8 @@ def add_run_parser(sub) -> None:
                    help="backend name (default: skfem for the quasi-static relaxation scene, numba otherwise)")
     p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N)")
     p.add_argument("--dtype", choices=["float64", "float32"], help="floating-point type (torch; default float64)")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE",
+                   help="a backend option in SI units, repeatable ('cfm backends --options' lists them)")
     add_material_options(p, default_material=None)
     p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot")
     p.add_argument("--quiet", action="store_true", help="no progress output")

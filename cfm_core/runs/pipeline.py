@@ -45,7 +45,12 @@ def _progress(progress, scene: Scene, label: str):
             if n > bar.n:
                 bar.update(n - bar.n)
 
-        update.close = bar.close
+        def close() -> None:  # a drop test ends at separation, before the end time: show the time reached
+            bar.total = bar.n
+            bar.refresh()
+            bar.close()
+
+        update.close = close
         return update
     return progress or None
 
@@ -184,8 +189,10 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
     Returns
     -------
     DropTestOutcome
-        Filtered histories (SAE J211/1 CFC 600) and the summary.
+        Filtered histories (SAE J211/1 CFC 600) and the summary; its scene holds every material
+        parameter value, so that the scene.toml it writes repeats the run even if defaults change.
     """
+    scene = resolved(scene, model)
     rate = float(scene.settings.output_rate)
     t, a_raw, a_cfc = post.acceleration_histories(result, model.mass_full, rate=rate)
     info = {
@@ -206,6 +213,24 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
     summary = post.summarize(result, info)
     report_warnings(summary)
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
+
+
+def resolved(scene: Scene, model) -> Scene:
+    """The scene with every material parameter value written out (defaults included).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene that ran.
+    model : Model
+        The model built from it (its bound material holds every value, SI units).
+
+    Returns
+    -------
+    Scene
+        The same scene with ``[material.parameters]`` complete.
+    """
+    return scene.with_overrides(parameters=dict(model.material.values))
 
 
 def batch_key(model) -> str:
@@ -330,6 +355,7 @@ def reaction_test(scene: Scene, backend: str | None = None, progress=None, **opt
                          f"'relaxation' scene (drop tests: drop_test).")
     backend = backend or default_backend(scene)
     model, result = _run(scene, backend, progress, f"{scene.type} ({backend})", options)
+    scene = resolved(scene, model)
     t, stretch, force, nominal = post.reaction_histories(result, model)
     meta = model.meta
     info = {k: meta[k] for k in ("scene_type", "size", "stretch", "load_time", "hold", "rate", "lateral")

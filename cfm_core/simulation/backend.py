@@ -111,10 +111,11 @@ class Backend:
 
         Raises
         ------
-        NotImplementedError
+        InputError
             In the base class: the backend has no material-point driver.
         """
-        raise NotImplementedError(f"backend '{self.name}' has no material-point driver")
+        raise InputError(f"backend '{self.name}' has no material-point driver; evaluate material points with "
+                         f"numpy (the reference, default), numba, torch or skfem.")
 
     def run(self, model, *, progress: Callable[[float], None] | None = None, **options):
         """Run a :class:`cfm_core.scene.Model`; return a :class:`cfm_core.simulation.result.Result`.
@@ -135,9 +136,12 @@ class Backend:
 
         Raises
         ------
-        NotImplementedError
-            In the base class: the backend cannot run scenes. Implementations raise InputError
-            for bad options or a model they cannot run (:meth:`check_model`) and NumericalError
-            when the run fails (naming element and time).
+        InputError
+            In the base class: this backend cannot run scenes (a material-point backend such as
+            the numpy reference). Implementations raise InputError for bad options or a model
+            they cannot run (:meth:`check_model`) and NumericalError when the run fails (naming
+            element and time).
         """
-        raise NotImplementedError(f"backend '{self.name}' cannot run scenes")
+        raise InputError(f"backend '{self.name}' ({self.kind}) evaluates material points only (cfm point "
+                         f"--backend {self.name}); it cannot run the scene '{model.name}'. Run scenes with an "
+                         f"explicit or implicit backend: numba, torch or skfem (cfm backends lists them).")
