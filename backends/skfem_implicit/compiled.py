@@ -21,6 +21,7 @@ import numpy as np
 
 from cfm_core.material import prony
 from cfm_core.material.cache import import_generated
+from cfm_core.material.diagnose import describe_nonfinite, nonfinite_term
 from cfm_core.errors import InputError, NumericalError
 
 from .discretization import Discretization
@@ -122,9 +123,20 @@ class CompiledElements:
             e = int(np.argmax(self.status != 0))
             if self.status[e] == 1:
                 raise Inverted(e, float(self.jbad[e]))
-            raise NumericalError(
-                f"material '{self.material.name}': a stress or tangent is not finite in element {e}; the "
-                f"fibre exponential overflows float64 when k2 (x-1)^2 > 709: lower the load or check the "
-                f"parameters.", element=e, quantity="psi_grad")
+            raise self._nonfinite(e, u)
         new = VoigtHistory(H_new, S0_new) if self.k else None
         return ElementState(force=self.fe, stiffness=self.Ke if tangent else None, history=new, theta=self.theta.copy())
+
+    def _nonfinite(self, e: int, u: np.ndarray) -> NumericalError:
+        """The NumericalError of a non-finite stress in element e: the failing term of the material
+        (:func:`cfm_core.material.diagnose.describe_nonfinite`) at the element's Gauss points, with the
+        volumetric term at the element's mean dilatation when mean dilatation is used."""
+        F = np.eye(3) + np.einsum("ai,qaj->qij", u[self.conn[e]], self.dN[e])
+        J = np.linalg.det(F)
+        m = np.linalg.eigvalsh(np.einsum("qki,qkj->qij", F, F))
+        if not self.full and np.isfinite(self.theta[e]) and self.theta[e] > 0.0 and (J > 0.0).all():
+            m = m * ((self.theta[e] / J) ** (2.0 / 3.0))[:, None]  # same isochoric stretches, J -> theta
+        q = next((k for k in range(m.shape[0]) if nonfinite_term(self.material, m[k]) is not None), 0)
+        return NumericalError(
+            f"non-finite stress in element {e} (Gauss point {q}): {describe_nonfinite(self.material, m[q])}.",
+            element=e, quantity=f"non-finite energy derivative of material '{self.material.name}'")

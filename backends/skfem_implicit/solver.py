@@ -146,6 +146,9 @@ def _run(model, progress, o) -> Result:
                 if len(failures) < 50:
                     failures.append([state.t + dt_try, dt_try, fail.quantity, str(fail)])
                 if dt_try <= dt_min * (1.0 + 1e-12):
+                    # the physical cause first: a last accepted state that already fails the run checks
+                    # (penetration, folded corner, bottoming out) is reported as such, not its symptom
+                    monitor.inspect(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
                     raise _final_error(model, fail, state.t + dt_try, dt_try) from None
                 dt_try = max(dt_try * o["cut"], dt_min)
                 dt = dt_try
