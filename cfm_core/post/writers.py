@@ -66,6 +66,24 @@ def atomic_write(path, write: Callable[[str], None]) -> Path:
     return path
 
 
+def write_text(path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; its folder is created if missing.
+    text : str
+        The whole content.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
 def _finite_array(name: str, a, ndim: int | None = None) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     if ndim is not None and a.ndim != ndim:

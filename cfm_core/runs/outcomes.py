@@ -18,7 +18,7 @@ import pandas as pd
 from ..errors import InputError
 from ..post import G0, compare_histories
 from ..post.plots import plot_acceleration, plot_reaction
-from ..post.writers import atomic_write, write_drop_test, write_reaction, write_vtu_series
+from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
 from ..scene.scene import scene_to_toml
 
 
@@ -122,7 +122,7 @@ class DropTestOutcome:
         out = _prepare(out)
         if vtu:
             write_vtu_series(out, self.model.nodes, self.model.hexes, self.result.frames)
-        atomic_write(out / "scene.toml", lambda p: Path(p).write_text(scene_to_toml(self.scene)))
+        write_text(out / "scene.toml", scene_to_toml(self.scene))
         if plot:
             plot_acceleration(out / "acceleration.png", self.t, self.a_raw, self.a_cfc, self.title())
         write_drop_test(out, self.t, self.a_raw, self.a_cfc, self.summary)
@@ -221,7 +221,7 @@ class ReactionOutcome:
             A history or summary value is not finite.
         """
         out = _prepare(out)
-        atomic_write(out / "scene.toml", lambda p: Path(p).write_text(scene_to_toml(self.scene)))
+        write_text(out / "scene.toml", scene_to_toml(self.scene))
         if plot:
             plot_reaction(out / "reaction.png", self.t, self.force, self.title())
         write_reaction(out, self.t, self.stretch, self.force, self.nominal, self.summary)

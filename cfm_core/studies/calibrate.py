@@ -53,7 +53,7 @@ from ..material.registry import make_material
 from ..post.plots import _figure, _save, plot_overlay
 from ..post import G0
 from ..scene.scene import scene_to_toml
-from ..post.writers import atomic_write, write_json
+from ..post.writers import write_json, write_text
 from ..post.filters import cfc_filter
 from ..post import relative_l2
 
@@ -64,26 +64,52 @@ PRONY = ("g1", "tau1")
 
 
 # ----------------------------------------------------------------------------- parameters
-def fit_names(text: str, scene) -> list[str]:
-    """``c,k1,k2,prony`` -> parameter names of the scene's material (prony: :data:`PRONY`)."""
+def parse_fit_names(text: str, spec, prony: tuple, example: str) -> list[str]:
+    """``c,k1,prony`` -> parameter names of a material spec, in the given order.
 
-    spec = get_material(scene.material.name)
+    Parameters
+    ----------
+    text : str
+        Comma-separated names; ``prony`` stands for the names in ``prony``.
+    spec : MaterialSpec
+        The material whose parameters may be named.
+    prony : tuple of str
+        What ``prony`` expands to (empty: the word is not allowed).
+    example : str
+        An example list for the message when none is given (``"k1,k2"``).
+
+    Returns
+    -------
+    list of str
+        The names.
+
+    Raises
+    ------
+    InputError
+        An unknown or repeated name, or an empty list.
+    """
     known = [p.name for p in spec.parameters]
     names = []
     for item in str(text).split(","):
         item = item.strip()
-        expanded = list(PRONY) if item == "prony" and spec.prony is not None else [item]
-        for name in expanded:
+        for name in (list(prony) if item == "prony" and prony else [item]):
             if name not in known:
-                raise InputError(f"--fit {item!r}: material '{spec.name}' has no parameter of that name; "
-                                 f"its parameters are {', '.join(known)}"
-                                 f"{' (and prony = ' + ', '.join(PRONY) + ')' if spec.prony else ''}.")
+                raise InputError(f"--fit {item!r}: material '{spec.name}' has no parameter of that name; its "
+                                 f"parameters are {', '.join(known)}"
+                                 f"{' (and prony = ' + ', '.join(prony) + ')' if prony else ''}.")
             if name in names:
                 raise InputError(f"--fit names {name} twice; give each parameter once.")
             names.append(name)
     if not names:
-        raise InputError("--fit needs at least one parameter name, e.g. --fit k1,k2.")
+        raise InputError(f"--fit needs at least one parameter name, e.g. --fit {example}.")
     return names
+
+
+def fit_names(text: str, scene) -> list[str]:
+    """``c,k1,k2,prony`` -> parameter names of the scene's material (prony: :data:`PRONY`, the term
+    that relaxes during a drop test); see :func:`parse_fit_names`."""
+    spec = get_material(scene.material.name)
+    return parse_fit_names(text, spec, PRONY if spec.prony is not None else (), "k1,k2")
 
 
 @dataclass(frozen=True)
@@ -368,11 +394,7 @@ def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> li
     text = scene_to_toml(fitted_scene(scene, result))
     head = "".join(f"# fitted to {c.path} ({c.thickness:g} m)\n" for c in pb.curves)
 
-    def write_toml(tmp):
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(head + text)
-
-    files.append(atomic_write(out / "fitted-scene.toml", write_toml))
+    files.append(write_text(out / "fitted-scene.toml", head + text))
     conf = result.confidence
     params = {n: {"start": result.start.params[n], "fitted": result.final.params[n], "unit": u,
                   "std": conf["parameters"][n]["std"], "ci95": conf["parameters"][n]["ci"],

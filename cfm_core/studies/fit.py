@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import InputError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
-from .calibrate import Coordinates, confidence, coordinates
+from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
 from .lab_tests import KINDS, LabTest, read_lab_test, simulate
 
 #: |correlation| at or above which two parameters are reported as not separately identifiable.
@@ -138,21 +138,8 @@ def fit_names(text: str, material: str) -> list[str]:
         An unknown or repeated name, or an empty list.
     """
     spec = get_material(material)
-    known = [p.name for p in spec.parameters]
-    prony = [p.name for p in spec.prony.parameters] if spec.prony else []
-    names = []
-    for item in str(text).split(","):
-        item = item.strip()
-        for name in (prony if item == "prony" and prony else [item]):
-            if name not in known:
-                raise InputError(f"--fit {item!r}: material '{spec.name}' has no parameter of that name; its "
-                                 f"parameters are {', '.join(known)}{' (prony = ' + ', '.join(prony) + ')' if prony else ''}.")
-            if name in names:
-                raise InputError(f"--fit names {name} twice; give each parameter once.")
-            names.append(name)
-    if not names:
-        raise InputError("--fit needs at least one parameter name, e.g. --fit c,k1,k2.")
-    return names
+    prony = tuple(p.name for p in spec.prony.parameters) if spec.prony else ()
+    return parse_fit_names(text, spec, prony, "c,k1,k2")
 
 
 def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:

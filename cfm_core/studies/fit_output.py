@@ -14,6 +14,8 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..material.registry import get_material
+from ..post.plots import _figure, _save
+from ..post.writers import write_json, write_text
 from ..scene.scene import builtin_scene, scene_to_toml
 from .fit import LabFitResult
 from .lab_tests import KINDS, LabTest
@@ -55,8 +57,6 @@ def plot_test(path, test: LabTest, P_start, P_fit) -> None:
     P_start, P_fit : ndarray, shape (n,)
         Simulated nominal stress at the start and fitted values (Pa).
     """
-    from ..post.plots import _figure, _save
-
     fig, ax = _figure(f"{test.name}: {test.kind}, {test.rate:g} 1/s")
     ax.set_xlabel(f"{KINDS[test.kind][0]} (-)" if test.kind != "relaxation" else "time (s)")
     ax.set_ylabel("nominal stress (Pa)")
@@ -92,8 +92,6 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     InputError
         ``out`` exists and is not a directory.
     """
-    from ..post.writers import atomic_write, write_json
-
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out} exists and is not a directory.")
@@ -107,11 +105,7 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     text = scene_to_toml(fitted_scene(result, scene))
     head = "".join(f"# material fitted by cfm fit to {t.path} ({t.kind}, {t.rate:g} 1/s)\n" for t in result.tests)
 
-    def write_toml(tmp):
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(head + text)
-
-    files.append(atomic_write(out / "fitted-scene.toml", write_toml))
+    files.append(write_text(out / "fitted-scene.toml", head + text))
     conf = result.confidence["parameters"]
     params = {}
     for n, u, lg in zip(result.coords.names, result.coords.units, result.coords.log):
