@@ -9,7 +9,7 @@ from ..errors import InputError
 from ..runs import pipeline
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..simulation.registry import backend_for
-from .options import Progress, add_material_options, out_dir, parse_params
+from .options import add_material_options, out_dir, parse_params
 
 
 def add_parser(sub) -> None:
@@ -108,25 +108,17 @@ def _backend_options(args, backend: str) -> dict:
     return options
 
 
-def _with_progress(args, run, scene, backend: str, label: str):
-    """``run(scene, backend, progress=..., **options)`` with a progress bar unless ``--quiet``."""
+def _run_scene(args, run, scene, backend: str):
+    """(the --out folder, ``run(scene, backend, ...)``) with a progress bar unless ``--quiet``; an
+    earlier run's summary.json in --out is removed first, so a failure cannot leave it looking current."""
     out = out_dir(args)
-    if (out / "summary.json").exists():  # an earlier run's results must not look like this run's if it fails
-        (out / "summary.json").unlink()
-    progress = Progress(scene.end_time, label, enabled=not args.quiet)
-    try:
-        outcome = run(scene, backend, progress=progress, **_backend_options(args, backend))
-        progress.finish()
-    finally:
-        progress.close()
-    return outcome
+    (out / "summary.json").unlink(missing_ok=True)
+    return out, run(scene, backend, progress=not args.quiet, **_backend_options(args, backend))
 
 
 def _drop_test(args, scene, backend: str) -> int:
     """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
-    out = out_dir(args)
-    outcome = _with_progress(args, pipeline.drop_test, scene, backend,
-                             f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})")
+    out, outcome = _run_scene(args, pipeline.drop_test, scene, backend)
     outcome.save(out, plot=not args.no_plot, vtu=getattr(args, "vtu", False))
     s = outcome.summary
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
@@ -177,8 +169,7 @@ def _cmd_run(args) -> int:
     backend = args.backend or pipeline.default_backend(scene)
     if scene.type == "drop-test":
         return _drop_test(args, scene, backend)
-    out = out_dir(args)
-    outcome = _with_progress(args, pipeline.reaction_test, scene, backend, f"{scene.type} ({backend})")
+    out, outcome = _run_scene(args, pipeline.reaction_test, scene, backend)
     outcome.save(out, plot=not args.no_plot)
     s = outcome.summary
     print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "

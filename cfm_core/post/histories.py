@@ -11,27 +11,24 @@ import math
 import numpy as np
 
 from ..errors import InputError, NumericalError
-from .filters import cfc_filter
+from .filters import _positive_finite, cfc_filter
 
 #: Standard gravity (m/s^2), used to express accelerations in g.
 G0 = 9.80665
 
 
-def _finite(name: str, a) -> np.ndarray:
+def _finite(name: str, a, ndim: int | None = None, then: str = "refusing to post-process it") -> np.ndarray:
+    """``a`` as a float array; InputError for a wrong number of dimensions, NumericalError (naming
+    the first bad index and what is not done, ``then``) for inf or NaN."""
     a = np.asarray(a, dtype=float)
+    if ndim is not None and a.ndim != ndim:
+        raise InputError(f"{name} must be a {ndim}-D array; got shape {a.shape}.")
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.argmax(bad.ravel()))
         raise NumericalError(f"{name} has {int(bad.sum())} non-finite value(s), first at index {i} "
-                             f"({a.ravel()[i]!r}); refusing to post-process it.", quantity=name)
+                             f"({a.ravel()[i]!r}); {then}.", quantity=name)
     return a
-
-
-def _positive(name: str, value, unit: str) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v <= 0.0:
-        raise InputError(f"{name} = {value!r} {unit} is not allowed: it must be finite and > 0.")
-    return v
 
 
 def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[np.ndarray, np.ndarray]:
@@ -73,8 +70,8 @@ def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[
     NumericalError
         A non-finite value in ``result.t``, the impulse or the contact force (names the first).
     """
-    mass = _positive("mass", mass, "kg")
-    rate = _positive("rate", rate, "Hz")
+    mass = _positive_finite("mass", mass, "kg")
+    rate = _positive_finite("rate", rate, "Hz")
     t = _finite("result.t", result.t)
     if t.ndim != 1 or t.size < 2:
         raise InputError(f"result.t must be 1-D with at least 2 times (s); got shape {t.shape}.")

@@ -41,7 +41,7 @@ def _jsonable(key: str, v):
     raise InputError(f"model_info[{key!r}] = {v!r} is not JSON-serialisable; use numbers, strings, lists or dicts.")
 
 
-def summarize(result, model_info: dict) -> dict:
+def summarize(result, model_info: dict, histories: tuple | None = None) -> dict:
     """Summary of a drop-test run for summary.json (plain JSON types, never NaN or inf).
 
     model_info must hold ``impactor_mass`` (kg, full impactor); optional ``sample_rate`` (Hz,
@@ -52,13 +52,15 @@ def summarize(result, model_info: dict) -> dict:
     signal), steps, elements, wall_time (s), energy_error and hourglass_ratio (-, left out when
     the backend recorded no energies), dt_min/dt_max (s, when finite), backend, model_info (among
     it "warnings": the run checks' warnings, :mod:`cfm_core.simulation.checks`, text) and "units".
-    Non-finite histories raise NumericalError.
+    Non-finite histories raise NumericalError. ``histories``: (t, a_raw, a_cfc) already computed
+    by :func:`cfm_core.post.acceleration_histories` with the same mass, rate and CFC (not
+    recomputed); None computes them.
     """
     if "impactor_mass" not in model_info:
         raise InputError("model_info needs 'impactor_mass' (kg, full impactor mass, e.g. 0.220).")
     rate = float(model_info.get("sample_rate", 50_000.0))
     cfc = float(model_info.get("cfc", 600.0))
-    t, a_raw, a_cfc = acceleration_histories(result, model_info["impactor_mass"], rate, cfc)
+    t, a_raw, a_cfc = histories or acceleration_histories(result, model_info["impactor_mass"], rate, cfc)
     out = drop_test_metrics(t, a_cfc, a_raw)
     out.update(sample_rate=rate, cfc=cfc)
     return _finish_summary(result, out, model_info)

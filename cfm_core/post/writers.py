@@ -18,6 +18,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError, NumericalError
+from .histories import _finite
 
 #: Units of the acceleration.csv columns, merged into summary.json["units"].
 DROP_TEST_COLUMN_UNITS = {"t": "s", "a_raw": "m/s^2", "a_cfc600": "m/s^2"}
@@ -85,15 +86,8 @@ def write_text(path, text: str) -> Path:
 
 
 def _finite_array(name: str, a, ndim: int | None = None) -> np.ndarray:
-    a = np.asarray(a, dtype=float)
-    if ndim is not None and a.ndim != ndim:
-        raise InputError(f"{name} must be a {ndim}-D array; got shape {a.shape}.")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        i = int(np.argmax(bad.ravel()))
-        raise NumericalError(f"{name} has {int(bad.sum())} non-finite value(s), first at flat index {i} "
-                             f"({a.ravel()[i]!r}); nothing was written.", quantity=name)
-    return a
+    """``a`` as a float array, checked before anything is written (see :func:`.histories._finite`)."""
+    return _finite(name, a, ndim, then="nothing was written")
 
 
 def _check_line(kind: str, text: str) -> str:

@@ -11,6 +11,7 @@ import sys
 from typing import Callable
 
 import numpy as np
+from tqdm import tqdm
 
 from .. import post
 from ..errors import InputError
@@ -33,12 +34,10 @@ def default_backend(scene: Scene) -> str:
 
 def _progress(progress, scene: Scene, label: str):
     """A progress callback from the ``progress`` argument: None/False (none), True (a tqdm bar on
-    stderr), or a callable taking the simulated time in s."""
+    stderr, off when stderr is not a terminal), or a callable taking the simulated time in s."""
     if progress is True:
-        from tqdm import tqdm
-
-        bar = tqdm(total=round(1e3 * scene.end_time, 3), desc=label, unit="ms", file=sys.stderr,
-                   bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
+        bar = tqdm(total=round(1e3 * scene.end_time, 3), desc=label, unit="ms", file=sys.stderr, disable=None,
+                   mininterval=0.2, bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
 
         def update(t: float) -> None:
             n = round(1e3 * min(max(t, 0.0), scene.end_time), 3)
@@ -210,7 +209,7 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
     }
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
     info["warnings"] = list(result.info.get("warnings", []))
-    summary = post.summarize(result, info)
+    summary = post.summarize(result, info, (t, a_raw, a_cfc))
     report_warnings(summary)
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
@@ -294,11 +293,13 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         except (ValueError, RuntimeError) as exc:
             out[i] = exc
 
-    def finish(i, model, result):
+    def finish(i, model, result, checked: bool):
+        """The outcome of one run, or its exception; ``checked``: run_model already ran the checks."""
         if isinstance(result, Exception):
             return result
         try:
-            result.info["warnings"] = checks.check_result(model, result)
+            if not checked:
+                result.info["warnings"] = checks.check_result(model, result)
             return drop_test_outcome(scenes[i], model, result)
         except (ValueError, RuntimeError) as exc:
             return exc
@@ -306,10 +307,10 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
     if not hasattr(be, "run_batch"):
         for i, model in models:
             try:
-                result = be.run(model, **options)
+                result = run_model(model, backend, **options)
             except (ValueError, RuntimeError) as exc:
                 result = exc
-            out[i] = finish(i, model, result)
+            out[i] = finish(i, model, result, checked=True)
         return out
     groups: dict = {}
     for i, model in models:
@@ -322,7 +323,7 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
             except (ValueError, RuntimeError) as exc:
                 results = [exc] * len(part)
             for (i, model), res in zip(part, results):
-                out[i] = finish(i, model, res)
+                out[i] = finish(i, model, res, checked=False)
     return out
 
 

@@ -8,7 +8,6 @@ rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.ta
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 from scipy.optimize import brentq

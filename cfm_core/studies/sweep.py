@@ -326,15 +326,12 @@ def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
 
 def read_table(path) -> list[dict]:
     """Rows of a sweep.csv as dicts keyed by header; numbers as floats, empty cells as None."""
-    frame = pd.read_csv(path, dtype={c: "string" for c in ("run_id", "status", "error")}, keep_default_na=False,
-                        na_values={c: [""] for c in pd.read_csv(path, nrows=0).columns if c not in TEXT_COLUMNS})
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
     rows = frame.to_dict("records")
     for r in rows:
         for k, v in r.items():
             if k not in TEXT_COLUMNS:
-                r[k] = None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v)
-            else:
-                r[k] = str(v)
+                r[k] = float(v) if v != "" else None
     return rows
 
 
