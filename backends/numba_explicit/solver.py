@@ -47,11 +47,10 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     n, ne = nodes.shape[0], hexes.shape[0]
     rho = float(model.density)
     V0, B, G, L = geometry.hex_geometry(nodes, hexes)
-    mass, free, pmask, _ = geometry.constraints(model, nodes, hexes, V0)
+    mass, free, pmask, pnodes = geometry.constraints(model, nodes, hexes, V0)
     ptr, inc = geometry.incidence(hexes, n)
     pr = model.prescribed
     if pr is not None:
-        pnodes = np.ascontiguousarray(pr.nodes, dtype=np.int64)
         presc = (pnodes, np.ascontiguousarray(nodes[pnodes, pr.dof]),
                  np.ascontiguousarray(pr.times, dtype=np.float64),
                  np.ascontiguousarray(pr.values, dtype=np.float64))

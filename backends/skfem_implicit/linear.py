@@ -68,6 +68,7 @@ class Pattern:
         key = np.concatenate(rows).astype(np.int64) * n + np.concatenate(cols)
         uniq, inverse = np.unique(key, return_inverse=True)
         self.n = n
+        self.keys = uniq  # row * n + col of every stored entry, sorted: what position() searches
         self.indices = (uniq % n).astype(np.int32)
         r = uniq // n
         self.row = r
@@ -85,10 +86,9 @@ class Pattern:
         rows = np.asarray(rows, dtype=np.int64)
         cols = np.asarray(cols, dtype=np.int64)
         key = rows * self.n + cols
-        allkeys = self.row * self.n + self.indices
-        pos = np.searchsorted(allkeys, key.ravel())
-        pos = np.minimum(pos, allkeys.size - 1)
-        if not (allkeys[pos] == key.ravel()).all():
+        pos = np.searchsorted(self.keys, key.ravel())
+        pos = np.minimum(pos, self.keys.size - 1)
+        if not (self.keys[pos] == key.ravel()).all():
             raise KeyError("entry outside the sparse pattern")
         return pos.reshape(key.shape)
 
@@ -249,13 +249,12 @@ class BlockJacobiCG:
 
     name = "cg"
 
-    def __init__(self, pattern: Pattern, n_nodes: int, mod, rtol: float, maxiter: int, fallback,
+    def __init__(self, pattern: Pattern, n_nodes: int, rtol: float, maxiter: int, fallback,
                  times: dict | None = None, counts: dict | None = None):
         self.times = times if times is not None else {}
         self.counts = counts if counts is not None else {}
         self.pattern = pattern
         self.n_nodes = n_nodes
-        self.mod = mod
         self.rtol = rtol
         self.maxiter = maxiter
         self.fallback = fallback
@@ -330,7 +329,7 @@ class BlockJacobiCG:
         return self.fallback
 
 
-def make_solver(kind: str, pattern: Pattern, n_nodes: int, mod, rtol: float = 1e-8, maxiter: int = 400,
+def make_solver(kind: str, pattern: Pattern, n_nodes: int, rtol: float = 1e-8, maxiter: int = 400,
                 times: dict | None = None, counts: dict | None = None):
     """A solver by name ("pardiso", "cg", "superlu", "direct"); "pardiso" needs pypardiso (ImportError otherwise).
 
@@ -343,7 +342,7 @@ def make_solver(kind: str, pattern: Pattern, n_nodes: int, mod, rtol: float = 1e
     if kind == "direct":
         return direct_solver(pattern, times, counts)
     if kind == "cg":
-        return BlockJacobiCG(pattern, n_nodes, mod, rtol, maxiter, None, times, counts)
+        return BlockJacobiCG(pattern, n_nodes, rtol, maxiter, None, times, counts)
     raise ValueError(kind)
 
 

@@ -218,13 +218,12 @@ def _linear_solver(sys_: System, o: dict, quasi: bool):
     from . import linear
 
     kind = o["linear_solver"]
-    mod = sys_.compiled.mod if sys_.compiled is not None else None
     if kind == "auto":
         kind = "direct" if quasi else "cg"
     if kind == "pardiso" and not linear.pardiso_available():
         raise InputError("skfem backend: linear_solver = 'pardiso' needs pypardiso (pip install pypardiso); "
                          "use 'superlu' (scipy only) or 'auto'.")
-    return linear.make_solver(kind, sys_.pattern, sys_.n_nodes, mod, rtol=o["cg_rtol"], maxiter=o["cg_maxiter"],
+    return linear.make_solver(kind, sys_.pattern, sys_.n_nodes, rtol=o["cg_rtol"], maxiter=o["cg_maxiter"],
                               times=sys_.times, counts=sys_.counts)
 
 

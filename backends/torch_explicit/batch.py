@@ -245,6 +245,7 @@ class _Batch:
         total = 0
         # physics checks of every run (cfm_core.simulation.checks), at the chunk reads below
         self.monitors = [Monitor(m) for m in self.models]
+        self.nodes0 = np.asarray(m0.nodes, dtype=np.float64)
         self.check_errors: dict = {}
         start = time.perf_counter()
         while True:
@@ -372,7 +373,7 @@ class _Batch:
             return
         uh = u.to("cpu", torch.float64).view(3, self.B, self.n).numpy()
         zh = Z.to("cpu", torch.float64).numpy()
-        nodes = np.asarray(self.models[0].nodes, dtype=np.float64)
+        nodes = self.nodes0
         for b in runs:
             check = self.monitors[b].final if final else self.monitors[b].check
             try:

@@ -146,7 +146,8 @@ class _Run:
         zero = torch.zeros((), dtype=self.dtype, device=self.device)
         self.syncs = 0
         monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
-        positions = lambda: np.asarray(model.nodes, dtype=np.float64) + u.T.to("cpu", torch.float64).numpy()  # noqa: E731
+        nodes0 = np.asarray(model.nodes, dtype=np.float64)
+        positions = lambda: nodes0 + u.T.to("cpu", torch.float64).numpy()  # noqa: E731
         start = time.perf_counter()
         while True:
             # 1. elements at x^n (Prony factors of the previous step)
