@@ -18,6 +18,8 @@ from typing import NamedTuple
 
 import torch
 
+from .contact import newton_block
+
 FIXED_ITERATIONS = 24
 
 
@@ -96,18 +98,9 @@ def _newton(c: _Cand, alive, tol: float, block: int):
             checks += 1
             if not bool(active.any()):
                 break
-        for _ in range(min(block if block > 0 else limit, limit - iterations)):
-            sh, sdh = _h(c, dz)
-            h, dh = dz + sh, 1.0 + sdh
-            neg = h < 0.0
-            lo = torch.where(active & neg, dz, lo)
-            hi = torch.where(active & ~neg, dz, hi)
-            done = (h.abs() <= tol * dz.abs()) | (hi - lo <= 4.0 * tol * hi)
-            nxt = dz - h / dh
-            nxt = torch.where((nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
-            active = active & ~done
-            dz = torch.where(active, nxt, dz)
-            iterations += 1
+        count = min(block if block > 0 else limit, limit - iterations)
+        dz, lo, hi, active = newton_block(lambda z: _h(c, z), dz, lo, hi, active, tol, count)
+        iterations += count
     return dz, checks, active
 
 

@@ -114,6 +114,41 @@ def _newton_host(c: _Candidates, tol: float):
     return dz, checks
 
 
+def newton_block(h, dz, lo, hi, active, tol: float, count: int):
+    """``count`` safeguarded Newton steps on the device for the sphere gap equation dz + h(dz) = 0.
+
+    Parameters
+    ----------
+    h : callable
+        ``h(dz) -> (sh, sdh)``: the contact sum and its derivative at dz (tensors like dz).
+    dz, lo, hi : Tensor
+        Iterate and bracket (m), one entry per run (a scalar for a single run).
+    active : Tensor of bool
+        Runs still iterating; converged ones keep their dz.
+    tol : float
+        Relative tolerance on the residual and the bracket (-).
+    count : int
+        Number of steps (no host synchronisation inside).
+
+    Returns
+    -------
+    tuple of Tensor
+        (dz, lo, hi, active) after the steps; a Newton step outside the bracket is replaced by bisection.
+    """
+    for _ in range(count):
+        sh, sdh = h(dz)
+        res, dres = dz + sh, 1.0 + sdh
+        neg = res < 0.0
+        lo = torch.where(active & neg, dz, lo)
+        hi = torch.where(active & ~neg, dz, hi)
+        done = (res.abs() <= tol * dz.abs()) | (hi - lo <= 4.0 * tol * hi)
+        nxt = dz - res / dres
+        nxt = torch.where((nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
+        active = active & ~done
+        dz = torch.where(active, nxt, dz)
+    return dz, lo, hi, active
+
+
 def _newton_device(c: _Candidates, tol: float, block: int):
     """The same iteration on the device; the host checks convergence every ``block`` iterations."""
     h0, dh0 = _h(c, 0.0).unbind()
@@ -126,18 +161,9 @@ def _newton_device(c: _Candidates, tol: float, block: int):
     iterations = 0
     if bool(active):
         while iterations < 100:
-            for _ in range(min(block, 100 - iterations)):
-                sh, sdh = _h(c, dz).unbind()
-                h, dh = dz + sh, 1.0 + sdh
-                neg = h < 0.0
-                lo = torch.where(active & neg, dz, lo)
-                hi = torch.where(active & ~neg, dz, hi)
-                done = (h.abs() <= tol * dz.abs()) | (hi - lo <= 4.0 * tol * hi)
-                nxt = dz - h / dh
-                nxt = torch.where((nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
-                active = active & ~done
-                dz = torch.where(active, nxt, dz)
-                iterations += 1
+            count = min(block, 100 - iterations)
+            dz, lo, hi, active = newton_block(lambda z: _h(c, z).unbind(), dz, lo, hi, active, tol, count)
+            iterations += count
             checks += 1
             if not bool(active):
                 break
