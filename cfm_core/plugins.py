@@ -92,9 +92,17 @@ def _kind(name: str) -> Kind:
         raise InputError(f"unknown plugin kind '{name}'; declared kinds: {', '.join(sorted(_kinds))}.") from None
 
 
+@functools.lru_cache(maxsize=1)
+def _installed_entry_points():
+    """Every installed entry point, read once per process: ``entry_points(group=...)`` reads the
+    entry-point files of every installed distribution on each call, and a run looks up several
+    groups (commands, materials, backends)."""
+    return entry_points()
+
+
 def _iter_entry_points(group: str):
     """The installed entry points of one group (patched in tests with fake EntryPoint objects)."""
-    return list(entry_points(group=group))
+    return list(_installed_entry_points().select(group=group))
 
 
 @functools.lru_cache(maxsize=None)
@@ -270,5 +278,6 @@ def unregister(kind: str, name: str) -> None:
 def refresh() -> None:
     """Forget cached entry points and loaded plugins of every kind (after installing or removing
     plugins); runtime registrations are kept."""
+    _installed_entry_points.cache_clear()
     _entry_point_table.cache_clear()
     _load.cache_clear()

@@ -74,12 +74,13 @@ class NumbaExplicitBackend(Backend):
         from . import codegen
 
         t, F = check_point_inputs(t, F)
-        mod = codegen.load(material)
         gam, tau = (np.ascontiguousarray(a, dtype=np.float64) for a in material.prony_arrays())
         p = np.ascontiguousarray(material.param_array(), dtype=np.float64)
         out = np.zeros((t.shape[0], 6))
         ginf = 1.0 - float(np.sum(gam))
-        status, i, J, m0, m1, m2 = mod.point_history(t, F, p, gam, tau, ginf, out)
+        with codegen.announce(material, "point_history"):  # its first call compiles it (once per machine)
+            mod = codegen.load(material)
+            status, i, J, m0, m1, m2 = mod.point_history(t, F, p, gam, tau, ginf, out)
         if status == 1:
             raise NumericalError(f"point {i} (t = {t[i]:.6g} s): det F = {J:.4g} <= 0 (inverted).",
                                  time=float(t[i]), element=int(i), quantity="J")

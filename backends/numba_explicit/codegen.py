@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ast
 import json
+import os
 import re
 import sys
 import time
@@ -101,17 +102,31 @@ def _prune(folder: Path, prefix: str, keep: Path, n_keep: int = 6) -> None:
                 pass
 
 
+_SOURCES: dict = {}
+
+
+def source_of(material) -> str:
+    """:func:`module_source` of ``material``, built once per process (keyed by the material's name
+    and generated scalar code; the kernel files do not change while a process runs): the cache
+    check of :func:`announce` and :func:`load` share it."""
+    key = (material.name, material.numba_source())
+    text = _SOURCES.get(key)
+    if text is None:
+        text = _SOURCES[key] = module_source(material)
+    return text
+
+
 def load(material):
     """The imported generated module for ``material`` (written on first use, then reused;
     :func:`cfm_core.material.cache.import_generated`); older files of the same material are pruned."""
-    mod = import_generated(module_source(material), "cfm_numba", "numba", material.name)
+    mod = import_generated(source_of(material), "cfm_numba", "numba", material.name)
     path = Path(mod.__file__)
     _prune(path.parent, path.stem.rsplit("_", 1)[0] + "_", keep=path)
     return mod
 
 
 def _module_name(material) -> str:
-    return generated_name(module_source(material), "cfm_numba", material.name)
+    return generated_name(source_of(material), "cfm_numba", material.name)
 
 
 def is_compiled(material, kernel: str = "advance") -> bool:
@@ -122,11 +137,26 @@ def is_compiled(material, kernel: str = "advance") -> bool:
 _TIMES = "compile_seconds.json"
 
 
-def _last_compile_time() -> float | None:
+def _last_compile_time(kernel: str) -> float | None:
     try:
-        return float(json.loads((cache_dir() / _TIMES).read_text())["seconds"])
+        return float(json.loads((cache_dir() / _TIMES).read_text())[kernel])
     except (OSError, ValueError, KeyError, TypeError):
         return None
+
+
+def _store_compile_time(kernel: str, seconds: float) -> None:
+    try:
+        try:
+            times = dict(json.loads((cache_dir() / _TIMES).read_text()))
+        except (OSError, ValueError, TypeError):
+            times = {}
+        times[kernel] = seconds
+        (cache_dir() / _TIMES).write_text(json.dumps(times))
+    except OSError:  # a read-only cache still runs
+        pass
+
+
+_READY: set = set()    # (cache folder, module name, kernel) known to be compiled: not looked up again
 
 
 @contextmanager
@@ -135,14 +165,17 @@ def announce(material, kernel: str = "advance", stream=None):
 
     When the kernels of ``material`` are not in the on-disk cache yet, prints "numba: compiling
     kernels for material '...' (once per machine, ~N s; cached in DIR)" before, and the seconds
-    it took after (kept as the next estimate). Silent when the cache has them.
+    it took after (kept per kernel as the next estimate). Silent when the cache has them; once
+    found or compiled, a kernel is not looked up again in this process.
     """
-    if is_compiled(material, kernel):
+    ready = (os.environ.get("CFM_CACHE_DIR", ""), _module_name(material), kernel)
+    if ready in _READY or is_compiled(material, kernel):
+        _READY.add(ready)
         yield
         return
     stream = stream or sys.stderr
-    guess = _last_compile_time()
-    estimate = f"~{guess:.0f} s" if guess else "about 20 s on a free core"
+    guess = _last_compile_time(kernel)
+    estimate = f"~{guess:.0f} s" if guess else ("about 20 s on a free core" if kernel == "advance" else "some seconds")
     lead = "\n" if getattr(stream, "isatty", lambda: False)() else ""   # below a progress bar
     print(f"{lead}numba: compiling kernels for material '{material.name}' (once per machine, {estimate}; cached in "
           f"{cache_dir()})...", file=stream, flush=True)
@@ -150,7 +183,5 @@ def announce(material, kernel: str = "advance", stream=None):
     yield
     took = time.perf_counter() - start
     print(f"numba: kernels for material '{material.name}' compiled in {took:.1f} s.", file=stream, flush=True)
-    try:
-        (cache_dir() / _TIMES).write_text(json.dumps({"seconds": took}))
-    except OSError:  # a read-only cache still runs
-        pass
+    _READY.add(ready)
+    _store_compile_time(kernel, took)

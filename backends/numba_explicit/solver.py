@@ -130,7 +130,9 @@ _WARM: set = set()
 
 
 def warm_up(mod, material) -> float:
-    """Compile (or load from the cache) every kernel on a 1-element model; seconds spent."""
+    """Compile (or load from the cache) the time loop ``advance`` and all it calls on a 1-element
+    model; seconds spent. ``point_history`` (material-point runs) is left to its first use: a run
+    does not call it, and loading a kernel from numba's cache costs time too."""
     if id(mod) in _WARM:
         return 0.0
     from cfm_core.scene.model import Model, RigidPlane, RigidSphere
@@ -144,9 +146,6 @@ def warm_up(mod, material) -> float:
     start = time.perf_counter()
     prep = prepare(model, NumbaOptions())
     advance(mod, prep, np.zeros((4, K.H_N)), 1e-9)
-    out = np.zeros((1, 6))
-    gam, tau = prep.mat[1], prep.mat[2]
-    mod.point_history(np.zeros(1), np.eye(3)[None].copy(), prep.mat[0], gam, tau, 1.0, out)
     _WARM.add(id(mod))
     return time.perf_counter() - start
 

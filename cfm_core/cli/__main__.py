@@ -1,7 +1,23 @@
-"""``python -m cfm_core.cli ...``: the ``cfm`` command."""
+"""``python -m cfm_core.cli ...`` and the ``cfm`` console script: the ``cfm`` command."""
 
+import gc
 import sys
 
 from .app import main
 
-sys.exit(main())
+
+def console() -> int:
+    """Run :func:`main` on ``sys.argv``; its exit status, for ``sys.exit`` (the ``cfm`` console script).
+
+    Every object left is frozen out of the garbage collector (``gc.freeze``) before the interpreter
+    shuts down: its collections at exit would walk the hundreds of thousands of objects numba and
+    matplotlib create (~0.25 s of a 2 s ``cfm drop-test``) to free memory the ending process gives
+    back anyway. Objects still go away by reference counting; files are closed by the writers.
+    """
+    code = main()
+    gc.freeze()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(console())

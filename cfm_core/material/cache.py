@@ -18,7 +18,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import codegen
+#: The code generator's file: its text enters every fingerprint. Read as a file, not imported
+#: (importing it imports sympy, which a run whose generated code is cached does not need).
+CODEGEN_FILE = Path(__file__).with_name("codegen.py")
 
 
 def cache_dir(*parts: str) -> Path:
@@ -77,7 +79,7 @@ def spec_fingerprint(spec) -> str | None:
     """
 
     h = hashlib.sha256()
-    h.update(Path(codegen.__file__).read_bytes())
+    h.update(CODEGEN_FILE.read_bytes())
     terms = spec.isochoric + ((spec.volumetric,) if spec.volumetric else ())
     for term in terms:
         text = _file_text(term.energy)

@@ -13,12 +13,13 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import sympy as sp
 
 
 @functools.lru_cache(maxsize=64)
 def _term_functions(term):
     """(value, gradient) numpy functions of one term in its kinematic variables and parameters."""
+    import sympy as sp  # deferred: only a failing run (the error path) needs it, every run imports this module
+
     names = [p.name for p in term.parameters]
     params = sp.symbols(names, real=True) if names else ()
     params = tuple(params) if isinstance(params, (list, tuple)) else (params,)

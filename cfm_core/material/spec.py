@@ -16,10 +16,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-import sympy as sp
 
 from ..errors import InputError
-from . import codegen
 from .cache import codegen_cache
 from .material import Material
 from .parameters import Parameter
@@ -249,8 +247,12 @@ class MaterialSpec:
         """(psi_iso, psi_vol, parameter names): the energies (Pa) as sympy expressions in m1, m2,
         m3 and the names of the parameter vector (energy parameters, then ``s_iso``); traced once
         per spec (:func:`cfm_core.material.codegen.energies`, InputError if untraceable)."""
+        import sympy  # deferred (with codegen): needed only to trace an energy whose generated code is not cached
+
+        from . import codegen
+
         names = [p.name for p in self.energy_parameters] + ["s_iso"]
-        syms = {n: sp.Symbol(n, real=True) for n in names}
+        syms = {n: sympy.Symbol(n, real=True) for n in names}
         iso, vol = codegen.energies(self.isochoric, self.volumetric, syms)
         return iso, vol, names
 
@@ -258,6 +260,8 @@ class MaterialSpec:
     def derivatives(self):
         """Dict of generated-function name -> sympy expressions, Pa (see
         :func:`cfm_core.material.codegen.derivative_table`)."""
+        from . import codegen  # deferred: imports sympy, needed only when the generated code is not cached
+
         iso, vol, _ = self.symbolic
         return codegen.derivative_table(iso, vol)
 
@@ -284,7 +288,7 @@ class MaterialSpec:
         InputError
             An energy cannot be traced symbolically (names the term).
         """
-        return codegen_cache(self, dialect, lambda: codegen.module_source(self.derivatives, self.symbolic[2], dialect))
+        return codegen_cache(self, dialect, lambda: _generate(self, dialect))
 
     @functools.lru_cache(maxsize=None)
     def kernels(self, dialect: str):
@@ -382,6 +386,13 @@ def check_spec(spec: MaterialSpec, kernels) -> None:
         raise InputError(
             f"material '{spec.name}': the reference state C = I is not stress-free (d psi / d m = "
             f"{g.ravel().tolist()} Pa); a volumetric term needs U'(1) = 0.")
+
+
+def _generate(spec: MaterialSpec, dialect: str) -> str:
+    """Generate the module source of ``spec`` for ``dialect`` (the cache-miss path of ``source``)."""
+    from . import codegen  # deferred: imports sympy, needed only when the generated code is not cached
+
+    return codegen.module_source(spec.derivatives, spec.symbolic[2], dialect)
 
 
 def _replace(spec: MaterialSpec, **changes) -> MaterialSpec:

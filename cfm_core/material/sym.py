@@ -12,11 +12,59 @@ backend gets code generated from that single expression. Use these helpers inste
 
 from __future__ import annotations
 
-import sympy as sp
 
-exp = sp.exp
-log = sp.log
-sqrt = sp.sqrt
+def exp(x):
+    """Exponential ``e**x`` (a sympy ``exp``), for energy functions.
+
+    Parameters
+    ----------
+    x : sympy.Expr or number
+        Exponent (-).
+
+    Returns
+    -------
+    sympy.Expr
+        ``sympy.exp(x)``.
+    """
+    import sympy  # deferred: sympy is only needed when an energy is traced (cache miss), not per run
+
+    return sympy.exp(x)
+
+
+def log(x):
+    """Natural logarithm (a sympy ``log``), for energy functions.
+
+    Parameters
+    ----------
+    x : sympy.Expr or number
+        Argument (-), positive on the domain of the energy (e.g. J).
+
+    Returns
+    -------
+    sympy.Expr
+        ``sympy.log(x)``.
+    """
+    import sympy  # deferred: sympy is only needed when an energy is traced (cache miss), not per run
+
+    return sympy.log(x)
+
+
+def sqrt(x):
+    """Square root (a sympy ``sqrt``), for energy functions.
+
+    Parameters
+    ----------
+    x : sympy.Expr or number
+        Argument, non-negative on the domain of the energy.
+
+    Returns
+    -------
+    sympy.Expr
+        ``sympy.sqrt(x)``.
+    """
+    import sympy  # deferred: sympy is only needed when an energy is traced (cache miss), not per run
+
+    return sympy.sqrt(x)
 
 
 def where(condition, if_true, if_false):
@@ -38,7 +86,9 @@ def where(condition, if_true, if_false):
         ``Piecewise((if_true, condition), (if_false, True))``; printed as a conditional
         expression (math) or ``where`` (numpy, torch) in the generated code.
     """
-    return sp.Piecewise((if_true, condition), (if_false, True))
+    import sympy  # deferred: sympy is only needed when an energy is traced (cache miss), not per run
+
+    return sympy.Piecewise((if_true, condition), (if_false, True))
 
 
 __all__ = ["exp", "log", "sqrt", "where"]

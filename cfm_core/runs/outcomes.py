@@ -11,15 +11,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..errors import InputError
 from ..post import G0, compare_histories
 from ..post.plots import plot_acceleration, plot_reaction
 from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
 from ..scene.scene import scene_to_toml
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _material_text(summary: dict) -> str:
@@ -70,6 +73,8 @@ class DropTestOutcome:
             Columns ``t [s]``, ``a_raw [m/s^2]``, ``a_cfc600 [m/s^2]`` and ``a_cfc600 [g]``,
             one row per sample (n rows).
         """
+        import pandas as pd  # deferred: ~0.3 s to import, and a run that writes its files does not need it
+
         return pd.DataFrame({"t [s]": self.t, "a_raw [m/s^2]": self.a_raw, "a_cfc600 [m/s^2]": self.a_cfc,
                              "a_cfc600 [g]": self.a_cfc / G0})
 
@@ -180,6 +185,8 @@ class ReactionOutcome:
         pandas.DataFrame
             Columns ``t [s]``, ``stretch [-]``, ``reaction_force [N]``, ``nominal_stress [Pa]``.
         """
+        import pandas as pd  # deferred: ~0.3 s to import, and a run that writes its files does not need it
+
         return pd.DataFrame({"t [s]": self.t, "stretch [-]": self.stretch, "reaction_force [N]": self.force,
                              "nominal_stress [Pa]": self.nominal})
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..material import kinematics as kin
 from ..material import reference as ref
@@ -140,6 +139,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
         raise InputError(f"stretch = {stretch!r} (-) must lie in [0.05, 5] and differ from 1.")
     if not (isinstance(steps, int) and steps >= 2):
         raise InputError(f"steps = {steps!r} must be an integer >= 2.")
+    from scipy.optimize import brentq  # deferred: ~0.2 s to import, and only this study needs it (not cfm drop-test)
+
     t_load = abs(stretch - 1.0) / rate
     t = np.linspace(0.0, t_load, steps + 1)
     if hold > 0:

@@ -31,8 +31,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from .dask_runner import Done, SerialRunner, error_text
 from ..errors import InputError
@@ -43,6 +44,9 @@ from ..material.registry import get_material
 from ..runs import pipeline as simulate
 from ..post import SUMMARY_UNITS
 from ..post.plots import _COLOURS, _figure, _save, display, display_text
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Scene keys a sweep can vary (SI units, see cfm_core/scene/scenes/drop-test.toml).
 SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius", "density", "friction")
@@ -299,6 +303,8 @@ TEXT_COLUMNS = ("run_id", "status", "error")
 def table_frame(rows: list, axes: list[Axis]) -> pd.DataFrame:
     """The sweep table as a DataFrame: one row per run, columns ``name [unit]`` (SI units),
     text columns run_id, status, error; numbers as float (NaN where a run has no value)."""
+    import pandas as pd  # deferred: ~0.3 s to import; the cfm command imports this module for every command
+
     cols = columns(axes)
     data = {h: [r[k] for r in rows] for k, h in cols}
     frame = pd.DataFrame(data, columns=[h for _, h in cols])
@@ -326,6 +332,8 @@ def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
 
 def read_table(path) -> list[dict]:
     """Rows of a sweep.csv as dicts keyed by header; numbers as floats, empty cells as None."""
+    import pandas as pd  # deferred: ~0.3 s to import; the cfm command imports this module for every command
+
     frame = pd.read_csv(path, dtype=str, keep_default_na=False)
     rows = frame.to_dict("records")
     for r in rows:
