@@ -3,7 +3,8 @@
     python -m cfm_verification.benchmarks.numba [--thickness 0.008] [--size 0.001] [--no-cold]
 
 Prints the cold time (a fresh process with an empty kernel cache: code generation, compilation,
-run), the warm time (same process, kernels compiled), steps and elements, nanoseconds per
+run), a warm ``cfm drop-test`` end to end in fresh processes with its phases next to the 2 s target
+(:mod:`.startup`), the warm time (same process, kernels compiled), steps and elements, nanoseconds per
 element-cycle (solver wall time / (elements x steps)) with 1 and 2 threads and the speed-up,
 and the number of steps taken against the number the tissue's own stable step at rest allows
 (the kinematic contact does not shorten the step; the tissue stiffening under compression does).
@@ -20,6 +21,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+from . import startup
 
 
 def drop_test(thickness: float, size: float):
@@ -49,48 +52,6 @@ def cold(thickness: float, size: float) -> dict:
         env = {**os.environ, "CFM_CACHE_DIR": cache}
         out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
-
-
-PHASES = r"""
-import json, time, tempfile, pathlib
-t0 = time.perf_counter()
-from cfm_core.runs import pipeline
-from cfm_core.post import plots, writers
-from cfm_core.scene.builder import build_model
-from cfm_core.scene.scene import builtin_scene
-from cfm_core.simulation.registry import get_backend
-t1 = time.perf_counter()
-scene = builtin_scene("drop-test").with_overrides(thickness=THICK, element_size=SIZE)
-model = build_model(scene)
-t2 = time.perf_counter()
-result = get_backend("numba").run(model)
-t3 = time.perf_counter()
-outcome = pipeline.drop_test_outcome(scene, model, result)
-t4 = time.perf_counter()
-out = pathlib.Path(tempfile.mkdtemp())
-writers.write_drop_test(out, outcome.t, outcome.a_raw, outcome.a_cfc, outcome.summary)
-t5 = time.perf_counter()
-plots.plot_acceleration(out / "acceleration.png", outcome.t, outcome.a_raw, outcome.a_cfc, "drop test")
-t6 = time.perf_counter()
-print(json.dumps({"imports": t1 - t0, "model": t2 - t1, "kernels": result.info["compile_time"],
-                  "solve": result.wall_time, "run_other": t3 - t2 - result.wall_time - result.info["compile_time"],
-                  "post": t4 - t3, "write": t5 - t4, "plot": t6 - t5, "total": t6 - t0}))
-"""
-
-
-def warm_end_to_end(thickness: float, size: float) -> dict:
-    """Phases (s) of a warm drop test in a fresh interpreter (kernels in the disk cache), and the
-    wall time of the command ``cfm drop-test --quiet`` itself (interpreter start included)."""
-    code = PHASES.replace("THICK", repr(thickness)).replace("SIZE", repr(size))
-    subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)  # fill the cache
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    phases = json.loads(out.stdout.strip().splitlines()[-1])
-    with tempfile.TemporaryDirectory() as folder:
-        start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "cfm_core.cli", "drop-test", "--quiet", "--thickness",
-                        str(thickness), "--element-size", str(size), "--out", folder], capture_output=True, check=True)
-        phases["command"] = time.perf_counter() - start
-    return phases
 
 
 def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
@@ -170,12 +131,7 @@ def main(argv=None) -> None:
         print(f"cold (fresh process, empty cache): {c['total']:.2f} s in all, run() {c['run']:.2f} s "
               f"of which code generation + compilation {c['compile']:.2f} s, solver {c['wall']:.2f} s")
     if not args.no_end_to_end:
-        p = warm_end_to_end(args.thickness, args.size)
-        print(f"warm 'cfm drop-test --quiet' (fresh process, kernels cached): {p['command']:.2f} s end to end; in "
-              f"a fresh interpreter: imports {p['imports']:.2f} s, model {p['model']:.2f} s, kernels loaded "
-              f"{p['kernels']:.2f} s, solve {p['solve']:.2f} s, other run set-up {p['run_other']:.2f} s, "
-              f"post-processing {p['post']:.2f} s, writing {p['write']:.2f} s, plotting {p['plot']:.2f} s "
-              f"(sum {p['total']:.2f} s)", flush=True)
+        print(startup.report(startup.measure(args.thickness, args.size, max(args.repeat, 1))), flush=True)
     sp = split(model)
     print(f"CPU time per element-cycle, one thread, at t = 6 ms: step {sp['step']:.0f} ns = element pass "
           f"{sp['element_pass']:.0f} + gather and update {sp['gather_update']:.0f} + energies {sp['energy']:.0f} + "
