@@ -25,3 +25,6 @@ def test_instrumented_run_of_a_small_drop_test():
     assert all(p[k] > -1e-3 for k, _ in startup.PHASES), p
     assert sum(p[k] for k, _ in startup.PHASES) == pytest.approx(p["total"], abs=1e-9)
     assert p["solve"] > 0 and p["mpl"] > 0 and "cfm_core.cli" in modules
+    c = p["cpu"]
+    assert all(c[k] > -1e-3 for k, _ in startup.CPU_PHASES), c
+    assert sum(c[k] for k, _ in startup.CPU_PHASES) == pytest.approx(c["total"], abs=1e-9)
