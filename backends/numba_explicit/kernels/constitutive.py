@@ -31,6 +31,9 @@ from .layout import FASTMATH
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def psi_grad_hess_diag(m1, m2, m3, p):  # stub: generated modules define it from the material
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+psi_grad_hess_diag_v = psi_grad_hess_diag   # generated modules: the vectorisable variant
 # <<< standalone
 
 ST_OK = 0
@@ -77,10 +80,26 @@ def material_point(f00, f01, f02, f10, f11, f12, f20, f21, f22, p, decay, gain, 
                 0.0, 0.0, 0.0, 0.0, 0.0)
     m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22 = eig3(c00, c01, c02, c11, c12, c22)
     i0, i1, i2, v0, v1, v2, h0, h1, h2, w0, w1, w2 = psi_grad_hess_diag(m0, m1, m2, p)
+    st, t00, t11, t22, t01, t12, t02, mt, mi = principal_stress(
+        m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+        i0, i1, i2, v0, v1, v2, h0, h1, h2, w0, w1, w2, decay, gain, ginf, H, S0old)
+    return (st, J, t00, t11, t22, t01, t12, t02, c00, c11, c22, c01, c12, c02,
+            mt, mi, m0, m1, m2)
+
+
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+def principal_stress(m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22,
+                     i0, i1, i2, v0, v1, v2, h0, h1, h2, w0, w1, w2, decay, gain, ginf, H, S0old):
+    """S (Pa) from the eigen-decomposition C = Q diag(m) Q^T and the material's derivatives.
+
+    i, v: d psi_iso / d m_a and d psi_vol / d m_a; h, w: the second derivatives d^2 / d m_a^2
+    (Pa). Updates the Prony state H (k, 6), S0old (6,) (left untouched on failure).
+    Returns (status, S11, S22, S33, S12, S23, S13, M_max, M_iso_max): status 0 ok,
+    2 non-finite derivative (the other values are then 0).
+    """
     chk = i0 + i1 + i2 + v0 + v1 + v2 + h0 + h1 + h2 + w0 + w1 + w2
     if not math.isfinite(chk):
-        return (ST_NONFINITE, J, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, c00, c11, c22, c01, c12, c02,
-                0.0, 0.0, m0, m1, m2)
+        return ST_NONFINITE, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     # S0_iso and S_vol in the principal basis: sum_a 2 psi_a N_a (x) N_a
     a0 = 2.0 * i0
     a1 = 2.0 * i1
@@ -151,8 +170,7 @@ def material_point(f00, f01, f02, f10, f11, f12, f20, f21, f22, p, decay, gain, 
     mt2 = mi2 + 2.0 * v2 + 4.0 * m2 * w2
     mt = max(mt0, max(mt1, mt2))
     mi = max(mi0, max(mi1, mi2))
-    return (ST_OK, J, t00, t11, t22, t01, t12, t02, c00, c11, c22, c01, c12, c02,
-            mt, mi, m0, m1, m2)
+    return ST_OK, t00, t11, t22, t01, t12, t02, mt, mi
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

@@ -23,9 +23,28 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .constitutive import ST_NONFINITE, ST_OK, first_piola, material_point
+from .constitutive import ST_INVERTED, ST_NONFINITE, ST_OK, first_piola, principal_stress, psi_grad_hess_diag_v
+from .eigen import eig3, eig3_hybrid
 from .layout import FASTMATH
 # <<< standalone
+
+
+# Elements are processed in blocks of BLOCK: each stage of the element update is one loop over
+# the block's columns of a work array, so that LLVM vectorises the eigen-decomposition and the
+# material across elements (those stages have no calls and no branches). The work array is flat,
+# wk[row * BLOCK + i] with the rows W_* below: row offsets are compile-time constants, so LLVM
+# proves that a stage's stores never overlap its loads (with a 2-D array it would need a run-time
+# overlap check per pair of rows, and gives up).
+BLOCK = 32
+W_F = 0         # F, 9 rows (row-major)
+W_Q = 9         # hourglass modes q_alpha,i, 12 rows (alpha-major)
+W_C = 21        # C = F^T F, 6 rows (11, 22, 33, 12, 23, 13)
+W_J = 27        # det F
+W_M = 28        # eigenvalues of C, 3 rows
+W_V = 31        # eigenvectors of C (columns of Q, row-major), 9 rows
+W_OK = 40       # 1 where the branch-free eigen-decomposition applied
+W_R = 41        # psi_grad_hess_diag, 12 rows
+W_N = 53
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -40,10 +59,26 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
     Sold, Eold (e, 6). Returns (stress work increment (J), number of failures).
     """
     ne = conn.shape[0]
+    nblk = (ne + BLOCK - 1) // BLOCK
     work = 0.0
     nbad = 0
-    for e in prange(ne):
-        # one sweep over the nodes: F = sum x_a (x) B_a and the hourglass modes q = sum v_a G_a
+    for blk in prange(nblk):
+        wb, nb = element_block(blk * BLOCK, min(BLOCK, ne - blk * BLOCK), x, v, conn, B, G, V0, L,
+                               hgfac, p, decay, gain, ginf, H, S0old, Sold, Eold, fe, dte, status,
+                               errv, rho, hg, hgwave)
+        work += wb
+        nbad += nb
+    return work, nbad
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def element_block(e0, n, x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old, Sold,
+                  Eold, fe, dte, status, errv, rho, hg, hgwave):
+    """:func:`element_pass` for the n elements from e0 (one block); returns (work (J), failures)."""
+    wk = np.empty(W_N * BLOCK)
+    # 1. one sweep over the nodes: F = sum x_a (x) B_a and the hourglass modes q = sum v_a G_a
+    for i in range(n):
+        e = e0 + i
         f00 = 0.0
         f01 = 0.0
         f02 = 0.0
@@ -66,10 +101,10 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
         q31 = 0.0
         q32 = 0.0
         for a in range(8):
-            n = conn[e, a]
-            x0 = x[n, 0]
-            x1 = x[n, 1]
-            x2 = x[n, 2]
+            nd = conn[e, a]
+            x0 = x[nd, 0]
+            x1 = x[nd, 1]
+            x2 = x[nd, 2]
             b0 = B[e, a, 0]
             b1 = B[e, a, 1]
             b2 = B[e, a, 2]
@@ -82,9 +117,9 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             f20 += x2 * b0
             f21 += x2 * b1
             f22 += x2 * b2
-            v0 = v[n, 0]
-            v1 = v[n, 1]
-            v2 = v[n, 2]
+            v0 = v[nd, 0]
+            v1 = v[nd, 1]
+            v2 = v[nd, 2]
             g0 = G[e, a, 0]
             g1 = G[e, a, 1]
             g2 = G[e, a, 2]
@@ -101,11 +136,117 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             q30 += v0 * g3
             q31 += v1 * g3
             q32 += v2 * g3
-        (st, J, s00, s11, s22, s01, s12, s02, c00, c11, c22, c01, c12, c02,
-         mt, mi, m0, m1, m2) = material_point(f00, f01, f02, f10, f11, f12, f20, f21, f22,
-                                              p, decay, gain, ginf, H[e], S0old[e])
-        if st == ST_OK and not math.isfinite(s00 + s11 + s22 + s01 + s12 + s02 + mt):
-            st = ST_NONFINITE
+        wk[W_F * BLOCK + i] = f00
+        wk[(W_F + 1) * BLOCK + i] = f01
+        wk[(W_F + 2) * BLOCK + i] = f02
+        wk[(W_F + 3) * BLOCK + i] = f10
+        wk[(W_F + 4) * BLOCK + i] = f11
+        wk[(W_F + 5) * BLOCK + i] = f12
+        wk[(W_F + 6) * BLOCK + i] = f20
+        wk[(W_F + 7) * BLOCK + i] = f21
+        wk[(W_F + 8) * BLOCK + i] = f22
+        wk[W_Q * BLOCK + i] = q00
+        wk[(W_Q + 1) * BLOCK + i] = q01
+        wk[(W_Q + 2) * BLOCK + i] = q02
+        wk[(W_Q + 3) * BLOCK + i] = q10
+        wk[(W_Q + 4) * BLOCK + i] = q11
+        wk[(W_Q + 5) * BLOCK + i] = q12
+        wk[(W_Q + 6) * BLOCK + i] = q20
+        wk[(W_Q + 7) * BLOCK + i] = q21
+        wk[(W_Q + 8) * BLOCK + i] = q22
+        wk[(W_Q + 9) * BLOCK + i] = q30
+        wk[(W_Q + 10) * BLOCK + i] = q31
+        wk[(W_Q + 11) * BLOCK + i] = q32
+    # 2. J, C and its eigen-decomposition (vectorised; the rare rest below, one by one)
+    for i in range(n):
+        f00 = wk[W_F * BLOCK + i]
+        f01 = wk[(W_F + 1) * BLOCK + i]
+        f02 = wk[(W_F + 2) * BLOCK + i]
+        f10 = wk[(W_F + 3) * BLOCK + i]
+        f11 = wk[(W_F + 4) * BLOCK + i]
+        f12 = wk[(W_F + 5) * BLOCK + i]
+        f20 = wk[(W_F + 6) * BLOCK + i]
+        f21 = wk[(W_F + 7) * BLOCK + i]
+        f22 = wk[(W_F + 8) * BLOCK + i]
+        J = (f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20)
+             + f02 * (f10 * f21 - f11 * f20))
+        c00 = f00 * f00 + f10 * f10 + f20 * f20
+        c11 = f01 * f01 + f11 * f11 + f21 * f21
+        c22 = f02 * f02 + f12 * f12 + f22 * f22
+        c01 = f00 * f01 + f10 * f11 + f20 * f21
+        c12 = f01 * f02 + f11 * f12 + f21 * f22
+        c02 = f00 * f02 + f10 * f12 + f20 * f22
+        (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(
+            c00, c01, c02, c11, c12, c22)
+        wk[W_C * BLOCK + i] = c00
+        wk[(W_C + 1) * BLOCK + i] = c11
+        wk[(W_C + 2) * BLOCK + i] = c22
+        wk[(W_C + 3) * BLOCK + i] = c01
+        wk[(W_C + 4) * BLOCK + i] = c12
+        wk[(W_C + 5) * BLOCK + i] = c02
+        wk[W_J * BLOCK + i] = J
+        wk[W_M * BLOCK + i] = m0
+        wk[(W_M + 1) * BLOCK + i] = m1
+        wk[(W_M + 2) * BLOCK + i] = m2
+        wk[W_V * BLOCK + i] = q00
+        wk[(W_V + 1) * BLOCK + i] = q01
+        wk[(W_V + 2) * BLOCK + i] = q02
+        wk[(W_V + 3) * BLOCK + i] = q10
+        wk[(W_V + 4) * BLOCK + i] = q11
+        wk[(W_V + 5) * BLOCK + i] = q12
+        wk[(W_V + 6) * BLOCK + i] = q20
+        wk[(W_V + 7) * BLOCK + i] = q21
+        wk[(W_V + 8) * BLOCK + i] = q22
+        wk[W_OK * BLOCK + i] = 1.0 if ok else 0.0
+    for i in range(n):
+        if wk[W_OK * BLOCK + i] == 0.0 or not (wk[W_J * BLOCK + i] > 0.0):
+            # isotropic states (the undeformed one) and non-finite values: the scalar path;
+            # an inverted element keeps finite placeholders for the material stage
+            m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22 = eig3(
+                wk[W_C * BLOCK + i], wk[(W_C + 3) * BLOCK + i], wk[(W_C + 5) * BLOCK + i], wk[(W_C + 1) * BLOCK + i], wk[(W_C + 4) * BLOCK + i], wk[(W_C + 2) * BLOCK + i])
+            if not (wk[W_J * BLOCK + i] > 0.0) or not math.isfinite(wk[W_J * BLOCK + i]):
+                m0 = 1.0
+                m1 = 1.0
+                m2 = 1.0
+            wk[W_M * BLOCK + i] = m0
+            wk[(W_M + 1) * BLOCK + i] = m1
+            wk[(W_M + 2) * BLOCK + i] = m2
+            wk[W_V * BLOCK + i] = q00
+            wk[(W_V + 1) * BLOCK + i] = q01
+            wk[(W_V + 2) * BLOCK + i] = q02
+            wk[(W_V + 3) * BLOCK + i] = q10
+            wk[(W_V + 4) * BLOCK + i] = q11
+            wk[(W_V + 5) * BLOCK + i] = q12
+            wk[(W_V + 6) * BLOCK + i] = q20
+            wk[(W_V + 7) * BLOCK + i] = q21
+            wk[(W_V + 8) * BLOCK + i] = q22
+    # 3. the material's derivatives (vectorised)
+    material_block(wk, p, n)
+    # 4. stress, Prony, forces and stress work, element by element
+    wb = 0.0
+    nb = 0
+    for i in range(n):
+        e = e0 + i
+        J = wk[W_J * BLOCK + i]
+        m0 = wk[W_M * BLOCK + i]
+        m1 = wk[(W_M + 1) * BLOCK + i]
+        m2 = wk[(W_M + 2) * BLOCK + i]
+        st = ST_OK
+        s00 = s11 = s22 = s01 = s12 = s02 = mt = mi = 0.0
+        if not (J > 0.0) or not math.isfinite(J):
+            st = ST_INVERTED
+            m0 = 0.0
+            m1 = 0.0
+            m2 = 0.0
+        else:
+            (st, s00, s11, s22, s01, s12, s02, mt, mi) = principal_stress(
+                m0, m1, m2, wk[W_V * BLOCK + i], wk[(W_V + 1) * BLOCK + i], wk[(W_V + 2) * BLOCK + i], wk[(W_V + 3) * BLOCK + i],
+                wk[(W_V + 4) * BLOCK + i], wk[(W_V + 5) * BLOCK + i], wk[(W_V + 6) * BLOCK + i], wk[(W_V + 7) * BLOCK + i], wk[(W_V + 8) * BLOCK + i],
+                wk[W_R * BLOCK + i], wk[(W_R + 1) * BLOCK + i], wk[(W_R + 2) * BLOCK + i], wk[(W_R + 3) * BLOCK + i], wk[(W_R + 4) * BLOCK + i],
+                wk[(W_R + 5) * BLOCK + i], wk[(W_R + 6) * BLOCK + i], wk[(W_R + 7) * BLOCK + i], wk[(W_R + 8) * BLOCK + i], wk[(W_R + 9) * BLOCK + i],
+                wk[(W_R + 10) * BLOCK + i], wk[(W_R + 11) * BLOCK + i], decay, gain, ginf, H[e], S0old[e])
+            if st == ST_OK and not math.isfinite(s00 + s11 + s22 + s01 + s12 + s02 + mt):
+                st = ST_NONFINITE
         if st != ST_OK:
             status[e] = st
             errv[e, 0] = J
@@ -114,9 +255,9 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             errv[e, 3] = m2
             dte[e] = np.inf
             for a in range(8):
-                for i in range(6):
-                    fe[e, a, i] = 0.0
-            nbad += 1
+                for c in range(6):
+                    fe[e, a, c] = 0.0
+            nb += 1
             continue
         # stable step L / c with c the longitudinal wave speed (reference density)
         dte[e] = L[e] / math.sqrt(mt / rho) if mt > 0.0 else np.inf
@@ -127,8 +268,29 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             if mod > 0.0:
                 chg = -hg * hgfac[e] * math.sqrt(mod / rho)
         # first Piola-Kirchhoff P = F S; nodal forces V0 P B_a and -c_hg sum_alpha q_alpha G_a,alpha
+        f00 = wk[W_F * BLOCK + i]
+        f01 = wk[(W_F + 1) * BLOCK + i]
+        f02 = wk[(W_F + 2) * BLOCK + i]
+        f10 = wk[(W_F + 3) * BLOCK + i]
+        f11 = wk[(W_F + 4) * BLOCK + i]
+        f12 = wk[(W_F + 5) * BLOCK + i]
+        f20 = wk[(W_F + 6) * BLOCK + i]
+        f21 = wk[(W_F + 7) * BLOCK + i]
+        f22 = wk[(W_F + 8) * BLOCK + i]
         p00, p01, p02, p10, p11, p12, p20, p21, p22 = first_piola(f00, f01, f02, f10, f11, f12, f20, f21, f22,
                                                                   s00, s11, s22, s01, s12, s02)
+        q00 = wk[W_Q * BLOCK + i]
+        q01 = wk[(W_Q + 1) * BLOCK + i]
+        q02 = wk[(W_Q + 2) * BLOCK + i]
+        q10 = wk[(W_Q + 3) * BLOCK + i]
+        q11 = wk[(W_Q + 4) * BLOCK + i]
+        q12 = wk[(W_Q + 5) * BLOCK + i]
+        q20 = wk[(W_Q + 6) * BLOCK + i]
+        q21 = wk[(W_Q + 7) * BLOCK + i]
+        q22 = wk[(W_Q + 8) * BLOCK + i]
+        q30 = wk[(W_Q + 9) * BLOCK + i]
+        q31 = wk[(W_Q + 10) * BLOCK + i]
+        q32 = wk[(W_Q + 11) * BLOCK + i]
         vol = V0[e]
         for a in range(8):
             b0 = B[e, a, 0] * vol
@@ -145,19 +307,19 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             fe[e, a, 4] = q01 * g0 + q11 * g1 + q21 * g2 + q31 * g3
             fe[e, a, 5] = q02 * g0 + q12 * g1 + q22 * g2 + q32 * g3
         # stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old), E = (C - I) / 2
-        e00 = 0.5 * (c00 - 1.0)
-        e11 = 0.5 * (c11 - 1.0)
-        e22 = 0.5 * (c22 - 1.0)
-        e01 = 0.5 * c01
-        e12 = 0.5 * c12
-        e02 = 0.5 * c02
+        e00 = 0.5 * (wk[W_C * BLOCK + i] - 1.0)
+        e11 = 0.5 * (wk[(W_C + 1) * BLOCK + i] - 1.0)
+        e22 = 0.5 * (wk[(W_C + 2) * BLOCK + i] - 1.0)
+        e01 = 0.5 * wk[(W_C + 3) * BLOCK + i]
+        e12 = 0.5 * wk[(W_C + 4) * BLOCK + i]
+        e02 = 0.5 * wk[(W_C + 5) * BLOCK + i]
         so = Sold[e]
         eo = Eold[e]
         w = ((so[0] + s00) * (e00 - eo[0]) + (so[1] + s11) * (e11 - eo[1])
              + (so[2] + s22) * (e22 - eo[2])
              + 2.0 * ((so[3] + s01) * (e01 - eo[3]) + (so[4] + s12) * (e12 - eo[4])
                       + (so[5] + s02) * (e02 - eo[5])))
-        work += 0.5 * vol * w
+        wb += 0.5 * vol * w
         so[0] = s00
         so[1] = s11
         so[2] = s22
@@ -170,7 +332,30 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
         eo[3] = e01
         eo[4] = e12
         eo[5] = e02
-    return work, nbad
+    return wb, nb
+
+
+@njit(cache=True, error_model="numpy")
+def material_block(wk, p, n):
+    """The material's derivatives for the first n columns of a block's work array: rows W_M..
+    W_M+2 hold the eigenvalues m of C, rows W_R..W_R+11 receive psi_grad_hess_diag's 12 values.
+    IEEE maths, no fast-math flags (as the scalar material functions: zero stress at the
+    reference state to the bit); one loop with the vectorisable variant of the generated code
+    (``codegen.vector_source``)."""
+    for i in range(n):
+        r = psi_grad_hess_diag_v(wk[W_M * BLOCK + i], wk[(W_M + 1) * BLOCK + i], wk[(W_M + 2) * BLOCK + i], p)
+        wk[W_R * BLOCK + i] = r[0]
+        wk[(W_R + 1) * BLOCK + i] = r[1]
+        wk[(W_R + 2) * BLOCK + i] = r[2]
+        wk[(W_R + 3) * BLOCK + i] = r[3]
+        wk[(W_R + 4) * BLOCK + i] = r[4]
+        wk[(W_R + 5) * BLOCK + i] = r[5]
+        wk[(W_R + 6) * BLOCK + i] = r[6]
+        wk[(W_R + 7) * BLOCK + i] = r[7]
+        wk[(W_R + 8) * BLOCK + i] = r[8]
+        wk[(W_R + 9) * BLOCK + i] = r[9]
+        wk[(W_R + 10) * BLOCK + i] = r[10]
+        wk[(W_R + 11) * BLOCK + i] = r[11]
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
