@@ -25,6 +25,7 @@ import math
 
 from numba import njit
 from .layout import FASTMATH
+from .vmath import vsqrt
 # <<< standalone
 
 
@@ -147,8 +148,8 @@ def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     b22 = a22 - q
     p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6.0
     scale = abs(a00) + abs(a11) + abs(a22) + abs(a01) + abs(a02) + abs(a12)
-    iso = p2 <= (1e-17 * scale) ** 2          # isotropic to round-off (includes A = 0)
-    p = math.sqrt(p2)
+    tol = 1e-17 * scale
+    p = vsqrt(p2)
     # r = det(B / p) / 2 with B = A - q I, clamped to [-1, 1]
     det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02)
            + a02 * (a01 * a12 - b11 * a02))
@@ -183,25 +184,25 @@ def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     z1 = a12 * a02 - a01 * c22
     z2 = a01 * a12 - c11 * a02
     n2 = z0 * z0 + z1 * z1 + z2 * z2
-    take_y = n1 > n0 and n1 >= n2
-    take_z = (not take_y) and n2 > n0
+    take_y = (n1 > n0) & (n1 >= n2)           # & and |: no short-circuit branches
+    take_z = (n2 > n0) & ((n1 <= n0) | (n1 < n2))
     x0 = y0 if take_y else (z0 if take_z else x0)
     x1 = y1 if take_y else (z1 if take_z else x1)
     x2 = y2 if take_y else (z2 if take_z else x2)
     n0 = n1 if take_y else (n2 if take_z else n0)
-    ok = (not iso) and n0 > 0.0 and math.isfinite(n0)
+    ok = (p2 > tol * tol) & (n0 > 0.0) & (n0 - n0 == 0.0)      # n0 - n0 is NaN for inf and NaN
     # v = x / |x|; u = (x x e_k) / |x x e_k| with e_k the axis least aligned with x (both
     # normalisations are independent: shorter dependency chain); w = v x u
-    inv = 1.0 / math.sqrt(n0)
+    inv = 1.0 / vsqrt(n0)
     ax0 = abs(x0)
     ax1 = abs(x1)
     ax2 = abs(x2)
-    k0 = ax0 <= ax1 and ax0 <= ax2                    # u ~ x x e0
-    k1 = (not k0) and ax1 <= ax2                      # u ~ x x e1, else x x e2
+    k0 = (ax0 <= ax1) & (ax0 <= ax2)                  # u ~ x x e0
+    k1 = ((ax0 > ax1) | (ax0 > ax2)) & (ax1 <= ax2)   # u ~ x x e1, else x x e2
     u0 = 0.0 if k0 else (-x2 if k1 else x1)
     u1 = x2 if k0 else (0.0 if k1 else -x0)
     u2 = -x1 if k0 else (x0 if k1 else 0.0)
-    invu = 1.0 / math.sqrt(x1 * x1 + x2 * x2 if k0 else (x0 * x0 + x2 * x2 if k1 else x0 * x0 + x1 * x1))
+    invu = 1.0 / vsqrt(x1 * x1 + x2 * x2 if k0 else (x0 * x0 + x2 * x2 if k1 else x0 * x0 + x1 * x1))
     v0 = x0 * inv
     v1 = x1 * inv
     v2 = x2 * inv
@@ -228,10 +229,10 @@ def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     # Jacobi rotation: t = sign(theta) / (|theta| + sqrt(theta^2 + 1)), theta = (bww-buu)/(2 buw);
     # buw = 0 gives t = 0, the identity
     dd = bww - buu
-    den = abs(dd) + math.sqrt(dd * dd + 4.0 * buw * buw)
+    den = abs(dd) + vsqrt(dd * dd + 4.0 * buw * buw)
     t = 2.0 * buw / den if den > 0.0 else 0.0
     t = -t if dd < 0.0 else t
-    c = 1.0 / math.sqrt(t * t + 1.0)
+    c = 1.0 / vsqrt(t * t + 1.0)
     s = t * c
     buu -= t * buw
     bww += t * buw

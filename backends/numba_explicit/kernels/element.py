@@ -158,46 +158,7 @@ def element_block(e0, n, x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H
         wk[(W_Q + 10) * BLOCK + i] = q31
         wk[(W_Q + 11) * BLOCK + i] = q32
     # 2. J, C and its eigen-decomposition (vectorised; the rare rest below, one by one)
-    for i in range(n):
-        f00 = wk[W_F * BLOCK + i]
-        f01 = wk[(W_F + 1) * BLOCK + i]
-        f02 = wk[(W_F + 2) * BLOCK + i]
-        f10 = wk[(W_F + 3) * BLOCK + i]
-        f11 = wk[(W_F + 4) * BLOCK + i]
-        f12 = wk[(W_F + 5) * BLOCK + i]
-        f20 = wk[(W_F + 6) * BLOCK + i]
-        f21 = wk[(W_F + 7) * BLOCK + i]
-        f22 = wk[(W_F + 8) * BLOCK + i]
-        J = (f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20)
-             + f02 * (f10 * f21 - f11 * f20))
-        c00 = f00 * f00 + f10 * f10 + f20 * f20
-        c11 = f01 * f01 + f11 * f11 + f21 * f21
-        c22 = f02 * f02 + f12 * f12 + f22 * f22
-        c01 = f00 * f01 + f10 * f11 + f20 * f21
-        c12 = f01 * f02 + f11 * f12 + f21 * f22
-        c02 = f00 * f02 + f10 * f12 + f20 * f22
-        (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(
-            c00, c01, c02, c11, c12, c22)
-        wk[W_C * BLOCK + i] = c00
-        wk[(W_C + 1) * BLOCK + i] = c11
-        wk[(W_C + 2) * BLOCK + i] = c22
-        wk[(W_C + 3) * BLOCK + i] = c01
-        wk[(W_C + 4) * BLOCK + i] = c12
-        wk[(W_C + 5) * BLOCK + i] = c02
-        wk[W_J * BLOCK + i] = J
-        wk[W_M * BLOCK + i] = m0
-        wk[(W_M + 1) * BLOCK + i] = m1
-        wk[(W_M + 2) * BLOCK + i] = m2
-        wk[W_V * BLOCK + i] = q00
-        wk[(W_V + 1) * BLOCK + i] = q01
-        wk[(W_V + 2) * BLOCK + i] = q02
-        wk[(W_V + 3) * BLOCK + i] = q10
-        wk[(W_V + 4) * BLOCK + i] = q11
-        wk[(W_V + 5) * BLOCK + i] = q12
-        wk[(W_V + 6) * BLOCK + i] = q20
-        wk[(W_V + 7) * BLOCK + i] = q21
-        wk[(W_V + 8) * BLOCK + i] = q22
-        wk[W_OK * BLOCK + i] = 1.0 if ok else 0.0
+    eigen_block(wk, n)
     for i in range(n):
         if wk[W_OK * BLOCK + i] == 0.0 or not (wk[W_J * BLOCK + i] > 0.0):
             # isotropic states (the undeformed one) and non-finite values: the scalar path;
@@ -333,6 +294,53 @@ def element_block(e0, n, x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H
         eo[4] = e12
         eo[5] = e02
     return wb, nb
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def eigen_block(wk, n):
+    """J = det F, C = F^T F and the branch-free eigen-decomposition of C for the first n columns
+    of a block's work array (rows W_F in; W_C, W_J, W_M, W_V, W_OK out). A function of its own:
+    LLVM vectorises this loop alone, not inside the larger element_block."""
+    for i in range(n):
+        f00 = wk[W_F * BLOCK + i]
+        f01 = wk[(W_F + 1) * BLOCK + i]
+        f02 = wk[(W_F + 2) * BLOCK + i]
+        f10 = wk[(W_F + 3) * BLOCK + i]
+        f11 = wk[(W_F + 4) * BLOCK + i]
+        f12 = wk[(W_F + 5) * BLOCK + i]
+        f20 = wk[(W_F + 6) * BLOCK + i]
+        f21 = wk[(W_F + 7) * BLOCK + i]
+        f22 = wk[(W_F + 8) * BLOCK + i]
+        J = (f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20)
+             + f02 * (f10 * f21 - f11 * f20))
+        c00 = f00 * f00 + f10 * f10 + f20 * f20
+        c11 = f01 * f01 + f11 * f11 + f21 * f21
+        c22 = f02 * f02 + f12 * f12 + f22 * f22
+        c01 = f00 * f01 + f10 * f11 + f20 * f21
+        c12 = f01 * f02 + f11 * f12 + f21 * f22
+        c02 = f00 * f02 + f10 * f12 + f20 * f22
+        (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(
+            c00, c01, c02, c11, c12, c22)
+        wk[W_C * BLOCK + i] = c00
+        wk[(W_C + 1) * BLOCK + i] = c11
+        wk[(W_C + 2) * BLOCK + i] = c22
+        wk[(W_C + 3) * BLOCK + i] = c01
+        wk[(W_C + 4) * BLOCK + i] = c12
+        wk[(W_C + 5) * BLOCK + i] = c02
+        wk[W_J * BLOCK + i] = J
+        wk[W_M * BLOCK + i] = m0
+        wk[(W_M + 1) * BLOCK + i] = m1
+        wk[(W_M + 2) * BLOCK + i] = m2
+        wk[W_V * BLOCK + i] = q00
+        wk[(W_V + 1) * BLOCK + i] = q01
+        wk[(W_V + 2) * BLOCK + i] = q02
+        wk[(W_V + 3) * BLOCK + i] = q10
+        wk[(W_V + 4) * BLOCK + i] = q11
+        wk[(W_V + 5) * BLOCK + i] = q12
+        wk[(W_V + 6) * BLOCK + i] = q20
+        wk[(W_V + 7) * BLOCK + i] = q21
+        wk[(W_V + 8) * BLOCK + i] = q22
+        wk[W_OK * BLOCK + i] = 1.0 if ok else 0.0
 
 
 @njit(cache=True, error_model="numpy")
