@@ -96,14 +96,38 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     v = np.zeros((n, 3)) if v0 is None else v0
     snodes = np.ascontiguousarray(model.sphere_nodes if sph is not None else [], dtype=np.int64)
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
-    geo = (hexes, B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, mass, free, pmask, ptr, inc)
-    fe = np.zeros((ne, 8, 6))
-    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), np.zeros((ne, k, 6)),
-          np.zeros((ne, 6)), np.zeros((ne, 6)), np.zeros((ne, 6)), fe, fe.reshape(ne * 8, 6),
-          np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+    ed, foff = block_arrays(B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, inc)
+    nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
+    geo = (hexes, mass, free, pmask, ptr, foff)
+    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
+          np.zeros(nblk * K.EF_N * K.BLOCK), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.zeros(ne), np.zeros(ne, dtype=np.int64), np.zeros((ne, 4)))
     cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 9)))
     return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes)
+
+
+def block_arrays(B, G, V0, L, hgfac, inc):
+    """The block array of the element kernels (kernels/layout.py, rows ED_*) and the offsets of
+    the incidence in the force block array ``ef``.
+
+    B (e, 8, 3) (1/m), G (e, 8, 4) (-), V0, L, hgfac (e,): per element; inc: the incidence rows
+    e * 8 + a. Returns (ed (nblk * ED_N * BLOCK,), foff (len(inc),)): in block b = e // BLOCK,
+    column i = e % BLOCK, row r holds ed[(b * ED_N + r) * BLOCK + i]; foff: the offset in ef of
+    corner a's internal-force x-component, row 6 a of block b. The state rows start at zero (undeformed,
+    relaxed); columns beyond the last element are never used.
+    """
+    ne = V0.shape[0]
+    nblk = -(-ne // K.BLOCK)
+    rows = np.zeros((nblk * K.BLOCK, K.ED_N))
+    rows[:ne, K.ED_B:K.ED_B + 24] = B.reshape(ne, 24)
+    rows[:ne, K.ED_G:K.ED_G + 32] = G.reshape(ne, 32)
+    rows[:ne, K.ED_V0] = V0
+    rows[:ne, K.ED_L] = L
+    rows[:ne, K.ED_HGF] = hgfac
+    ed = np.ascontiguousarray(rows.reshape(nblk, K.BLOCK, K.ED_N).transpose(0, 2, 1)).ravel()
+    e, a = np.divmod(np.asarray(inc, dtype=np.int64), 8)
+    foff = (e // K.BLOCK * K.EF_N + 6 * a) * K.BLOCK + e % K.BLOCK
+    return ed, np.ascontiguousarray(foff, dtype=np.int64)
 
 
 def _error(code: int, prep: Prepared, model):

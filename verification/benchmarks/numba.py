@@ -120,9 +120,9 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         while prep.sc[K.S_T] < t_state:
             solver.advance(mod, prep, hist, t_state)
         ne = model.n_elements
-        conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
+        conn, mass, free, pmask, ptr, foff = prep.geo
         p, gam, tau = prep.mat
-        x, v, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st
+        x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = prep.st
         decay, gain = np.zeros(gam.size), np.zeros(gam.size)
         mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
 
@@ -140,11 +140,10 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         solver.advance(mod, prep, np.zeros((repeat, K.H_N)), math.inf)
         step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
         xs, vs = x.copy(), v.copy()
-        element = cpu(lambda: mod.element_pass(xs, vs, conn, B, G, V0, L, hgfac, p, decay, gain, prep.par[K.P_GINF],
-                                               H.copy(), S0old.copy(), Sold.copy(), Eold.copy(), fe, dte, status,
-                                               errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
-        copies = cpu(lambda: (H.copy(), S0old.copy(), Sold.copy(), Eold.copy()))
-        gather = cpu(lambda: mod.gather_update(ef, ptr, inc, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, ed.copy(), eh.copy(), ef, p, decay, gain, prep.par[K.P_GINF],
+                                               dte, status, errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
+        copies = cpu(lambda: (ed.copy(), eh.copy()))
+        gather = cpu(lambda: mod.gather_update(ef, ptr, foff, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
         energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
         return {"step": step, "element_pass": element - copies, "gather_update": gather, "energy": energy,
                 "serial_rest": step - (element - copies) - gather - energy}
