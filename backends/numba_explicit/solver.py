@@ -98,7 +98,8 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
     ed, foff = block_arrays(B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, inc)
     nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
-    geo = (hexes, mass, free, pmask, ptr, foff)
+    bg = np.ascontiguousarray(np.concatenate([B, G], axis=2).reshape(ne, 56))
+    geo = (hexes, bg, mass, free, pmask, ptr, foff)
     st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
           np.zeros(nblk * K.EF_N * K.BLOCK), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.zeros(ne), np.zeros(ne, dtype=np.int64), np.zeros((ne, 4)))

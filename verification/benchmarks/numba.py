@@ -120,7 +120,7 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         while prep.sc[K.S_T] < t_state:
             solver.advance(mod, prep, hist, t_state)
         ne = model.n_elements
-        conn, mass, free, pmask, ptr, foff = prep.geo
+        conn, bg, mass, free, pmask, ptr, foff = prep.geo
         p, gam, tau = prep.mat
         x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = prep.st
         decay, gain = np.zeros(gam.size), np.zeros(gam.size)
@@ -140,7 +140,7 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         solver.advance(mod, prep, np.zeros((repeat, K.H_N)), math.inf)
         step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
         xs, vs = x.copy(), v.copy()
-        element = cpu(lambda: mod.element_pass(xs, vs, conn, ed.copy(), eh.copy(), ef, p, decay, gain, prep.par[K.P_GINF],
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, bg, ed.copy(), eh.copy(), ef, p, decay, gain, prep.par[K.P_GINF],
                                                dte, status, errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
         copies = cpu(lambda: (ed.copy(), eh.copy()))
         gather = cpu(lambda: mod.gather_update(ef, ptr, foff, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))

@@ -39,10 +39,12 @@ from .vmath import vsqrt
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_pass(x, v, conn, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
+def element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
     """Stresses, nodal forces, stable steps and the stress work of all elements at one state.
 
-    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8); ed, eh, ef: the block
+    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8); bg (e, 56): B_a,k and
+    gamma_a,alpha of each element, row 7 a + (k | 3 + alpha) (per element, for the
+    element-by-element kinematics; the block array ed holds them again by rows); ed, eh, ef: the block
     arrays (layout.py: geometry and state of each element; Prony state; nodal forces); decay,
     gain: Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
     isochoric, 1 full modulus. Writes the element forces (ef, N), dte (e,) = L / c
@@ -56,7 +58,7 @@ def element_pass(x, v, conn, ed, eh, ef, p, decay, gain, ginf, dte, status, errv
     nbad = 0
     for blk in prange(nblk):
         e0 = blk * BLOCK
-        wb, nb = element_block(e0, min(BLOCK, ne - e0), x, v, conn, ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK],
+        wb, nb = element_block(e0, min(BLOCK, ne - e0), x, v, conn, bg, ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK],
                                eh[blk * k6:(blk + 1) * k6], ef[blk * EF_N * BLOCK:(blk + 1) * EF_N * BLOCK],
                                p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave)
         work += wb
@@ -65,11 +67,11 @@ def element_pass(x, v, conn, ed, eh, ef, p, decay, gain, ginf, dte, status, errv
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_block(e0, n, x, v, conn, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
+def element_block(e0, n, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
     """:func:`element_pass` for the n elements from e0 (one block, its stretches ed, eh, ef of
     the block arrays); returns (stress work (J), number of failures)."""
     wk = np.empty(W_N * BLOCK)
-    kinematics_block(wk, ed, x, v, conn, e0, n)
+    kinematics_block(wk, bg, x, v, conn, e0, n)
     eigen_block(wk, n)
     eigen_fallback(wk, n)
     material_block(wk, p, n)
@@ -94,65 +96,92 @@ def element_block(e0, n, x, v, conn, ed, eh, ef, p, decay, gain, ginf, dte, stat
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def kinematics_block(wk, ed, x, v, conn, e0, n):
+def kinematics_block(wk, bg, x, v, conn, e0, n):
     """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
-    (rows W_Q, m/s) of the block's n elements from e0. Corners in the outer loop, elements in the
-    inner one (vectorised; the sums run over a = 0..7 in order as in a per-element loop); the
-    corner's positions and velocities are gathered first (an indexed load in the vectorised loop
-    would need a bounds proof LLVM cannot make)."""
-    for r in range(21):
-        for i in range(n):
-            wk[(W_F + r) * BLOCK + i] = 0.0
-    for a in range(8):
-        gather_corner(wk, x, v, conn, e0, n, a)
-        for i in range(n):
-            x0 = wk[W_X * BLOCK + i]
-            x1 = wk[(W_X + 1) * BLOCK + i]
-            x2 = wk[(W_X + 2) * BLOCK + i]
-            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
-            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
-            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
-            wk[W_F * BLOCK + i] += x0 * b0
-            wk[(W_F + 1) * BLOCK + i] += x0 * b1
-            wk[(W_F + 2) * BLOCK + i] += x0 * b2
-            wk[(W_F + 3) * BLOCK + i] += x1 * b0
-            wk[(W_F + 4) * BLOCK + i] += x1 * b1
-            wk[(W_F + 5) * BLOCK + i] += x1 * b2
-            wk[(W_F + 6) * BLOCK + i] += x2 * b0
-            wk[(W_F + 7) * BLOCK + i] += x2 * b1
-            wk[(W_F + 8) * BLOCK + i] += x2 * b2
-            v0 = wk[(W_X + 3) * BLOCK + i]
-            v1 = wk[(W_X + 4) * BLOCK + i]
-            v2 = wk[(W_X + 5) * BLOCK + i]
-            g0 = ed[(ED_G + 4 * a) * BLOCK + i]
-            wk[W_Q * BLOCK + i] += v0 * g0
-            wk[(W_Q + 1) * BLOCK + i] += v1 * g0
-            wk[(W_Q + 2) * BLOCK + i] += v2 * g0
-            g1 = ed[(ED_G + 4 * a + 1) * BLOCK + i]
-            wk[(W_Q + 3) * BLOCK + i] += v0 * g1
-            wk[(W_Q + 4) * BLOCK + i] += v1 * g1
-            wk[(W_Q + 5) * BLOCK + i] += v2 * g1
-            g2 = ed[(ED_G + 4 * a + 2) * BLOCK + i]
-            wk[(W_Q + 6) * BLOCK + i] += v0 * g2
-            wk[(W_Q + 7) * BLOCK + i] += v1 * g2
-            wk[(W_Q + 8) * BLOCK + i] += v2 * g2
-            g3 = ed[(ED_G + 4 * a + 3) * BLOCK + i]
-            wk[(W_Q + 9) * BLOCK + i] += v0 * g3
-            wk[(W_Q + 10) * BLOCK + i] += v1 * g3
-            wk[(W_Q + 11) * BLOCK + i] += v2 * g3
-
-
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def gather_corner(wk, x, v, conn, e0, n, a):
-    """Positions and velocities of corner a of the block's elements into rows W_X (x, then v)."""
+    (rows W_Q, m/s) of the block's n elements from e0. Element by element, with B and gamma read
+    per element from bg (not vectorised: an indexed load x[conn] in a vectorised loop needs a
+    bounds proof LLVM cannot make, and gathering the corners into rows first costs more than it
+    saves; read by rows from the block array, B and gamma cost twice as much here)."""
     for i in range(n):
-        nd = conn[e0 + i, a]
-        wk[W_X * BLOCK + i] = x[nd, 0]
-        wk[(W_X + 1) * BLOCK + i] = x[nd, 1]
-        wk[(W_X + 2) * BLOCK + i] = x[nd, 2]
-        wk[(W_X + 3) * BLOCK + i] = v[nd, 0]
-        wk[(W_X + 4) * BLOCK + i] = v[nd, 1]
-        wk[(W_X + 5) * BLOCK + i] = v[nd, 2]
+        e = e0 + i
+        f00 = 0.0
+        f01 = 0.0
+        f02 = 0.0
+        f10 = 0.0
+        f11 = 0.0
+        f12 = 0.0
+        f20 = 0.0
+        f21 = 0.0
+        f22 = 0.0
+        q00 = 0.0
+        q01 = 0.0
+        q02 = 0.0
+        q10 = 0.0
+        q11 = 0.0
+        q12 = 0.0
+        q20 = 0.0
+        q21 = 0.0
+        q22 = 0.0
+        q30 = 0.0
+        q31 = 0.0
+        q32 = 0.0
+        for a in range(8):
+            nd = conn[e, a]
+            x0 = x[nd, 0]
+            x1 = x[nd, 1]
+            x2 = x[nd, 2]
+            b0 = bg[e, 7 * a]
+            b1 = bg[e, 7 * a + 1]
+            b2 = bg[e, 7 * a + 2]
+            f00 += x0 * b0
+            f01 += x0 * b1
+            f02 += x0 * b2
+            f10 += x1 * b0
+            f11 += x1 * b1
+            f12 += x1 * b2
+            f20 += x2 * b0
+            f21 += x2 * b1
+            f22 += x2 * b2
+            v0 = v[nd, 0]
+            v1 = v[nd, 1]
+            v2 = v[nd, 2]
+            g0 = bg[e, 7 * a + 3]
+            g1 = bg[e, 7 * a + 4]
+            g2 = bg[e, 7 * a + 5]
+            g3 = bg[e, 7 * a + 6]
+            q00 += v0 * g0
+            q01 += v1 * g0
+            q02 += v2 * g0
+            q10 += v0 * g1
+            q11 += v1 * g1
+            q12 += v2 * g1
+            q20 += v0 * g2
+            q21 += v1 * g2
+            q22 += v2 * g2
+            q30 += v0 * g3
+            q31 += v1 * g3
+            q32 += v2 * g3
+        wk[W_F * BLOCK + i] = f00
+        wk[(W_F + 1) * BLOCK + i] = f01
+        wk[(W_F + 2) * BLOCK + i] = f02
+        wk[(W_F + 3) * BLOCK + i] = f10
+        wk[(W_F + 4) * BLOCK + i] = f11
+        wk[(W_F + 5) * BLOCK + i] = f12
+        wk[(W_F + 6) * BLOCK + i] = f20
+        wk[(W_F + 7) * BLOCK + i] = f21
+        wk[(W_F + 8) * BLOCK + i] = f22
+        wk[W_Q * BLOCK + i] = q00
+        wk[(W_Q + 1) * BLOCK + i] = q01
+        wk[(W_Q + 2) * BLOCK + i] = q02
+        wk[(W_Q + 3) * BLOCK + i] = q10
+        wk[(W_Q + 4) * BLOCK + i] = q11
+        wk[(W_Q + 5) * BLOCK + i] = q12
+        wk[(W_Q + 6) * BLOCK + i] = q20
+        wk[(W_Q + 7) * BLOCK + i] = q21
+        wk[(W_Q + 8) * BLOCK + i] = q22
+        wk[(W_Q + 9) * BLOCK + i] = q30
+        wk[(W_Q + 10) * BLOCK + i] = q31
+        wk[(W_Q + 11) * BLOCK + i] = q32
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

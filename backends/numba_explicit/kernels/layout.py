@@ -131,5 +131,4 @@ W_DTE = 74          # L / c (s)
 W_WORK = 75         # stress work of the step (J)
 W_P = 76            # P = F S (Pa), 9 rows (row-major); 0 for failed elements
 W_CHG = 85          # hourglass damping -c_hg (kg/s); 0 for failed elements
-W_X = 86            # positions (m) and velocities (m/s) of one corner, 6 rows
-W_N = 92
+W_N = 86

@@ -33,7 +33,7 @@ from .layout import *  # noqa: F401,F403
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
     """Advance the model; see the module docstring. All arrays are modified in place."""
-    conn, mass, free, pmask, ptr, foff = geo
+    conn, bg, mass, free, pmask, ptr, foff = geo
     p, gam, tau = mat
     x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = st
     snodes, plnodes, scr = cnt
@@ -50,7 +50,7 @@ def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
         dtp = sc[S_DTPREV]
         # 1. elements
         prony_step(dtp, gam, tau, decay, gain)
-        work, nbad = element_pass(x, v, conn, ed, eh, ef, p, decay, gain, par[P_GINF], dte, status, errv,
+        work, nbad = element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, par[P_GINF], dte, status, errv,
                                   par[P_RHO], par[P_HG], ipar[I_HGWAVE])
         if nbad > 0:
             for e in range(status.shape[0]):
