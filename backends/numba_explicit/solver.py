@@ -131,6 +131,16 @@ def block_arrays(B, G, V0, L, hgfac, inc):
     return ed, np.ascontiguousarray(foff, dtype=np.int64)
 
 
+def per_element(block: np.ndarray, n_rows: int, first: int, count: int, ne: int) -> np.ndarray:
+    """Rows first .. first + count of a block array (n_rows rows per block, :func:`block_arrays`)
+    as a per-element array (ne, count): e.g. the previous-step S, ``per_element(ed, K.ED_N,
+    K.ED_SO, 6, ne)`` (Pa), or the nodal forces, ``per_element(ef, K.EF_N, 0, 48, ne)`` (N,
+    corner-major: column 6 a + c)."""
+    nblk = block.shape[0] // (n_rows * K.BLOCK)
+    rows = block.reshape(nblk, n_rows, K.BLOCK)[:, first:first + count, :]
+    return rows.transpose(0, 2, 1).reshape(nblk * K.BLOCK, count)[:ne].copy()
+
+
 def _error(code: int, prep: Prepared, model):
     """The NumericalError of a failure code of the compiled loop."""
     sc = prep.sc

@@ -260,7 +260,7 @@ def eigen_fallback(wk, n):
             wk[(W_V + 8) * BLOCK + i] = q22
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=False, error_model="numpy")  # explicitly False: callees inherit the caller's
 def material_block(wk, p, n):
     """The material's derivatives for the first n columns: rows W_M.. W_M+2 hold the
     eigenvalues m of C, rows W_R..W_R+11 receive psi_grad_hess_diag's 12 values (Pa). IEEE
