@@ -71,6 +71,11 @@ def {COMBINED}(m1, m2, m3, p):
 
 
 VECTOR = "_v"                                  # suffix of the vectorisable variants
+# Largest material source (characters) whose vectorisable variant is inlined into the element
+# blocks' material loop. Above it LLVM's compile time grows out of proportion (cfm-septa, 96 000
+# characters and 120 exponentials: 42 s -> 101 s of compile CPU time for a faster loop), so larger
+# materials call their scalar functions element by element (the same results).
+VECTOR_MAX_SOURCE = 40_000
 _VMATH = {"exp": "vexp", "log": "vlog", "sqrt": "vsqrt"}        # math.<name> -> kernels/vmath.py
 
 
@@ -141,12 +146,14 @@ def module_source(material) -> str:
     # fastmath=False explicitly: numba would otherwise let callees inherit the kernels' flags, and
     # the material's code must stay IEEE-exact (zero stress at the reference state, to the bit)
     wrap = "\n".join(f"{n} = njit(cache=True, fastmath=False, error_model=\"numpy\")({n})" for n in names)
-    wrap_v = "\n".join(f"{n}{VECTOR} = njit(inline=\"always\", fastmath=False, error_model=\"numpy\")({n}{VECTOR})"
-                       for n in names)
+    if len(src) <= VECTOR_MAX_SOURCE:
+        vector = "# ---- its vectorisable variant (vector_source) ----\n" + vector_source(src, names) + "\n\n" + "\n".join(
+            f"{n}{VECTOR} = njit(inline=\"always\", fastmath=False, error_model=\"numpy\")({n}{VECTOR})" for n in names)
+    else:  # too large to inline into the block loop: the scalar functions, called per element
+        vector = "# ---- no vectorisable variant (source too large) ----\n" + "\n".join(f"{n}{VECTOR} = {n}" for n in names)
     layout, *kernels = kernel_text()
     return (HEADER.format(name=material.name) + layout + "\n\n# ---- material.numba_source() ----\n"
-            + src + "\n\n" + wrap + "\n\n\n# ---- its vectorisable variant (vector_source) ----\n"
-            + vector_source(src, names) + "\n\n" + wrap_v + "\n\n\n" + "\n\n".join(kernels) + "\n")
+            + src + "\n\n" + wrap + "\n\n\n" + vector + "\n\n\n" + "\n\n".join(kernels) + "\n")
 
 
 def _prune(folder: Path, prefix: str, keep: Path, n_keep: int = 6) -> None:

@@ -130,3 +130,13 @@ def test_vector_source_rewrites_powers_and_calls():
     assert "1.0 / (x * x * x)" in out and "x * x" in out
     assert "math.atan(x)" in out                               # no variant: kept as it is
     assert "**" not in out
+
+
+def test_materials_too_large_to_inline_call_their_scalar_functions():
+    """cfm-septa's source (110 directions) is beyond VECTOR_MAX_SOURCE: its block loop calls the
+    scalar functions (compile time); cfm's is inlined in its vectorisable variant."""
+    septa = codegen.module_source(make_material("cfm-septa"))
+    assert len(make_material("cfm-septa").numba_source()) > codegen.VECTOR_MAX_SOURCE
+    assert "psi_grad_hess_diag_v = psi_grad_hess_diag\n" in septa and "def psi_grad_hess_diag_v(" not in septa
+    cfm = codegen.module_source(make_material("cfm"))
+    assert "def psi_grad_hess_diag_v(" in cfm and "vexp(" in cfm
