@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
@@ -69,12 +70,8 @@ def run_model(model, progress=None, **options) -> Result:
         return _run(model, progress, o)
     import numba
 
-    old = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
+    with num_threads(numba, 1):
         return _run(model, progress, o)
-    finally:
-        numba.set_num_threads(old)
 
 
 def _run(model, progress, o) -> Result:
