@@ -85,6 +85,42 @@ def write_text(path, text: str) -> Path:
     return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
+def output_folder(out, marker: str | None = None, create: bool = True, what: str = "--out") -> Path:
+    """The output folder of a run or a study, checked, created, and without a stale completion file.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The folder.
+    marker : str, optional
+        Name of the file whose presence means the output is complete (``summary.json``,
+        ``fit.json``); removed first, so that an interrupted run leaves none behind.
+    create : bool
+        Create the folder (with its parents) if missing.
+    what : str
+        How the message names the folder: ``"--out"`` (the command line) or ``"output
+        directory"`` (the Python API).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    InputError
+        ``out`` exists and is not a directory.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what} {out} exists and is not a directory.")
+    if create:
+        out.mkdir(parents=True, exist_ok=True)
+    if marker is not None:
+        (out / marker).unlink(missing_ok=True)
+    return out
+
+
 def _finite_array(name: str, a, ndim: int | None = None) -> np.ndarray:
     """``a`` as a float array, checked before anything is written (see :func:`.histories._finite`)."""
     return _finite(name, a, ndim, then="nothing was written")

@@ -53,7 +53,7 @@ from ..material.registry import make_material
 from ..post.plots import _figure, _save, plot_overlay
 from ..post import G0
 from ..scene.scene import scene_to_toml
-from ..post.writers import write_json, write_text
+from ..post.writers import output_folder, write_json, write_text
 from ..post.filters import cfc_filter
 from ..post import relative_l2
 
@@ -370,11 +370,7 @@ def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> li
     interval; correlation; per-curve rel. L2 at start and end; objective history; drop-test count).
     """
 
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a directory.")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "fit.json").unlink(missing_ok=True)
+    out = output_folder(out, marker="fit.json")
     pb, files = result.problem, []
     for j, c in enumerate(pb.curves):
         path = out / f"fit_{_safe(c.name)}.png"

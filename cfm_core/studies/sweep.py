@@ -38,7 +38,7 @@ from .dask_runner import Done, SerialRunner, error_text
 from ..errors import InputError
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.scene import scene_to_dict
-from ..post.writers import atomic_write, write_drop_test, write_json
+from ..post.writers import atomic_write, output_folder, write_drop_test, write_json
 from ..material.registry import get_material
 from ..runs import pipeline as simulate
 from ..post import SUMMARY_UNITS
@@ -235,9 +235,7 @@ def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None,
     progress: callable receiving one line of text per finished run (e.g. printing to stderr).
     """
     runner = runner or SerialRunner()
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a directory.")
+    out = output_folder(out, create=False)
     start = time.perf_counter()
     todo = cases(axes)
     ids = [run_id(scene, backend, c) for c in todo]
