@@ -258,7 +258,56 @@ def batch_key(model) -> str:
     return h.hexdigest()
 
 
-def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) -> list:
+def drop_test_models(scenes) -> list:
+    """The models of drop-test scenes, each checked and built once, or the reason it cannot run.
+
+    Parameters
+    ----------
+    scenes : sequence of Scene
+        Drop-test scenes.
+
+    Returns
+    -------
+    list of Model or Exception
+        In the order of ``scenes``: the built model, or the InputError (not a drop-test scene, an
+        output rate too low for the filter, an invalid value) or other ValueError/RuntimeError its
+        build raised.
+    """
+    models: list = []
+    for scene in scenes:
+        try:
+            if scene.type != "drop-test":
+                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
+            check_output_rate(scene)
+            models.append(build_model(scene))
+        except (ValueError, RuntimeError) as exc:
+            models.append(exc)
+    return models
+
+
+def batch_groups(keys, batch_size: int) -> list[list[int]]:
+    """Indices of equal keys, in groups of at most ``batch_size``: the runs of one batch each.
+
+    Parameters
+    ----------
+    keys : sequence of hashable or None
+        One per run, e.g. :func:`batch_key` of its model; None for a run that is left out.
+    batch_size : int
+        Largest group (>= 1).
+
+    Returns
+    -------
+    list of list of int
+        Groups in the order their keys first appear, each in the order of ``keys``.
+    """
+    groups: dict = {}
+    for i, key in enumerate(keys):
+        if key is not None:
+            groups.setdefault(key, []).append(i)
+    return [members[k:k + batch_size] for members in groups.values() for k in range(0, len(members), batch_size)]
+
+
+def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, models: list | None = None, **options) -> list:
     """Run drop-test scenes; those sharing a mesh run as batches where the backend can (``run_batch``).
 
     Every run gets the same end-of-run checks as :func:`run_model`.
@@ -272,6 +321,9 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         mesh (:func:`batch_key`) as batches of at most ``batch_size``, others one by one.
     batch_size : int
         Largest batch.
+    models : list of Model or Exception, optional
+        :func:`drop_test_models` of ``scenes``, when the caller has built them already (default:
+        built here).
     **options
         Backend options.
 
@@ -282,16 +334,9 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         NumericalError), the others are unaffected.
     """
     be = backend_for(backend)
-    out: list = [None] * len(scenes)
-    models = []
-    for i, scene in enumerate(scenes):
-        try:
-            if scene.type != "drop-test":
-                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
-            check_output_rate(scene)
-            models.append((i, build_model(scene)))
-        except (ValueError, RuntimeError) as exc:
-            out[i] = exc
+    built = drop_test_models(scenes) if models is None else list(models)
+    out: list = [m if isinstance(m, Exception) else None for m in built]
+    models = [(i, m) for i, m in enumerate(built) if not isinstance(m, Exception)]
 
     def finish(i, model, result, checked: bool):
         """The outcome of one run, or its exception; ``checked``: run_model already ran the checks."""
@@ -312,18 +357,13 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
                 result = exc
             out[i] = finish(i, model, result, checked=True)
         return out
-    groups: dict = {}
-    for i, model in models:
-        groups.setdefault(batch_key(model), []).append((i, model))
-    for members in groups.values():
-        for k in range(0, len(members), batch_size):
-            part = members[k:k + batch_size]
-            try:
-                results = be.run_batch([m for _, m in part], raise_errors=False, **options)
-            except (ValueError, RuntimeError) as exc:
-                results = [exc] * len(part)
-            for (i, model), res in zip(part, results):
-                out[i] = finish(i, model, res, checked=False)
+    for part in batch_groups([None if isinstance(m, Exception) else batch_key(m) for m in built], batch_size):
+        try:
+            results = be.run_batch([built[i] for i in part], raise_errors=False, **options)
+        except (ValueError, RuntimeError) as exc:
+            results = [exc] * len(part)
+        for i, res in zip(part, results):
+            out[i] = finish(i, built[i], res, checked=False)
     return out
 
 

@@ -121,3 +121,21 @@ def test_plots_written_atomically(tmp_path):
     for name in ("a.png", "o.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "o.png"]
+
+
+def test_output_folder_refuses_a_file_creates_the_folder_and_removes_a_stale_marker(tmp_path):
+    from cfm_core.errors import InputError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError, match=f"--out {tmp_path / 'file'} exists and is not a directory"):
+        writers.output_folder(tmp_path / "file")
+    with pytest.raises(InputError, match="output directory .* is not a directory"):
+        writers.output_folder(tmp_path / "file", what="output directory")
+    assert not (tmp_path / "new").exists() and writers.output_folder(tmp_path / "new", create=False) == tmp_path / "new"
+    assert not (tmp_path / "new").exists()
+    out = writers.output_folder(tmp_path / "a" / "b", marker="summary.json")
+    assert out.is_dir()
+    (out / "summary.json").write_text("{}")
+    (out / "keep.csv").write_text("t\n")
+    writers.output_folder(out, marker="summary.json")
+    assert not (out / "summary.json").exists() and (out / "keep.csv").exists()
