@@ -264,7 +264,8 @@ def write_history(out_dir, filename: str, column_units: dict, columns: list, sum
     Raises
     ------
     InputError
-        A column that is not 1-D or columns of different lengths.
+        A column that is not 1-D or columns of different lengths; ``out_dir`` exists and is not a
+        directory.
     NumericalError
         A non-finite value in a column or in the summary; nothing is written.
     """
@@ -276,8 +277,7 @@ def write_history(out_dir, filename: str, column_units: dict, columns: list, sum
         json.dumps(summary, allow_nan=False, default=_json_default)
     except ValueError as exc:
         raise NumericalError(f"refusing to write summary.json: {exc} (NaN or inf in the summary).") from None
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").unlink(missing_ok=True)
+    output_folder(out, marker="summary.json", what="output directory")
     write_csv(out / filename, list(column_units), arrays)
     write_json(out / "summary.json", summary)
     return out
