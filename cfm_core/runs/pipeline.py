@@ -17,6 +17,7 @@ from .. import post
 from ..errors import InputError
 from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
+from ..scene.plausible import check_plausible
 from ..scene.scene import Scene, scene_to_dict
 from ..simulation import checks
 from ..simulation.registry import backend_for
@@ -84,8 +85,10 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         The run failed or its physics broke (penetration, bottoming out, folded element, contact
         at the automatic end time, a stop limit): names where and when.
     """
-    result = backend_for(backend).run(model, progress=progress, **options)
+    be = backend_for(backend)
+    result = be.run(model, progress=progress, **options)
     result.info["warnings"] = checks.check_result(model, result)
+    result.info.setdefault("hourglass_control", bool(be.hourglass_control))  # False: the summary says n/a
     return result
 
 
@@ -161,19 +164,23 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     Raises
     ------
     InputError
-        Not a drop-test scene, unknown backend, bad options.
+        Not a drop-test scene, unknown backend, bad options, a value that is surely a unit slip
+        (impactor mass above 100 kg, radius or width above 1 m, speed above 100 m/s:
+        :func:`cfm_core.scene.plausible.check_plausible`).
     NumericalError
         The run failed or its physics broke (names where and when).
     """
     if scene.type != "drop-test":
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
     check_output_rate(scene)
+    notes = check_plausible(scene)  # unit slips (220 for 0.220 kg) refused before running
+    report_warnings({"warnings": notes})
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
     model, result = _run(scene, backend, progress, label, options)
-    return drop_test_outcome(scene, model, result)
+    return drop_test_outcome(scene, model, result, notes)
 
 
-def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
+def drop_test_outcome(scene: Scene, model, result, notes=()) -> DropTestOutcome:
     """The post-processed outcome of a finished drop-test run.
 
     Parameters
@@ -184,6 +191,9 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
         The model built from it.
     result : Result
         The backend's result (after the run checks).
+    notes : sequence of str
+        Warnings about the scene's values already printed before the run
+        (:func:`cfm_core.scene.plausible.check_plausible`); listed first in the summary's warnings.
 
     Returns
     -------
@@ -208,9 +218,9 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
                   "scene": "SI (as in scene.toml)"},
     }
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
-    info["warnings"] = list(result.info.get("warnings", []))
+    info["warnings"] = [*notes, *result.info.get("warnings", [])]
     summary = post.summarize(result, info, (t, a_raw, a_cfc))
-    report_warnings(summary)
+    report_warnings({"warnings": result.info.get("warnings", [])})
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
 
@@ -284,11 +294,13 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
     be = backend_for(backend)
     out: list = [None] * len(scenes)
     models = []
+    notes = {}
     for i, scene in enumerate(scenes):
         try:
             if scene.type != "drop-test":
                 raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
             check_output_rate(scene)
+            notes[i] = check_plausible(scene)
             models.append((i, build_model(scene)))
         except (ValueError, RuntimeError) as exc:
             out[i] = exc
@@ -300,7 +312,8 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         try:
             if not checked:
                 result.info["warnings"] = checks.check_result(model, result)
-            return drop_test_outcome(scenes[i], model, result)
+                result.info.setdefault("hourglass_control", bool(be.hourglass_control))
+            return drop_test_outcome(scenes[i], model, result, notes.get(i, ()))
         except (ValueError, RuntimeError) as exc:
             return exc
 

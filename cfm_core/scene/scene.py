@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Mapping
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
 
 __all__ = ["Scene", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
@@ -160,8 +160,9 @@ class Scene:
         d = scene_to_dict(self)
         for key, value in kw.items():
             if key not in allowed:
-                raise InputError(f"unknown override '{key}' for a {self.type} scene; allowed: "
-                                 f"{', '.join(sorted(allowed))}.")
+                raise InputError(" ".join(filter(None, (f"unknown override '{key}' for a {self.type} scene.",
+                                                         did_you_mean(key, allowed),
+                                                         f"Allowed: {', '.join(sorted(allowed))}."))))
             section, name = allowed[key]
             table = d.setdefault(section, {})
             if key == "parameters" and value is not None:
@@ -212,8 +213,9 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
     layout = _LAYOUT[stype]
     for key in d:
         if key not in layout:
-            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene; allowed "
-                             f"sections: {', '.join(layout)}.")
+            raise InputError(" ".join(filter(None, (f"unknown key '{key}' at the top level of a {stype} scene.",
+                                                     did_you_mean(key, layout),
+                                                     f"Allowed sections: {', '.join(layout)}."))))
     sections = {}
     for key, cls in layout.items():
         table = d.get(key, {})
@@ -222,8 +224,9 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
         allowed = [f.name for f in fields(cls)]
         for k in table:
             if k not in allowed:
-                raise InputError(f"unknown key '{k}' in [{key}] of a {stype} scene; allowed keys: "
-                                 f"{', '.join(allowed)}.")
+                raise InputError(" ".join(filter(None, (f"unknown key '{k}' in [{key}] of a {stype} scene.",
+                                                         did_you_mean(k, allowed),
+                                                         f"Allowed keys: {', '.join(allowed)}."))))
         table = dict(table)
         if key == "specimen" and isinstance(table.get("mesh"), str):
             mesh = Path(table["mesh"]).expanduser()

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from .mesh import mean_edge_length, read_hex_mesh
+from .plausible import unit_hint
 
 SCENE_TYPES = ("drop-test", "single-element", "relaxation")
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
@@ -34,8 +35,9 @@ def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, not
     x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
     if not ok:
-        raise InputError(f"[{section}] {key} = {value!r} {unit} is out of range; it must be "
-                         f"{allowed}. {note}".rstrip())
+        hint = unit_hint(key, x, unit, lo, hi) if math.isfinite(x) else ""
+        raise InputError(" ".join(filter(None, (f"[{section}] {key} = {value!r} {unit} is out of range; it "
+                                                 f"must be {allowed}.", note, hint))))
     return x
 
 
