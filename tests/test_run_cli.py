@@ -42,7 +42,7 @@ def test_run_relaxation_writes_reaction_history(tmp_path):
     out = tmp_path / "out"
     assert main(["run", "--scene", str(path), "--out", str(out), "--quiet"]) == 0
     header, data = _read(out / "reaction.csv")
-    assert header == ["t", "stretch", "reaction_force", "nominal_stress"]
+    assert header == ["t [s]", "stretch [-]", "reaction_force [N]", "nominal_stress [Pa]"]
     t, lam, force, nominal = data.T
     s = json.loads((out / "summary.json").read_text())
     assert s["backend"] == "skfem" and s["units"]["reaction_force"] == "N" and s["units"]["t"] == "s"
@@ -123,7 +123,7 @@ def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path):
     assert main(["drop-test", "--scene", str(path), "--backend", "skfem", "--out", str(out), "--quiet"]) == 0
     header, data = _read(out / "acceleration.csv")
     s = json.loads((out / "summary.json").read_text())
-    assert header == ["t", "a_raw", "a_cfc600"] and np.isfinite(data).all()
+    assert header == ["t [s]", "a_raw [m/s^2]", "a_cfc600 [m/s^2]"] and np.isfinite(data).all()
     assert s["backend"] == "skfem" and s["newton_iterations"] >= s["steps"] and s["peak_g"] > 0
     assert s["units"]["newton_iterations"] == "-" and (out / "acceleration.png").exists()
 

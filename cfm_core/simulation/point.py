@@ -2,7 +2,8 @@
 uniaxial stress (lateral tractions zero, solved each step) at a constant engineering strain rate.
 
 History CSV: header exactly ``t,F11,F12,F13,F21,F22,F23,F31,F32,F33`` (t in s, F dimensionless,
-rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.tables.read_table`. Output CSV: ``t,s11,s22,s33,s12,s23,s13`` (Cauchy stress in Pa).
+rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.tables.read_table`. Output CSV: ``t [s],s11 [Pa],...,s13 [Pa]`` (Cauchy stress), or for uniaxial stress
+``t [s],stretch [-],nominal_stress [Pa],lateral_stretch [-]``.
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from ..tables import read_table
 HISTORY_HEADER = ["t", "F11", "F12", "F13", "F21", "F22", "F23", "F31", "F32", "F33"]
 STRESS_HEADER = ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
 UNIAXIAL_HEADER = ["t", "stretch", "nominal_stress", "lateral_stretch"]
+#: Units of the output columns (the CSV header writes ``name [unit]``).
+STRESS_UNITS = {"t": "s", **{c: "Pa" for c in STRESS_HEADER[1:]}}
+UNIAXIAL_UNITS = {"t": "s", "stretch": "-", "nominal_stress": "Pa", "lateral_stretch": "-"}
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
