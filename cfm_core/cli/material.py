@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
@@ -56,7 +57,11 @@ def _cmd_point(args) -> int:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")
         if args.rate is None or args.stretch is None:
             raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
-        t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        with warnings.catch_warnings(record=True) as caught:  # printed as the run checks' warnings are
+            warnings.simplefilter("always", RuntimeWarning)
+            t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        for w in caught:
+            print(f"warning: {w.message}", file=sys.stderr)
         source = "numpy reference"
         if args.backend not in (None, "numpy"):
             P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
