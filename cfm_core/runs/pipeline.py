@@ -7,6 +7,7 @@ section 3). The outcome keeps the resolved scene, so that what it writes can be 
 from __future__ import annotations
 
 import hashlib
+import os
 import sys
 from typing import Callable
 
@@ -33,12 +34,46 @@ def default_backend(scene: Scene) -> str:
     return "skfem" if scene.type == "relaxation" else "numba"
 
 
+#: Size of the progress bar's terminal (columns, lines) where the terminal reports none (0).
+FALLBACK_SIZE = (80, 24)
+
+
+def bar_size(stream) -> dict:
+    """tqdm's ``ncols`` / ``nrows`` for a progress bar on ``stream`` where the terminal reports a
+    size of 0 (some CI consoles, serial and container terminals): there tqdm would draw nothing.
+
+    A reported 0 (or 1) becomes ``$COLUMNS`` / ``$LINES`` if set, else :data:`FALLBACK_SIZE`
+    (80 columns, 24 lines); a real size is left to tqdm (empty dict).
+
+    Parameters
+    ----------
+    stream : file
+        Where the bar is drawn (stderr).
+
+    Returns
+    -------
+    dict
+        Keyword arguments for tqdm: ``{}``, or ``ncols`` and/or ``nrows`` (characters, lines).
+    """
+    try:
+        size = os.get_terminal_size(stream.fileno())
+    except (AttributeError, ValueError, OSError):  # io.UnsupportedOperation is both of the last two
+        return {}  # not a terminal: tqdm's own rules (off when stderr is not a terminal)
+    out = {}
+    for key, env, got, fallback in (("ncols", "COLUMNS", size.columns, FALLBACK_SIZE[0]),
+                                    ("nrows", "LINES", size.lines, FALLBACK_SIZE[1])):
+        if got <= 1:
+            given = os.environ.get(env, "").strip()
+            out[key] = int(given) if given.isdigit() and int(given) > 1 else fallback
+    return out
+
+
 def _progress(progress, scene: Scene, label: str):
     """A progress callback from the ``progress`` argument: None/False (none), True (a tqdm bar on
     stderr, off when stderr is not a terminal), or a callable taking the simulated time in s."""
     if progress is True:
         bar = tqdm(total=round(1e3 * scene.end_time, 3), desc=label, unit="ms", file=sys.stderr, disable=None,
-                   mininterval=0.2, bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
+                   mininterval=0.2, **bar_size(sys.stderr), bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
 
         def update(t: float) -> None:
             n = round(1e3 * min(max(t, 0.0), scene.end_time), 3)
