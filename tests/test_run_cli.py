@@ -113,8 +113,10 @@ def test_run_drop_test_scene_matches_drop_test_command(tmp_path):
     np.testing.assert_array_equal(_read(a / "acceleration.csv")[1], _read(b / "acceleration.csv")[1])
 
 
-def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path):
-    """`cfm drop-test --backend skfem` writes the files every backend writes (8-element specimen)."""
+def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path, capsys):
+    """`cfm drop-test --backend skfem` writes the files every backend writes (8-element specimen);
+    its hourglass ratio is n/a (fully integrated elements have no hourglass energy): null in
+    summary.json with the reason, "n/a" in the printed line."""
     pytest.importorskip("skfem")
     path = tmp_path / "tiny.toml"
     path.write_text(scene_to_toml(builtin_scene("drop-test").with_overrides(width=0.01, thickness=0.005,
@@ -126,6 +128,8 @@ def test_cli_drop_test_on_skfem_writes_the_same_outputs(tmp_path):
     assert header == ["t [s]", "a_raw [m/s^2]", "a_cfc600 [m/s^2]"] and np.isfinite(data).all()
     assert s["backend"] == "skfem" and s["newton_iterations"] >= s["steps"] and s["peak_g"] > 0
     assert s["units"]["newton_iterations"] == "-" and (out / "acceleration.png").exists()
+    assert s["hourglass_ratio"] is None and s["hourglass_ratio_note"].startswith("n/a: backend 'skfem' has no hourglass")
+    assert "hourglass/internal n/a" in capsys.readouterr().out
 
 
 COARSE = ["--element-size", "0.002", "--quiet", "--no-plot"]

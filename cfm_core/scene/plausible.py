@@ -10,13 +10,15 @@ the likely mistake. Bounds (SI), chosen so that no legitimate drop test is refus
 field                     refused above   warned above (a judgement call: runs anyway)
 ========================  ==============  ============================================
 [impactor] mass           100 kg          20 kg
-[impactor] radius         1 m             0.25 m
 [impactor] velocity       100 m/s         20 m/s (a fall from 20 m)
-[specimen] width          1 m             0.5 m
+[impactor] radius         1 m (section)   0.25 m
+[specimen] width          1 m (section)   0.5 m
 ========================  ==============  ============================================
 
-The thickness (1e-4 .. 0.1 m), the element size (at most the thickness) and the density
-(1 .. 1e5 kg/m^3) are bounded by the sections themselves; their messages carry the same hint
+The sections keep mass (up to 1e4 kg) and speed (up to 1e3 m/s) legal, so that a model built
+directly (:func:`cfm_core.scene.build_model`) can still exercise the run checks; radius and width
+above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the thickness) and the density
+(1 .. 1e5 kg/m^3) are refused by the sections themselves, whose messages carry the same hint
 (:func:`unit_hint`).
 """
 
@@ -27,12 +29,12 @@ from ..errors import InputError
 #: SI unit -> (the unit often typed instead, the factor from it to the SI unit).
 UNIT_SLIPS = {"m": ("mm", 1e-3), "kg": ("g", 1e-3), "m/s": ("mm/s", 1e-3), "kg/m^3": ("g/cm^3", 1e3)}
 
-#: (section, key, SI unit, refused above, warned above, what it is) of a drop-test scene.
+#: (section, key, SI unit, refused above (None: by the section), warned above, what it is) of a drop test.
 BOUNDS = (
     ("impactor", "mass", "kg", 100.0, 20.0, "impactor mass (heavier than any drop-tower or fall impactor on a specimen)"),
-    ("impactor", "radius", "m", 1.0, 0.25, "impactor (hemisphere) radius"),
     ("impactor", "velocity", "m/s", 100.0, 20.0, "impact speed"),
-    ("specimen", "width", "m", 1.0, 0.5, "specimen width"),
+    ("impactor", "radius", "m", None, 0.25, "impactor (hemisphere) radius"),
+    ("specimen", "width", "m", None, 0.5, "specimen width"),
 )
 
 _FLAGS = {"mass": "--mass", "radius": "--radius", "velocity": "--velocity", "width": "--width",
@@ -87,7 +89,7 @@ def check_plausible(scene) -> list[str]:
     Raises
     ------
     InputError
-        A value above its "refused" bound of :data:`BOUNDS`, naming the section, the field, the
+        A value above its "refused" bound of :data:`BOUNDS` (mass, speed), naming the section, the field, the
         value, the SI unit and the likely slip (e.g. "220 kg: did you mean 0.22 kg (220 g)?").
     """
     if scene.type != "drop-test":
@@ -95,7 +97,7 @@ def check_plausible(scene) -> list[str]:
     warnings = []
     for section, key, unit, refuse, warn, what in BOUNDS:
         value = float(getattr(getattr(scene, section), key))
-        if value > refuse:
+        if refuse is not None and value > refuse:
             hint = unit_hint(key, value, unit, 0.0, refuse)
             raise InputError(f"[{section}] {key} = {value:g} {unit} is not a plausible {what}: values above "
                              f"{refuse:g} {unit} are refused as a unit slip. {hint or f'Give the {key} in {unit}.'}")

@@ -160,9 +160,8 @@ class Scene:
         d = scene_to_dict(self)
         for key, value in kw.items():
             if key not in allowed:
-                raise InputError(" ".join(filter(None, (f"unknown override '{key}' for a {self.type} scene.",
-                                                         did_you_mean(key, allowed),
-                                                         f"Allowed: {', '.join(sorted(allowed))}."))))
+                raise InputError(f"unknown override '{key}' for a {self.type} scene{_close(key, allowed)}; allowed: "
+                                 f"{', '.join(sorted(allowed))}.")
             section, name = allowed[key]
             table = d.setdefault(section, {})
             if key == "parameters" and value is not None:
@@ -179,6 +178,12 @@ class Scene:
                 if key not in kw:
                     d["specimen"].pop(key, None)
         return scene_from_dict(d)
+
+
+def _close(word: str, names) -> str:
+    """``" (did you mean 'x'?)"`` for a mistyped name, or ``""`` (:func:`cfm_core.errors.did_you_mean`)."""
+    hint = did_you_mean(word, names)
+    return f" ({hint[0].lower()}{hint[1:]})" if hint else ""
 
 
 def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
@@ -213,9 +218,8 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
     layout = _LAYOUT[stype]
     for key in d:
         if key not in layout:
-            raise InputError(" ".join(filter(None, (f"unknown key '{key}' at the top level of a {stype} scene.",
-                                                     did_you_mean(key, layout),
-                                                     f"Allowed sections: {', '.join(layout)}."))))
+            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, layout)}; allowed "
+                             f"sections: {', '.join(layout)}.")
     sections = {}
     for key, cls in layout.items():
         table = d.get(key, {})
@@ -224,9 +228,8 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
         allowed = [f.name for f in fields(cls)]
         for k in table:
             if k not in allowed:
-                raise InputError(" ".join(filter(None, (f"unknown key '{k}' in [{key}] of a {stype} scene.",
-                                                         did_you_mean(k, allowed),
-                                                         f"Allowed keys: {', '.join(allowed)}."))))
+                raise InputError(f"unknown key '{k}' in [{key}] of a {stype} scene{_close(k, allowed)}; allowed keys: "
+                                 f"{', '.join(allowed)}.")
         table = dict(table)
         if key == "specimen" and isinstance(table.get("mesh"), str):
             mesh = Path(table["mesh"]).expanduser()

@@ -129,7 +129,7 @@ def read_specimen_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarra
 class Specimen:
     """[specimen] of a drop test: a square block on the plate, bottom at z = 0, centred at x=y=0.
 
-    width (m, full in-plane size, default 0.05); thickness (m, default 0.008, allowed 1e-4..0.1);
+    width (m, full in-plane size, default 0.05, at most 1); thickness (m, default 0.008, allowed 1e-4..0.1);
     element_size (m, default 0.001, at most the thickness); density (kg/m^3, default 950, an
     assumption: not in the paper); symmetry ("quarter": only x, y >= 0 is modelled | "none").
     mesh: optional path of a user hexahedral mesh (coordinates in m); then width (x extent of the
@@ -162,7 +162,7 @@ class Specimen:
                 if getattr(self, key) is None:
                     _set(self, **{key: default})
         src = f" (Taken from the mesh '{self.mesh}'.)" if self.mesh is not None else ""
-        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 10.0, note=src.strip()))
+        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 1.0, note=src.strip()))  # wider: mm typed as m
         _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1,
                                   note="The paper's specimens are 4.8e-3 to 8.3e-3 m thick." + src))
         if self.mesh is None:
@@ -235,15 +235,17 @@ class Specimen:
 
 @dataclass(frozen=True)
 class Impactor:
-    """[impactor]: rigid hemisphere. radius (m, 0.055), mass (kg, 0.220, the full impactor),
-    velocity (m/s, impact speed, positive = moving down, default 1.0)."""
+    """[impactor]: rigid hemisphere. radius (m, 0.055, at most 1), mass (kg, 0.220, the full impactor),
+    velocity (m/s, impact speed, positive = moving down, default 1.0). Values that are surely a unit
+    slip (mass above 100 kg, speed above 100 m/s) are refused before running by
+    :func:`cfm_core.scene.plausible.check_plausible`."""
 
     radius: float = 0.055
     mass: float = 0.220
     velocity: float = 1.0
 
     def __post_init__(self):
-        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 10.0))
+        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 1.0))  # larger: mm typed as m
         _set(self, mass=_num("impactor", "mass", self.mass, "kg", 0, 1e4, lo_open=True))
         _set(self, velocity=_num("impactor", "velocity", self.velocity, "m/s", 0, 1e3, lo_open=True,
                                  note="It is the impact speed; the direction (down) is implied."))
