@@ -200,7 +200,7 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     ------
     InputError
         Not a drop-test scene, unknown backend, bad options, a value that is surely a unit slip
-        (impactor mass above 100 kg, radius or width above 1 m, speed above 100 m/s:
+        (impactor mass above 100 kg or speed above 100 m/s:
         :func:`cfm_core.scene.plausible.check_plausible`).
     NumericalError
         The run failed or its physics broke (names where and when).
