@@ -39,21 +39,39 @@ def is_compiled(text: str, prefix: str, subdir: str, label: str, kernel: str) ->
     return any((cache_dir(subdir) / "__pycache__").glob(f"{name}.{kernel}-*.nbi"))
 
 
-def _last_compile_time(subdir: str) -> float | None:
+def _last_compile_time(subdir: str, kernel: str) -> float | None:
     try:
-        return float(json.loads((cache_dir(subdir) / TIMES).read_text())["seconds"])
+        return float(json.loads((cache_dir(subdir) / TIMES).read_text())[kernel])
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
 
+def _store_compile_time(subdir: str, kernel: str, seconds: float) -> None:
+    path = cache_dir(subdir) / TIMES
+    try:
+        try:
+            times = dict(json.loads(path.read_text()))
+        except (OSError, ValueError, TypeError):
+            times = {}
+        times[kernel] = seconds
+        path.write_text(json.dumps(times))
+    except OSError:  # a read-only cache still runs
+        pass
+
+
+_READY: set = set()  # (cache folder, module name, kernel) found or compiled: not looked up again
+
+
 @contextmanager
-def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: str, stream=None):
+def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: str, stream=None,
+                     estimate: str = "about 20 s on a free core"):
     """Say on stderr what a cold first run is doing while numba compiles a generated module.
 
     When :func:`is_compiled` is False, prints "numba: compiling kernels for material 'LABEL' (once
     per machine, ~N s; cached in DIR)..." before the block and "numba: kernels for material 'LABEL'
-    compiled in N s." after it (the seconds are kept in ``DIR/compile_seconds.json`` as the next
-    estimate). Silent when the cache has the kernel.
+    compiled in N s." after it (the seconds are kept per kernel in ``DIR/compile_seconds.json`` as
+    the next estimate). Silent when the cache has the kernel; once found or compiled, a kernel is
+    not looked up again in this process.
 
     Parameters
     ----------
@@ -61,14 +79,18 @@ def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: st
         See :func:`is_compiled`.
     stream : file, optional
         Where to print (default ``sys.stderr``).
+    estimate : str
+        The duration said before the first compilation on this machine (later: the last one's).
     """
-    if is_compiled(text, prefix, subdir, label, kernel):
+    folder = cache_dir(subdir)
+    ready = (str(folder), generated_name(text, prefix, label), kernel)
+    if ready in _READY or is_compiled(text, prefix, subdir, label, kernel):
+        _READY.add(ready)
         yield
         return
     stream = stream or sys.stderr
-    folder = cache_dir(subdir)
-    guess = _last_compile_time(subdir)
-    estimate = f"~{guess:.0f} s" if guess else "about 20 s on a free core"
+    guess = _last_compile_time(subdir, kernel)
+    estimate = f"~{guess:.0f} s" if guess else estimate
     lead = "\n" if getattr(stream, "isatty", lambda: False)() else ""   # below a progress bar
     print(f"{lead}numba: compiling kernels for material '{label}' (once per machine, {estimate}; cached in "
           f"{folder})...", file=stream, flush=True)
@@ -76,7 +98,5 @@ def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: st
     yield
     took = time.perf_counter() - start
     print(f"numba: kernels for material '{label}' compiled in {took:.1f} s.", file=stream, flush=True)
-    try:
-        (folder / TIMES).write_text(json.dumps({"seconds": took}))
-    except OSError:  # a read-only cache still runs
-        pass
+    _READY.add(ready)
+    _store_compile_time(subdir, kernel, took)
