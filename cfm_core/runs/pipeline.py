@@ -329,13 +329,12 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
     be = backend_for(backend)
     out: list = [None] * len(scenes)
     models = []
-    notes = {}
     for i, scene in enumerate(scenes):
         try:
             if scene.type != "drop-test":
                 raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
             check_output_rate(scene)
-            notes[i] = check_plausible(scene)
+            check_plausible(scene)  # unit slips refused before running (its warnings: in finish)
             models.append((i, build_model(scene)))
         except (ValueError, RuntimeError) as exc:
             out[i] = exc
@@ -348,7 +347,7 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
             if not checked:
                 result.info["warnings"] = checks.check_result(model, result)
                 result.info.setdefault("hourglass_control", bool(be.hourglass_control))
-            return drop_test_outcome(scenes[i], model, result, notes.get(i, ()))
+            return drop_test_outcome(scenes[i], model, result, check_plausible(scenes[i]))
         except (ValueError, RuntimeError) as exc:
             return exc
 
