@@ -109,3 +109,18 @@ def test_version_names_the_package_version_and_the_backends():
     backends = {line.split()[0] for line in rest[1:]}
     assert rest[0] == "backends:" and {"numba", "skfem", "torch"} <= backends
     assert all("available" in line or "BROKEN" in line for line in rest[1:])
+
+
+def test_a_mesh_in_millimetres_is_refused_with_a_hint_to_scale_it(tmp_path):
+    import meshio
+
+    from cfm_core.scene.mesh import structured_hex_mesh
+
+    nodes, hexes = structured_hex_mesh(25.0, 25.0, 8.0, 5, 5, 2, (0.0, 0.0, 0.0))  # a quarter, in mm
+    path = tmp_path / "quarter_mm.vtu"
+    meshio.write(path, meshio.Mesh(nodes, [("hexahedron", hexes)]))
+    with pytest.raises(InputError) as err:
+        builtin_scene("drop-test").with_overrides(mesh=str(path))
+    text = str(err.value)
+    assert "width = 50.0 m is out of range" in text and "did you mean 0.05 m (50 mm)?" in text
+    assert "Scale the mesh's coordinates to m" in text and "Write width" not in text

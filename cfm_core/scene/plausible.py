@@ -41,7 +41,7 @@ _FLAGS = {"mass": "--mass", "radius": "--radius", "velocity": "--velocity", "wid
           "thickness": "--thickness", "element_size": "--element-size", "density": "--density"}
 
 
-def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = float("inf")) -> str:
+def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = float("inf"), fix: str | None = None) -> str:
     """The likely unit slip of a value outside its range, as a sentence ("" when none fits).
 
     Parameters
@@ -54,6 +54,8 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
         The SI unit the field is read in: ``"m"``, ``"kg"``, ``"m/s"`` or ``"kg/m^3"`` (others: no hint).
     lo, hi : float
         The allowed or plausible range (SI); the corrected value must fall inside it.
+    fix : str, optional
+        What to do instead of writing the corrected value (e.g. for a value taken from a mesh file).
 
     Returns
     -------
@@ -65,8 +67,9 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
     alt, factor = UNIT_SLIPS[unit]
     flag = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS else ""
     if lo <= value * factor <= hi:
+        todo = fix or f"Write {key} = {value * factor:g}{flag}"
         return (f"{value:g} {unit}: did you mean {value * factor:g} {unit} ({value:g} {alt})? "
-                f"Write {key} = {value * factor:g}{flag}; every value is in SI units.")
+                f"{todo}; every value is in SI units.")
     if lo <= value / factor <= hi and value < lo:  # e.g. mm converted to m twice
         return (f"{value:g} {unit}: did you mean {value / factor:g} {unit}? The value looks converted from "
                 f"{alt} to {unit} twice; every value is in SI units.")

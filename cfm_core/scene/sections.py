@@ -25,7 +25,7 @@ MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mist
 
 
 # ----------------------------------------------------------------------------- value checks
-def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="") -> float:
+def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="", fix=None) -> float:
     """``value`` as a float if it is a finite real number in the range, else InputError."""
     lo_s, hi_s = ("<" if lo_open else "<="), ("<" if hi_open else "<=")
     allowed = f"a finite number with {lo:g} {lo_s} {key} {hi_s} {hi:g} {unit}"
@@ -35,7 +35,7 @@ def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, not
     x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
     if not ok:
-        hint = unit_hint(key, x, unit, lo, hi) if math.isfinite(x) else ""
+        hint = unit_hint(key, x, unit, lo, hi, fix) if math.isfinite(x) else ""
         raise InputError(" ".join(filter(None, (f"[{section}] {key} = {value!r} {unit} is out of range; it "
                                                  f"must be {allowed}.", note, hint))))
     return x
@@ -162,8 +162,9 @@ class Specimen:
                 if getattr(self, key) is None:
                     _set(self, **{key: default})
         src = f" (Taken from the mesh '{self.mesh}'.)" if self.mesh is not None else ""
-        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 1.0, note=src.strip()))  # wider: mm typed as m
-        _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1,
+        fix = "Scale the mesh's coordinates to m" if self.mesh is not None else None
+        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 1.0, note=src.strip(), fix=fix))  # wider: mm as m
+        _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1, fix=fix,
                                   note="The paper's specimens are 4.8e-3 to 8.3e-3 m thick." + src))
         if self.mesh is None:
             _set(self, element_size=_num(s, "element_size", self.element_size, "m", 0,
