@@ -16,15 +16,12 @@ between ``# >>> standalone`` and ``# <<< standalone`` gives them their imports a
 
 from __future__ import annotations
 
-import json
-import sys
-import time
-from contextlib import contextmanager
 from pathlib import Path
 
 from cfm_backends.numba_common import STANDALONE_BLOCK as _BLOCK
 from cfm_backends.numba_common import material_functions
 from cfm_core.material.cache import generated_name, import_generated
+from cfm_core.material import compile_notice
 
 KERNEL_FILES = ("layout.py", "eigen.py", "constitutive.py", "element.py", "contact.py", "step.py")
 
@@ -109,41 +106,12 @@ def _module_name(material) -> str:
 
 def is_compiled(material, kernel: str = "advance") -> bool:
     """Whether the machine code of ``kernel`` for ``material`` is in numba's on-disk cache."""
-    return any((cache_dir() / "__pycache__").glob(f"{_module_name(material)}.{kernel}-*.nbi"))
+    return compile_notice.is_compiled(module_source(material), "cfm_numba", "numba", material.name, kernel)
 
 
-_TIMES = "compile_seconds.json"
-
-
-def _last_compile_time() -> float | None:
-    try:
-        return float(json.loads((cache_dir() / _TIMES).read_text())["seconds"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-
-
-@contextmanager
 def announce(material, kernel: str = "advance", stream=None):
-    """Say on stderr what a cold first run is doing while numba compiles the kernels.
-
-    When the kernels of ``material`` are not in the on-disk cache yet, prints "numba: compiling
-    kernels for material '...' (once per machine, ~N s; cached in DIR)" before, and the seconds
-    it took after (kept as the next estimate). Silent when the cache has them.
-    """
-    if is_compiled(material, kernel):
-        yield
-        return
-    stream = stream or sys.stderr
-    guess = _last_compile_time()
-    estimate = f"~{guess:.0f} s" if guess else "about 20 s on a free core"
-    lead = "\n" if getattr(stream, "isatty", lambda: False)() else ""   # below a progress bar
-    print(f"{lead}numba: compiling kernels for material '{material.name}' (once per machine, {estimate}; cached in "
-          f"{cache_dir()})...", file=stream, flush=True)
-    start = time.perf_counter()
-    yield
-    took = time.perf_counter() - start
-    print(f"numba: kernels for material '{material.name}' compiled in {took:.1f} s.", file=stream, flush=True)
-    try:
-        (cache_dir() / _TIMES).write_text(json.dumps({"seconds": took}))
-    except OSError:  # a read-only cache still runs
-        pass
+    """Say on stderr what a cold first run is doing while numba compiles the kernels (a context
+    manager): :func:`cfm_core.material.compile_notice.announce_compile`, the notice the skfem
+    backend prints too. Silent when the cache has them."""
+    return compile_notice.announce_compile(module_source(material), "cfm_numba", "numba", material.name, kernel,
+                                           stream, "about 20 s on a free core" if kernel == "advance" else "some seconds")

@@ -73,7 +73,7 @@ def test_drop_test_output(tmp_path, monkeypatch):
     t = np.arange(5) * 2e-5
     out = write_drop_test(tmp_path / "run", t, np.ones(5), 2 * np.ones(5), {"peak_g": 0.2, "units": {"peak_g": "g"}})
     assert order == ["acceleration.csv", "summary.json"]  # summary last: its presence means success
-    assert (out / "acceleration.csv").read_text().splitlines()[0] == "t,a_raw,a_cfc600"
+    assert (out / "acceleration.csv").read_text().splitlines()[0] == "t [s],a_raw [m/s^2],a_cfc600 [m/s^2]"
     data = np.loadtxt(out / "acceleration.csv", delimiter=",", skiprows=1)
     assert np.array_equal(data[:, 0], t) and np.all(data[:, 2] == 2.0)
     s = json.loads((out / "summary.json").read_text())
