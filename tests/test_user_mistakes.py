@@ -1,6 +1,7 @@
-"""What a fresh user gets wrong, answered before anything runs (exit 2, one paragraph, no traceback):
-values in g, mm or mm/s where the product reads kg, m and m/s (shared case units-mass-in-grams), a
-mistyped command, option or scene key ("did you mean ...?"); and ``cfm --version``."""
+"""What a fresh user gets wrong: values in mm where the product reads m, a mistyped command, option
+or scene key ("did you mean ...?") refused before anything runs (exit 2, one paragraph, no
+traceback); values in g or mm/s where it reads kg and m/s (shared case units-mass-in-grams) warned
+before the run, which the run checks then stop (exit 3); and ``cfm --version``."""
 
 import subprocess
 import sys
@@ -10,9 +11,8 @@ from importlib import metadata
 import pytest
 
 from cfm_core.errors import InputError
-from cfm_core.runs.pipeline import drop_tests
 from cfm_core.scene.plausible import check_plausible
-from cfm_core.scene.scene import builtin_scene, load_scene
+from cfm_core.scene.scene import builtin_scene
 
 
 def cfm(*args, timeout=120):
@@ -28,10 +28,8 @@ def _one_paragraph(err):
 
 
 @pytest.mark.parametrize("option, value, expected", [
-    ("--mass", "220", "[impactor] mass = 220 kg is not a plausible impactor mass"),
     ("--radius", "55", "[impactor] radius = 55.0 m is out of range"),
     ("--radius", "5", "[impactor] radius = 5.0 m is out of range"),
-    ("--velocity", "1000", "[impactor] velocity = 1000 m/s is not a plausible impact speed"),
     ("--width", "5", "[specimen] width = 5.0 m is out of range"),
     ("--thickness", "8", "[specimen] thickness = 8.0 m is out of range"),
     ("--element-size", "2", "[specimen] element_size = 2.0 m is out of range"),
@@ -42,22 +40,27 @@ def test_unit_slips_are_refused_before_running_with_the_likely_mistake(tmp_path,
     assert code == 2
     _one_paragraph(err)
     assert expected in err
-    slip = {"--mass": "220 g", "--velocity": "1000 mm/s"}.get(option, f"{value} mm")
+    slip = f"{value} mm"
     si = f"{float(value) / 1000:g}"
     assert f"did you mean {si} " in err and f"({slip})?" in err and f"{option} {si}" in err
     assert not out.exists()
 
 
-def test_mass_in_grams_in_a_scene_file_is_refused_at_once_on_cfm_run(tmp_path):
-    """The shared case's scene (mass = 220.0) no longer runs for seconds: refused (exit 2) in well under
-    the ~7 s its failing run took, naming the slip."""
-    scene = tmp_path / "scene_mass_g.toml"
-    scene.write_text('[scene]\ntype = "drop-test"\n[specimen]\nelement_size = 0.002\n[impactor]\nmass = 220.0\n')
-    code, out, err, took = cfm("run", "--scene", str(scene), "--out", str(tmp_path / "o"), "--quiet")
-    assert code == 2 and "did you mean 0.22 kg (220 g)?" in err and out == ""
-    _one_paragraph(err)
-    result = drop_tests([load_scene(scene)], "numba")[0]  # a sweep records it as a failed run, unrun
-    assert isinstance(result, InputError) and "220 kg" in str(result)
+@pytest.mark.parametrize("key, value, slip, what", [
+    ("mass", "220.0", "did you mean 0.22 kg (220 g)?", "impactor mass"),
+    ("velocity", "1000.0", "did you mean 1 m/s (1000 mm/s)?", "impact speed"),
+])
+def test_mass_or_speed_in_g_or_mm_per_s_warned_first_then_stopped_by_the_run_checks(tmp_path, key, value, slip, what):
+    """The shared case (mass = 220.0 read as 220 kg; 1000 for 1000 mm/s): a warning naming the slip
+    before the run, then exit 3 from the run checks (no summary.json), never a finished run."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'[scene]\ntype = "drop-test"\n[specimen]\nelement_size = 0.002\n[impactor]\n{key} = {value}\n')
+    out = tmp_path / "o"
+    code, _, err, _ = cfm("run", "--scene", str(scene), "--out", str(out), "--quiet")
+    first = err.strip().splitlines()[0]
+    assert first.startswith("warning:") and f"not a plausible {what}" in first and slip in first
+    assert code == 3 and "Traceback" not in err
+    assert not (out / "summary.json").exists()
 
 
 @pytest.mark.parametrize("over, warned", [
@@ -73,10 +76,16 @@ def test_legitimate_heavy_or_large_values_run_with_at_most_a_warning(over, warne
         assert f"{key} = {value:g} " in notes[0] and "it runs as given" in notes[0]
 
 
-@pytest.mark.parametrize("over", [{"mass": 100.5}, {"velocity": 101.0}, {"radius": 1.01}, {"width": 1.01}])
+@pytest.mark.parametrize("over", [{"radius": 1.01}, {"width": 1.01}])
 def test_just_above_the_bounds_is_refused(over):
-    with pytest.raises(InputError, match="refused as a unit slip|out of range"):
+    with pytest.raises(InputError, match="out of range"):
         check_plausible(builtin_scene("drop-test").with_overrides(**over))
+
+
+@pytest.mark.parametrize("over", [{"mass": 100.5}, {"velocity": 101.0}])
+def test_mass_and_speed_above_the_slip_bound_are_warned_as_slips_not_refused(over):
+    notes = check_plausible(builtin_scene("drop-test").with_overrides(**over))
+    assert len(notes) == 1 and "almost surely a unit slip" in notes[0] and "It runs as given" in notes[0]
 
 
 @pytest.mark.parametrize("args, hint", [

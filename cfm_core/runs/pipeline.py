@@ -199,16 +199,14 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     Raises
     ------
     InputError
-        Not a drop-test scene, unknown backend, bad options, a value that is surely a unit slip
-        (impactor mass above 100 kg or speed above 100 m/s:
-        :func:`cfm_core.scene.plausible.check_plausible`).
+        Not a drop-test scene, unknown backend, bad options.
     NumericalError
         The run failed or its physics broke (names where and when).
     """
     if scene.type != "drop-test":
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
     check_output_rate(scene)
-    notes = check_plausible(scene)  # unit slips (220 for 0.220 kg) refused before running
+    notes = check_plausible(scene)  # unit slips (220 for 0.220 kg): warned before running
     report_warnings({"warnings": notes})
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
     model, result = _run(scene, backend, progress, label, options)

@@ -2,34 +2,31 @@
 
 The sections (:mod:`cfm_core.scene.sections`) accept every value that is legal in SI units; some
 legal values are almost surely a unit written wrongly: 220 for a 220 g impactor is read as 220 kg,
-which runs for seconds and then fails the physics checks (or worse, reports a peak). This module
-says so before anything runs, in one paragraph naming the field, the value, the unit expected and
-the likely mistake. Bounds (SI), chosen so that no legitimate drop test is refused:
+which runs for seconds and then fails the physics checks (exit 3). This module says so before
+anything runs, in one warning paragraph naming the field, the value, the unit expected and the
+likely mistake; the run then goes ahead as given, so that the run checks decide (a legal value is
+never refused on a guess). Bounds (SI):
 
-========================  ==============  ============================================
-field                     refused above   warned above (a judgement call: runs anyway)
-========================  ==============  ============================================
-[impactor] mass           100 kg          20 kg
-[impactor] velocity       100 m/s         20 m/s (a fall from 20 m)
-[impactor] radius         1 m (section)   0.25 m
-[specimen] width          1 m (section)   0.5 m
-========================  ==============  ============================================
+========================  =====================================  ===============================
+field                     "almost surely a unit slip" above      "unusually large" above
+========================  =====================================  ===============================
+[impactor] mass           100 kg                                 20 kg
+[impactor] velocity       100 m/s                                20 m/s (a fall from 20 m)
+[impactor] radius         (refused above 1 m by the section)     0.25 m
+[specimen] width          (refused above 1 m by the section)     0.5 m
+========================  =====================================  ===============================
 
-The sections keep mass (up to 1e4 kg) and speed (up to 1e3 m/s) legal, so that a model built
-directly (:func:`cfm_core.scene.build_model`) can still exercise the run checks; radius and width
-above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the thickness) and the density
-(1 .. 1e5 kg/m^3) are refused by the sections themselves, whose messages carry the same hint
-(:func:`unit_hint`).
+Radius and width above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the
+thickness) and the density (1 .. 1e5 kg/m^3) are refused by the sections themselves, whose
+messages carry the same hint (:func:`unit_hint`).
 """
 
 from __future__ import annotations
 
-from ..errors import InputError
-
 #: SI unit -> (the unit often typed instead, the factor from it to the SI unit).
 UNIT_SLIPS = {"m": ("mm", 1e-3), "kg": ("g", 1e-3), "m/s": ("mm/s", 1e-3), "kg/m^3": ("g/cm^3", 1e3)}
 
-#: (section, key, SI unit, refused above (None: by the section), warned above, what it is) of a drop test.
+#: (section, key, SI unit, a unit slip above (None: refused by the section), unusual above, what it is).
 BOUNDS = (
     ("impactor", "mass", "kg", 100.0, 20.0, "impactor mass (heavier than any drop-tower or fall impactor on a specimen)"),
     ("impactor", "velocity", "m/s", 100.0, 20.0, "impact speed"),
@@ -77,7 +74,7 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
 
 
 def check_plausible(scene) -> list[str]:
-    """Refuse a drop-test scene with a value that is surely a unit slip; warn about doubtful ones.
+    """Warnings about the values of a drop-test scene that are surely or probably unit slips.
 
     Parameters
     ----------
@@ -87,25 +84,23 @@ def check_plausible(scene) -> list[str]:
     Returns
     -------
     list of str
-        Warnings (one paragraph each) for values above the "warned" bounds of :data:`BOUNDS`.
-
-    Raises
-    ------
-    InputError
-        A value above its "refused" bound of :data:`BOUNDS` (mass, speed), naming the section, the field, the
-        value, the SI unit and the likely slip (e.g. "220 kg: did you mean 0.22 kg (220 g)?").
+        One paragraph per value above its bounds in :data:`BOUNDS`, naming the section, the field,
+        the value, the SI unit and the likely slip (e.g. "220 kg: did you mean 0.22 kg (220 g)?").
+        The run goes ahead as given: a value is never refused on a guess, and the run checks stop a
+        run whose physics breaks (exit 3).
     """
     if scene.type != "drop-test":
         return []
     warnings = []
-    for section, key, unit, refuse, warn, what in BOUNDS:
+    for section, key, unit, slip, unusual, what in BOUNDS:
         value = float(getattr(getattr(scene, section), key))
-        if refuse is not None and value > refuse:
-            hint = unit_hint(key, value, unit, 0.0, refuse)
-            raise InputError(f"[{section}] {key} = {value:g} {unit} is not a plausible {what}: values above "
-                             f"{refuse:g} {unit} are refused as a unit slip. {hint or f'Give the {key} in {unit}.'}")
-        if value > warn:
-            hint = unit_hint(key, value, unit, 0.0, warn)
+        if slip is not None and value > slip:
+            hint = unit_hint(key, value, unit, 0.0, slip)
+            warnings.append(f"[{section}] {key} = {value:g} {unit} is not a plausible {what}: above {slip:g} {unit} it "
+                            f"is almost surely a unit slip. {hint or f'Give the {key} in {unit}.'} It runs as given; "
+                            f"the run checks stop it if its physics breaks.")
+        elif value > unusual:
+            hint = unit_hint(key, value, unit, 0.0, unusual)
             warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually large for the {what.split(' (')[0]} "
-                            f"(above {warn:g} {unit}); it runs as given. {hint}".rstrip())
+                            f"(above {unusual:g} {unit}); it runs as given. {hint}".rstrip())
     return warnings
