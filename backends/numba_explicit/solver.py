@@ -19,6 +19,7 @@ import numpy as np
 from cfm_backends.explicit import errors, geometry, history
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity
+from cfm_backends.threads import num_threads
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -96,14 +97,49 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     v = np.zeros((n, 3)) if v0 is None else v0
     snodes = np.ascontiguousarray(model.sphere_nodes if sph is not None else [], dtype=np.int64)
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
-    geo = (hexes, B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, mass, free, pmask, ptr, inc)
-    fe = np.zeros((ne, 8, 6))
-    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), np.zeros((ne, k, 6)),
-          np.zeros((ne, 6)), np.zeros((ne, 6)), np.zeros((ne, 6)), fe, fe.reshape(ne * 8, 6),
-          np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+    ed, foff = block_arrays(B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, inc)
+    nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
+    bg = np.ascontiguousarray(np.concatenate([B, G], axis=2).reshape(ne, 56))
+    geo = (hexes, bg, mass, free, pmask, ptr, foff)
+    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
+          np.zeros(nblk * K.EF_N * K.BLOCK), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.zeros(ne), np.zeros(ne, dtype=np.int64), np.zeros((ne, 4)))
     cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 9)))
     return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes)
+
+
+def block_arrays(B, G, V0, L, hgfac, inc):
+    """The block array of the element kernels (kernels/layout.py, rows ED_*) and the offsets of
+    the incidence in the force block array ``ef``.
+
+    B (e, 8, 3) (1/m), G (e, 8, 4) (-), V0, L, hgfac (e,): per element; inc: the incidence rows
+    e * 8 + a. Returns (ed (nblk * ED_N * BLOCK,), foff (len(inc),)): in block b = e // BLOCK,
+    column i = e % BLOCK, row r holds ed[(b * ED_N + r) * BLOCK + i]; foff: the offset in ef of
+    corner a's internal-force x-component, row 6 a of block b. The state rows start at zero (undeformed,
+    relaxed); columns beyond the last element are never used.
+    """
+    ne = V0.shape[0]
+    nblk = -(-ne // K.BLOCK)
+    rows = np.zeros((nblk * K.BLOCK, K.ED_N))
+    rows[:ne, K.ED_B:K.ED_B + 24] = B.reshape(ne, 24)
+    rows[:ne, K.ED_G:K.ED_G + 32] = G.reshape(ne, 32)
+    rows[:ne, K.ED_V0] = V0
+    rows[:ne, K.ED_L] = L
+    rows[:ne, K.ED_HGF] = hgfac
+    ed = np.ascontiguousarray(rows.reshape(nblk, K.BLOCK, K.ED_N).transpose(0, 2, 1)).ravel()
+    e, a = np.divmod(np.asarray(inc, dtype=np.int64), 8)
+    foff = (e // K.BLOCK * K.EF_N + 6 * a) * K.BLOCK + e % K.BLOCK
+    return ed, np.ascontiguousarray(foff, dtype=np.int64)
+
+
+def per_element(block: np.ndarray, n_rows: int, first: int, count: int, ne: int) -> np.ndarray:
+    """Rows first .. first + count of a block array (n_rows rows per block, :func:`block_arrays`)
+    as a per-element array (ne, count): e.g. the previous-step S, ``per_element(ed, K.ED_N,
+    K.ED_SO, 6, ne)`` (Pa), or the nodal forces, ``per_element(ef, K.EF_N, 0, 48, ne)`` (N,
+    corner-major: column 6 a + c)."""
+    nblk = block.shape[0] // (n_rows * K.BLOCK)
+    rows = block.reshape(nblk, n_rows, K.BLOCK)[:, first:first + count, :]
+    return rows.transpose(0, 2, 1).reshape(nblk * K.BLOCK, count)[:ne].copy()
 
 
 def _error(code: int, prep: Prepared, model):
@@ -160,13 +196,7 @@ def run_model(model, progress=None, **options) -> Result:
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     import numba
 
-    old_threads = numba.get_num_threads()
-    threads = o.threads
-    if threads is None and model.n_elements < PARALLEL_MIN:
-        threads = 1
-    if threads is not None:
-        numba.set_num_threads(int(threads))
-    try:
+    with num_threads(numba, o.threads, serial=model.n_elements < PARALLEL_MIN):
         t0 = time.perf_counter()
         with codegen.announce(model.material):
             mod = codegen.load(model.material)
@@ -175,8 +205,6 @@ def run_model(model, progress=None, **options) -> Result:
         compile_time = time.perf_counter() - t0
         prep = prepare(model, o)
         return _loop(model, mod, prep, o, progress, compile_time, numba.get_num_threads())
-    finally:
-        numba.set_num_threads(old_threads)
 
 
 def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: float, threads: int) -> Result:

@@ -16,7 +16,7 @@ def test_module_source_layout():
     assert ">>> standalone" not in text and "<<< standalone" not in text
     for name in ("psi_grad", "psi_hess_diag", "psi_energy", "psi_grad_hess_diag"):
         assert f"\n{name} = njit(cache=True, fastmath=False" in text
-    for kernel in ("def eig3(", "def material_point(", "def element_pass(", "def sphere_contact(",
+    for kernel in ("def eig3(", "def stress_block(", "def element_pass(", "def sphere_contact(",
                    "def advance(", "def point_history("):
         assert text.count(kernel) == 1
     compile(text, "generated", "exec")

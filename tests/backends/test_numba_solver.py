@@ -5,6 +5,7 @@ import pytest
 
 pytest.importorskip("numba")
 from cfm_backends.numba_explicit import NumbaExplicitBackend, codegen, solver
+from cfm_backends.numba_explicit.kernels import layout as K
 from cfm_backends.numba_explicit.options import NumbaOptions
 from fixtures.hand_derived import NeoHookeanStandIn, block_mesh
 from cfm_core.errors import InputError, NumericalError
@@ -33,15 +34,18 @@ def element_state(model, x, v):
     """Run one element pass + gather at positions x, velocities v: (S (e, 6), fe, fint, fhg)."""
     mod = codegen.load(model.material)
     prep = solver.prepare(model, NumbaOptions())
-    conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
+    conn, bg, mass, free, pmask, ptr, foff = prep.geo
     p, gam, tau = prep.mat
-    _, _, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st
+    _, _, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = prep.st
     x, v = np.ascontiguousarray(x), np.ascontiguousarray(v)
-    work, nbad = mod.element_pass(x, v, conn, B, G, V0, L, hgfac, p, np.zeros(0), np.zeros(0), 1.0, H, S0old,
-                                  Sold, Eold, fe, dte, status, errv, model.density, 0.1, 1)
+    work, nbad = mod.element_pass(x, v, conn, bg, ed, eh, ef, p, np.zeros(0), np.zeros(0), 1.0, dte, status, errv,
+                                  model.density, 0.1, 1)
     assert nbad == 0
-    mod.gather_update(ef, ptr, inc, mass, free, fint, fhg, x.copy(), v.copy(), vold, 0.0, 0.0)
-    return Sold.copy(), fe.copy(), fint.copy(), fhg.copy()
+    mod.gather_update(ef, ptr, foff, mass, free, fint, fhg, x.copy(), v.copy(), vold, 0.0, 0.0)
+    ne = conn.shape[0]
+    Sold = solver.per_element(ed, K.ED_N, K.ED_SO, 6, ne)
+    fe = solver.per_element(ef, K.EF_N, 0, 48, ne).reshape(ne, 8, 6)
+    return Sold, fe, fint.copy(), fhg.copy()
 
 
 def test_patch_test_distorted_mesh():

@@ -25,6 +25,12 @@ import time
 from . import startup
 
 
+def _block() -> int:
+    from cfm_backends.numba_explicit.kernels import layout as K
+
+    return K.BLOCK
+
+
 def drop_test(thickness: float, size: float):
     """The built-in drop-test scene with the given thickness and element size (m)."""
     from cfm_core.scene.builder import build_model
@@ -60,9 +66,9 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
     Runs the compiled loop to t_state (the impactor near its deepest point), then times with
     ``time.process_time`` (CPU time of this process: much less disturbed by other processes than
     wall time) the whole step (``advance`` over a few steps), the parallel parts on their own
-    (element pass, gather and update, energies) and, in isolation, the material derivatives and the
-    eigen-decomposition per element; the rest of a step is the serial part (contact, step
-    minimum, history row, chunk loop).
+    (element pass, gather and update, energies) and each stage of the element blocks alone
+    (:data:`STAGES`); the rest of a step is the serial part (contact, step minimum, history row,
+    chunk loop).
     """
     import numba
     import numpy as np
@@ -81,9 +87,9 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         while prep.sc[K.S_T] < t_state:
             solver.advance(mod, prep, hist, t_state)
         ne = model.n_elements
-        conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = prep.geo
+        conn, bg, mass, free, pmask, ptr, foff = prep.geo
         p, gam, tau = prep.mat
-        x, v, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = prep.st
+        x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = prep.st
         decay, gain = np.zeros(gam.size), np.zeros(gam.size)
         mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
 
@@ -101,16 +107,68 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         solver.advance(mod, prep, np.zeros((repeat, K.H_N)), math.inf)
         step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
         xs, vs = x.copy(), v.copy()
-        element = cpu(lambda: mod.element_pass(xs, vs, conn, B, G, V0, L, hgfac, p, decay, gain, prep.par[K.P_GINF],
-                                               H.copy(), S0old.copy(), Sold.copy(), Eold.copy(), fe, dte, status,
-                                               errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
-        copies = cpu(lambda: (H.copy(), S0old.copy(), Sold.copy(), Eold.copy()))
-        gather = cpu(lambda: mod.gather_update(ef, ptr, inc, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
+        # repeated passes at one state: the Prony and previous-step state they update stay finite
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, bg, ed, eh, ef, p, decay, gain, prep.par[K.P_GINF],
+                                               dte, status, errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
+        gather = cpu(lambda: mod.gather_update(ef, ptr, foff, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
         energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
-        return {"step": step, "element_pass": element - copies, "gather_update": gather, "energy": energy,
-                "serial_rest": step - (element - copies) - gather - energy}
+        out = {"step": step, "element_pass": element, "gather_update": gather, "energy": energy,
+               "serial_rest": step - element - gather - energy}
+        out.update(_stages(mod, x, v, conn, bg, ed.copy(), eh.copy(), ef.copy(), p, decay, gain,
+                           prep.par[K.P_GINF], prep.par[K.P_RHO], prep.par[K.P_HG], cpu))
+        return out
     finally:
         numba.set_num_threads(old)
+
+
+STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces")
+
+
+def _stages(mod, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, rho, hg, cpu) -> dict:
+    """CPU time per element (ns) of each stage of the element blocks (kernels/element.py), each
+    stage run over all blocks by a small compiled driver (compiled here, ~10 s)."""
+    import numpy as np
+    from numba import njit
+
+    from cfm_backends.numba_explicit.kernels import layout as K
+
+    fns = (mod.kinematics_block, mod.eigen_block, mod.eigen_fallback, mod.material_block, mod.stress_block,
+           mod.prony_block, mod.forces_block)
+    kin, eig, fb, mat, st, pr, fo = fns
+    B, EDN, EFN, WN = K.BLOCK, K.ED_N, K.EF_N, K.W_N
+
+    @njit
+    def drive(stage, x, v, conn, bg, ed, eh, ef, wk, p, decay, gain, ginf, rho, hg):
+        ne = conn.shape[0]
+        k6 = 6 * decay.shape[0] * B
+        for b in range((ne + B - 1) // B):
+            e0 = b * B
+            n = min(B, ne - e0)
+            w = wk[b * WN * B:(b + 1) * WN * B]
+            edb = ed[b * EDN * B:(b + 1) * EDN * B]
+            if stage == 0:
+                kin(w, bg, x, v, conn, e0, n)
+            elif stage == 1:
+                eig(w, n)
+            elif stage == 2:
+                fb(w, n)
+            elif stage == 3:
+                mat(w, p, n)
+            elif stage == 4:
+                st(w, n)
+            elif stage == 5:
+                pr(w, edb, eh[b * k6:(b + 1) * k6], decay, gain, ginf, n)
+            else:
+                fo(w, edb, ef[b * EFN * B:(b + 1) * EFN * B], rho, hg, 0, n)
+
+    nblk = -(-conn.shape[0] // B)
+    wk = np.zeros(nblk * WN * B)
+    out = {}
+    for i, name in enumerate(STAGES):  # in order: each stage reads what the previous ones wrote
+        args = (i, x, v, conn, bg, ed, eh, ef, wk, p, decay, gain, ginf, rho, hg)
+        drive(*args)
+        out[name] = cpu(lambda: drive(*args))
+    return out
 
 
 def main(argv=None) -> None:
@@ -135,7 +193,9 @@ def main(argv=None) -> None:
     sp = split(model)
     print(f"CPU time per element-cycle, one thread, at t = 6 ms: step {sp['step']:.0f} ns = element pass "
           f"{sp['element_pass']:.0f} + gather and update {sp['gather_update']:.0f} + energies {sp['energy']:.0f} + "
-          f"serial rest (contact, step minimum, record, chunk loop) {sp['serial_rest']:.0f} ns", flush=True)
+          f"serial rest (contact, step minimum, record, chunk loop) {sp['serial_rest']:.0f} ns; element pass by "
+          f"stage (each alone, blocks of {_block()} elements): "
+          + ", ".join(f"{name.replace('_', ' ')} {sp[name]:.0f}" for name in STAGES) + " ns", flush=True)
     _timed_run(model, threads=1)  # compile or load the kernels in this process
     best = {}
     for threads in (1, 2):

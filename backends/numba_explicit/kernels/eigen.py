@@ -25,6 +25,7 @@ import math
 
 from numba import njit
 from .layout import FASTMATH
+from .vmath import vsqrt
 # <<< standalone
 
 
@@ -124,25 +125,37 @@ def eig3_jacobi(a00, a01, a02, a11, a12, a22):
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def eig3(a00, a01, a02, a11, a12, a22):
     """Eigenvalues and eigenvectors of a symmetric 3x3 matrix, same output as :func:`eig3_jacobi`."""
+    (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(a00, a01, a02, a11, a12, a22)
+    if ok:
+        return m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22
+    if a01 == 0.0 and a02 == 0.0 and a12 == 0.0:    # diagonal, isotropic to round-off (A = 0)
+        return a00, a11, a22, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+    return eig3_jacobi(a00, a01, a02, a11, a12, a22)
+
+
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+def eig3_hybrid(a00, a01, a02, a11, a12, a22):
+    """The hybrid method without branches (so that a loop over elements vectorises).
+
+    Returns (ok, m0, m1, m2, q00, ..., q22) as :func:`eig3_jacobi` does, with ok False where
+    the method does not apply: A isotropic to round-off (p2 <= (1e-17 |A|)^2, including the
+    undeformed state) or a non-finite value on the way; the other values are then meaningless
+    and the caller falls back to :func:`eig3` (scalar: exact diagonal or cyclic Jacobi).
+    """
     q = (a00 + a11 + a22) / 3.0
     b00 = a00 - q
     b11 = a11 - q
     b22 = a22 - q
     p2 = (b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6.0
     scale = abs(a00) + abs(a11) + abs(a22) + abs(a01) + abs(a02) + abs(a12)
-    if p2 <= (1e-17 * scale) ** 2:  # isotropic to round-off (includes A = 0)
-        if a01 == 0.0 and a02 == 0.0 and a12 == 0.0:
-            return a00, a11, a22, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-        return eig3_jacobi(a00, a01, a02, a11, a12, a22)
-    p = math.sqrt(p2)
+    tol = 1e-17 * scale
+    p = vsqrt(p2)
     # r = det(B / p) / 2 with B = A - q I, clamped to [-1, 1]
     det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02)
            + a02 * (a01 * a12 - b11 * a02))
     r = det / (2.0 * p2 * p)
-    if r > 1.0:
-        r = 1.0
-    elif r < -1.0:
-        r = -1.0
+    r = 1.0 if r > 1.0 else r
+    r = -1.0 if r < -1.0 else r
     # isolated root beta = 2 cos(acos(|r|) / 3) in [sqrt 3, 2] of g = beta^3 - 3 beta - 2 |r|
     # (largest eigenvalue if r >= 0, else smallest): degree-6 fit (error 3.7e-7) and one Halley
     # step (error ~ 1e-19; the root is simple, g' >= 6), no acos / cos
@@ -171,24 +184,25 @@ def eig3(a00, a01, a02, a11, a12, a22):
     z1 = a12 * a02 - a01 * c22
     z2 = a01 * a12 - c11 * a02
     n2 = z0 * z0 + z1 * z1 + z2 * z2
-    if n1 > n0 and n1 >= n2:
-        x0, x1, x2, n0 = y0, y1, y2, n1
-    elif n2 > n0:
-        x0, x1, x2, n0 = z0, z1, z2, n2
-    if not (n0 > 0.0) or not math.isfinite(n0):
-        return eig3_jacobi(a00, a01, a02, a11, a12, a22)
+    take_y = (n1 > n0) & (n1 >= n2)           # & and |: no short-circuit branches
+    take_z = (n2 > n0) & ((n1 <= n0) | (n1 < n2))
+    x0 = y0 if take_y else (z0 if take_z else x0)
+    x1 = y1 if take_y else (z1 if take_z else x1)
+    x2 = y2 if take_y else (z2 if take_z else x2)
+    n0 = n1 if take_y else (n2 if take_z else n0)
+    ok = (p2 > tol * tol) & (n0 > 0.0) & (n0 - n0 == 0.0)      # n0 - n0 is NaN for inf and NaN
     # v = x / |x|; u = (x x e_k) / |x x e_k| with e_k the axis least aligned with x (both
     # normalisations are independent: shorter dependency chain); w = v x u
-    inv = 1.0 / math.sqrt(n0)
-    if abs(x0) <= abs(x1) and abs(x0) <= abs(x2):     # u ~ x x e0
-        u0, u1, u2 = 0.0, x2, -x1
-        invu = 1.0 / math.sqrt(x1 * x1 + x2 * x2)
-    elif abs(x1) <= abs(x2):                          # u ~ x x e1
-        u0, u1, u2 = -x2, 0.0, x0
-        invu = 1.0 / math.sqrt(x0 * x0 + x2 * x2)
-    else:                                             # u ~ x x e2
-        u0, u1, u2 = x1, -x0, 0.0
-        invu = 1.0 / math.sqrt(x0 * x0 + x1 * x1)
+    inv = 1.0 / vsqrt(n0)
+    ax0 = abs(x0)
+    ax1 = abs(x1)
+    ax2 = abs(x2)
+    k0 = (ax0 <= ax1) & (ax0 <= ax2)                  # u ~ x x e0
+    k1 = ((ax0 > ax1) | (ax0 > ax2)) & (ax1 <= ax2)   # u ~ x x e1, else x x e2
+    u0 = 0.0 if k0 else (-x2 if k1 else x1)
+    u1 = x2 if k0 else (0.0 if k1 else -x0)
+    u2 = -x1 if k0 else (x0 if k1 else 0.0)
+    invu = 1.0 / vsqrt(x1 * x1 + x2 * x2 if k0 else (x0 * x0 + x2 * x2 if k1 else x0 * x0 + x1 * x1))
     v0 = x0 * inv
     v1 = x1 * inv
     v2 = x2 * inv
@@ -212,23 +226,23 @@ def eig3(a00, a01, a02, a11, a12, a22):
     buu = u0 * au0 + u1 * au1 + u2 * au2
     bww = w0 * aw0 + w1 * aw1 + w2 * aw2
     buw = u0 * aw0 + u1 * aw1 + u2 * aw2
-    if buw != 0.0:
-        # Jacobi rotation: t = sign(theta) / (|theta| + sqrt(theta^2 + 1)), theta = (bww-buu)/(2 buw)
-        dd = bww - buu
-        t = 2.0 * buw / (abs(dd) + math.sqrt(dd * dd + 4.0 * buw * buw))
-        if dd < 0.0:
-            t = -t
-        c = 1.0 / math.sqrt(t * t + 1.0)
-        s = t * c
-        buu -= t * buw
-        bww += t * buw
-        r0 = c * u0 - s * w0
-        w0 = s * u0 + c * w0
-        u0 = r0
-        r0 = c * u1 - s * w1
-        w1 = s * u1 + c * w1
-        u1 = r0
-        r0 = c * u2 - s * w2
-        w2 = s * u2 + c * w2
-        u2 = r0
-    return mv, buu, bww, v0, u0, w0, v1, u1, w1, v2, u2, w2
+    # Jacobi rotation: t = sign(theta) / (|theta| + sqrt(theta^2 + 1)), theta = (bww-buu)/(2 buw);
+    # buw = 0 gives t = 0, the identity
+    dd = bww - buu
+    den = abs(dd) + vsqrt(dd * dd + 4.0 * buw * buw)
+    t = 2.0 * buw / den if den > 0.0 else 0.0
+    t = -t if dd < 0.0 else t
+    c = 1.0 / vsqrt(t * t + 1.0)
+    s = t * c
+    buu -= t * buw
+    bww += t * buw
+    r0 = c * u0 - s * w0
+    w0 = s * u0 + c * w0
+    u0 = r0
+    r0 = c * u1 - s * w1
+    w1 = s * u1 + c * w1
+    u1 = r0
+    r0 = c * u2 - s * w2
+    w2 = s * u2 + c * w2
+    u2 = r0
+    return ok, mv, buu, bww, v0, u0, w0, v1, u1, w1, v2, u2, w2

@@ -1,4 +1,4 @@
-"""Element and node loops of the explicit solver (numba, parallel over elements / nodes).
+"""Element and node loops of the explicit solver (numba, parallel over element blocks / nodes).
 
 Total Lagrangian hex8 with one-point integration (Flanagan & Belytschko 1981):
 
@@ -12,9 +12,17 @@ field in the reference configuration):
     c_hg = Q_hg rho c V0^(2/3) / 4  (kg/s)
 
 with c the current isochoric ("shear-type") wave speed sqrt(M_iso / rho) by default, or the
-full longitudinal one. Element forces go to a per-element array (e, 8, 6) (internal, hourglass);
-a node-parallel gather through the node -> element incidence (CSR) sums them without write
-conflicts.
+full longitudinal one.
+
+Elements are processed in blocks of ``BLOCK`` (layout.py): the update of a block is a sequence
+of stages, each one loop over the block's elements with no calls and no branches (selects
+instead), in a function of its own so that LLVM vectorises it across elements (8 doubles per
+AVX-512 instruction): kinematics (F, hourglass modes), eigen-decomposition of C, the material's
+derivatives, principal stresses and moduli, Prony update, forces and stress work. The rare
+cases the branch-free eigen-decomposition does not cover (isotropic C, e.g. the undeformed
+state) go through the scalar :func:`eig3` one by one. Element forces stay in a block array
+(``ef``); a node-parallel gather through the node -> element incidence sums them without
+write conflicts.
 """
 
 # >>> standalone (removed when the kernels are concatenated into a generated module)
@@ -23,27 +31,79 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .constitutive import ST_NONFINITE, ST_OK, first_piola, material_point
-from .layout import FASTMATH
+from .constitutive import first_piola, psi_grad_hess_diag_v
+from .eigen import eig3, eig3_hybrid
+from .layout import *  # noqa: F401,F403
+from .vmath import vsqrt
 # <<< standalone
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old, Sold, Eold,
-                 fe, dte, status, errv, rho, hg, hgwave):
+def element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
     """Stresses, nodal forces, stable steps and the stress work of all elements at one state.
 
-    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; decay, gain: Prony factors of the step
-    since the previous call (see ``prony_step``); hg: Q_hg; hgwave: 0 isochoric, 1 full modulus.
-    Writes fe (e, 8, 6): internal (0:3) and hourglass (3:6) nodal forces (N), dte (e,) = L / c
-    (s), status (e,), errv (e, 4) = (J, m0, m1, m2) at failures; updates the Prony state and
-    Sold, Eold (e, 6). Returns (stress work increment (J), number of failures).
+    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8); bg (e, 56): B_a,k and
+    gamma_a,alpha of each element, row 7 a + (k | 3 + alpha) (per element, for the
+    element-by-element kinematics; the block array ed holds them again by rows); ed, eh, ef: the block
+    arrays (layout.py: geometry and state of each element; Prony state; nodal forces); decay,
+    gain: Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
+    isochoric, 1 full modulus. Writes the element forces (ef, N), dte (e,) = L / c
+    (s), status (e,), errv (e, 4) = (J, m0, m1, m2) at failures; updates the Prony state and the
+    previous-step S and E. Returns (stress work increment (J), number of failures).
     """
     ne = conn.shape[0]
+    nblk = (ne + BLOCK - 1) // BLOCK
+    k6 = 6 * decay.shape[0] * BLOCK
     work = 0.0
     nbad = 0
-    for e in prange(ne):
-        # one sweep over the nodes: F = sum x_a (x) B_a and the hourglass modes q = sum v_a G_a
+    for blk in prange(nblk):
+        e0 = blk * BLOCK
+        wb, nb = element_block(e0, min(BLOCK, ne - e0), x, v, conn, bg, ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK],
+                               eh[blk * k6:(blk + 1) * k6], ef[blk * EF_N * BLOCK:(blk + 1) * EF_N * BLOCK],
+                               p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave)
+        work += wb
+        nbad += nb
+    return work, nbad
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def element_block(e0, n, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
+    """:func:`element_pass` for the n elements from e0 (one block, its stretches ed, eh, ef of
+    the block arrays); returns (stress work (J), number of failures)."""
+    wk = np.empty(W_N * BLOCK)
+    kinematics_block(wk, bg, x, v, conn, e0, n)
+    eigen_block(wk, n)
+    eigen_fallback(wk, n)
+    material_block(wk, p, n)
+    stress_block(wk, n)
+    prony_block(wk, ed, eh, decay, gain, ginf, n)
+    forces_block(wk, ed, ef, rho, hg, hgwave, n)
+    wb = 0.0
+    nb = 0
+    for i in range(n):
+        e = e0 + i
+        dte[e] = wk[W_DTE * BLOCK + i]
+        st = wk[W_ST * BLOCK + i]
+        if st != 0.0:
+            status[e] = 1 if st == 1.0 else 2
+            errv[e, 0] = wk[W_J * BLOCK + i]
+            for r in range(3):
+                errv[e, 1 + r] = 0.0 if st == 1.0 else wk[(W_M + r) * BLOCK + i]
+            nb += 1
+        else:
+            wb += wk[W_WORK * BLOCK + i]
+    return wb, nb
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def kinematics_block(wk, bg, x, v, conn, e0, n):
+    """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
+    (rows W_Q, m/s) of the block's n elements from e0. Element by element, with B and gamma read
+    per element from bg (not vectorised: an indexed load x[conn] in a vectorised loop needs a
+    bounds proof LLVM cannot make, and gathering the corners into rows first costs more than it
+    saves; read by rows from the block array, B and gamma cost twice as much here)."""
+    for i in range(n):
+        e = e0 + i
         f00 = 0.0
         f01 = 0.0
         f02 = 0.0
@@ -66,13 +126,13 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
         q31 = 0.0
         q32 = 0.0
         for a in range(8):
-            n = conn[e, a]
-            x0 = x[n, 0]
-            x1 = x[n, 1]
-            x2 = x[n, 2]
-            b0 = B[e, a, 0]
-            b1 = B[e, a, 1]
-            b2 = B[e, a, 2]
+            nd = conn[e, a]
+            x0 = x[nd, 0]
+            x1 = x[nd, 1]
+            x2 = x[nd, 2]
+            b0 = bg[e, 7 * a]
+            b1 = bg[e, 7 * a + 1]
+            b2 = bg[e, 7 * a + 2]
             f00 += x0 * b0
             f01 += x0 * b1
             f02 += x0 * b2
@@ -82,13 +142,13 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             f20 += x2 * b0
             f21 += x2 * b1
             f22 += x2 * b2
-            v0 = v[n, 0]
-            v1 = v[n, 1]
-            v2 = v[n, 2]
-            g0 = G[e, a, 0]
-            g1 = G[e, a, 1]
-            g2 = G[e, a, 2]
-            g3 = G[e, a, 3]
+            v0 = v[nd, 0]
+            v1 = v[nd, 1]
+            v2 = v[nd, 2]
+            g0 = bg[e, 7 * a + 3]
+            g1 = bg[e, 7 * a + 4]
+            g2 = bg[e, 7 * a + 5]
+            g3 = bg[e, 7 * a + 6]
             q00 += v0 * g0
             q01 += v1 * g0
             q02 += v2 * g0
@@ -101,86 +161,353 @@ def element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, ginf, H, S0old,
             q30 += v0 * g3
             q31 += v1 * g3
             q32 += v2 * g3
-        (st, J, s00, s11, s22, s01, s12, s02, c00, c11, c22, c01, c12, c02,
-         mt, mi, m0, m1, m2) = material_point(f00, f01, f02, f10, f11, f12, f20, f21, f22,
-                                              p, decay, gain, ginf, H[e], S0old[e])
-        if st == ST_OK and not math.isfinite(s00 + s11 + s22 + s01 + s12 + s02 + mt):
-            st = ST_NONFINITE
-        if st != ST_OK:
-            status[e] = st
-            errv[e, 0] = J
-            errv[e, 1] = m0
-            errv[e, 2] = m1
-            errv[e, 3] = m2
-            dte[e] = np.inf
-            for a in range(8):
-                for i in range(6):
-                    fe[e, a, i] = 0.0
-            nbad += 1
-            continue
-        # stable step L / c with c the longitudinal wave speed (reference density)
-        dte[e] = L[e] / math.sqrt(mt / rho) if mt > 0.0 else np.inf
-        # hourglass damping coefficient c_hg = Q_hg rho c V0^(2/3) / 4 (hgfac = rho V0^(2/3) / 4)
-        chg = 0.0
-        if hg > 0.0:
-            mod = mi if hgwave == 0 else mt
-            if mod > 0.0:
-                chg = -hg * hgfac[e] * math.sqrt(mod / rho)
-        # first Piola-Kirchhoff P = F S; nodal forces V0 P B_a and -c_hg sum_alpha q_alpha G_a,alpha
-        p00, p01, p02, p10, p11, p12, p20, p21, p22 = first_piola(f00, f01, f02, f10, f11, f12, f20, f21, f22,
-                                                                  s00, s11, s22, s01, s12, s02)
-        vol = V0[e]
-        for a in range(8):
-            b0 = B[e, a, 0] * vol
-            b1 = B[e, a, 1] * vol
-            b2 = B[e, a, 2] * vol
-            fe[e, a, 0] = p00 * b0 + p01 * b1 + p02 * b2
-            fe[e, a, 1] = p10 * b0 + p11 * b1 + p12 * b2
-            fe[e, a, 2] = p20 * b0 + p21 * b1 + p22 * b2
-            g0 = G[e, a, 0] * chg
-            g1 = G[e, a, 1] * chg
-            g2 = G[e, a, 2] * chg
-            g3 = G[e, a, 3] * chg
-            fe[e, a, 3] = q00 * g0 + q10 * g1 + q20 * g2 + q30 * g3
-            fe[e, a, 4] = q01 * g0 + q11 * g1 + q21 * g2 + q31 * g3
-            fe[e, a, 5] = q02 * g0 + q12 * g1 + q22 * g2 + q32 * g3
-        # stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old), E = (C - I) / 2
-        e00 = 0.5 * (c00 - 1.0)
-        e11 = 0.5 * (c11 - 1.0)
-        e22 = 0.5 * (c22 - 1.0)
-        e01 = 0.5 * c01
-        e12 = 0.5 * c12
-        e02 = 0.5 * c02
-        so = Sold[e]
-        eo = Eold[e]
-        w = ((so[0] + s00) * (e00 - eo[0]) + (so[1] + s11) * (e11 - eo[1])
-             + (so[2] + s22) * (e22 - eo[2])
-             + 2.0 * ((so[3] + s01) * (e01 - eo[3]) + (so[4] + s12) * (e12 - eo[4])
-                      + (so[5] + s02) * (e02 - eo[5])))
-        work += 0.5 * vol * w
-        so[0] = s00
-        so[1] = s11
-        so[2] = s22
-        so[3] = s01
-        so[4] = s12
-        so[5] = s02
-        eo[0] = e00
-        eo[1] = e11
-        eo[2] = e22
-        eo[3] = e01
-        eo[4] = e12
-        eo[5] = e02
-    return work, nbad
+        wk[W_F * BLOCK + i] = f00
+        wk[(W_F + 1) * BLOCK + i] = f01
+        wk[(W_F + 2) * BLOCK + i] = f02
+        wk[(W_F + 3) * BLOCK + i] = f10
+        wk[(W_F + 4) * BLOCK + i] = f11
+        wk[(W_F + 5) * BLOCK + i] = f12
+        wk[(W_F + 6) * BLOCK + i] = f20
+        wk[(W_F + 7) * BLOCK + i] = f21
+        wk[(W_F + 8) * BLOCK + i] = f22
+        wk[W_Q * BLOCK + i] = q00
+        wk[(W_Q + 1) * BLOCK + i] = q01
+        wk[(W_Q + 2) * BLOCK + i] = q02
+        wk[(W_Q + 3) * BLOCK + i] = q10
+        wk[(W_Q + 4) * BLOCK + i] = q11
+        wk[(W_Q + 5) * BLOCK + i] = q12
+        wk[(W_Q + 6) * BLOCK + i] = q20
+        wk[(W_Q + 7) * BLOCK + i] = q21
+        wk[(W_Q + 8) * BLOCK + i] = q22
+        wk[(W_Q + 9) * BLOCK + i] = q30
+        wk[(W_Q + 10) * BLOCK + i] = q31
+        wk[(W_Q + 11) * BLOCK + i] = q32
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def eigen_block(wk, n):
+    """J = det F, C = F^T F and the branch-free eigen-decomposition of C for the first n columns
+    of a block's work array (rows W_F in; W_C, W_J, W_M, W_V, W_OK out). A function of its own:
+    LLVM vectorises this loop alone, not inside the larger element_block."""
+    for i in range(n):
+        f00 = wk[W_F * BLOCK + i]
+        f01 = wk[(W_F + 1) * BLOCK + i]
+        f02 = wk[(W_F + 2) * BLOCK + i]
+        f10 = wk[(W_F + 3) * BLOCK + i]
+        f11 = wk[(W_F + 4) * BLOCK + i]
+        f12 = wk[(W_F + 5) * BLOCK + i]
+        f20 = wk[(W_F + 6) * BLOCK + i]
+        f21 = wk[(W_F + 7) * BLOCK + i]
+        f22 = wk[(W_F + 8) * BLOCK + i]
+        J = (f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20)
+             + f02 * (f10 * f21 - f11 * f20))
+        c00 = f00 * f00 + f10 * f10 + f20 * f20
+        c11 = f01 * f01 + f11 * f11 + f21 * f21
+        c22 = f02 * f02 + f12 * f12 + f22 * f22
+        c01 = f00 * f01 + f10 * f11 + f20 * f21
+        c12 = f01 * f02 + f11 * f12 + f21 * f22
+        c02 = f00 * f02 + f10 * f12 + f20 * f22
+        (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(
+            c00, c01, c02, c11, c12, c22)
+        wk[W_C * BLOCK + i] = c00
+        wk[(W_C + 1) * BLOCK + i] = c11
+        wk[(W_C + 2) * BLOCK + i] = c22
+        wk[(W_C + 3) * BLOCK + i] = c01
+        wk[(W_C + 4) * BLOCK + i] = c12
+        wk[(W_C + 5) * BLOCK + i] = c02
+        wk[W_J * BLOCK + i] = J
+        wk[W_M * BLOCK + i] = m0
+        wk[(W_M + 1) * BLOCK + i] = m1
+        wk[(W_M + 2) * BLOCK + i] = m2
+        wk[W_V * BLOCK + i] = q00
+        wk[(W_V + 1) * BLOCK + i] = q01
+        wk[(W_V + 2) * BLOCK + i] = q02
+        wk[(W_V + 3) * BLOCK + i] = q10
+        wk[(W_V + 4) * BLOCK + i] = q11
+        wk[(W_V + 5) * BLOCK + i] = q12
+        wk[(W_V + 6) * BLOCK + i] = q20
+        wk[(W_V + 7) * BLOCK + i] = q21
+        wk[(W_V + 8) * BLOCK + i] = q22
+        wk[W_OK * BLOCK + i] = 1.0 if ok else 0.0
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def eigen_fallback(wk, n):
+    """The scalar :func:`eig3` for the columns :func:`eigen_block` did not cover (isotropic C,
+    e.g. the undeformed state, or non-finite values); an inverted element (J <= 0) gets finite
+    placeholders m = 1 for the material stage (its status says inverted)."""
+    for i in range(n):
+        J = wk[W_J * BLOCK + i]
+        if wk[W_OK * BLOCK + i] == 0.0 or not (J > 0.0):
+            m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22 = eig3(
+                wk[W_C * BLOCK + i], wk[(W_C + 3) * BLOCK + i], wk[(W_C + 5) * BLOCK + i],
+                wk[(W_C + 1) * BLOCK + i], wk[(W_C + 4) * BLOCK + i], wk[(W_C + 2) * BLOCK + i])
+            if not (J > 0.0) or not math.isfinite(J):
+                m0 = 1.0
+                m1 = 1.0
+                m2 = 1.0
+            wk[W_M * BLOCK + i] = m0
+            wk[(W_M + 1) * BLOCK + i] = m1
+            wk[(W_M + 2) * BLOCK + i] = m2
+            wk[W_V * BLOCK + i] = q00
+            wk[(W_V + 1) * BLOCK + i] = q01
+            wk[(W_V + 2) * BLOCK + i] = q02
+            wk[(W_V + 3) * BLOCK + i] = q10
+            wk[(W_V + 4) * BLOCK + i] = q11
+            wk[(W_V + 5) * BLOCK + i] = q12
+            wk[(W_V + 6) * BLOCK + i] = q20
+            wk[(W_V + 7) * BLOCK + i] = q21
+            wk[(W_V + 8) * BLOCK + i] = q22
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")  # explicitly False: callees inherit the caller's
+def material_block(wk, p, n):
+    """The material's derivatives for the first n columns: rows W_M.. W_M+2 hold the
+    eigenvalues m of C, rows W_R..W_R+11 receive psi_grad_hess_diag's 12 values (Pa). IEEE
+    maths, no fast-math flags (as the scalar material functions: zero stress at the reference
+    state to the bit), with the vectorisable variant of the generated code
+    (``codegen.vector_source``)."""
+    for i in range(n):
+        r = psi_grad_hess_diag_v(wk[W_M * BLOCK + i], wk[(W_M + 1) * BLOCK + i], wk[(W_M + 2) * BLOCK + i], p)
+        wk[W_R * BLOCK + i] = r[0]
+        wk[(W_R + 1) * BLOCK + i] = r[1]
+        wk[(W_R + 2) * BLOCK + i] = r[2]
+        wk[(W_R + 3) * BLOCK + i] = r[3]
+        wk[(W_R + 4) * BLOCK + i] = r[4]
+        wk[(W_R + 5) * BLOCK + i] = r[5]
+        wk[(W_R + 6) * BLOCK + i] = r[6]
+        wk[(W_R + 7) * BLOCK + i] = r[7]
+        wk[(W_R + 8) * BLOCK + i] = r[8]
+        wk[(W_R + 9) * BLOCK + i] = r[9]
+        wk[(W_R + 10) * BLOCK + i] = r[10]
+        wk[(W_R + 11) * BLOCK + i] = r[11]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def stress_block(wk, n):
+    """Principal-basis stresses, moduli and status (docs/conventions.md section 2).
+
+    From C = Q diag(m) Q^T and the material's derivatives (d psi_iso / d m_a = i_a, d psi_vol /
+    d m_a = v_a and their second derivatives h_a, w_a):
+
+        S0_iso = Q diag(2 i) Q^T (rows W_SI),   S_vol = Q diag(2 v) Q^T (rows W_S)      (Pa)
+
+    and the longitudinal moduli along the principal directions, M_a = 2 psi_a + 4 m_a psi_aa
+    (d^2 Psi / d lambda_a^2 with lambda_a = sqrt(m_a), instantaneous isochoric energy: the Prony
+    series only lowers the stiffness within a step): W_MT the largest, W_MI its isochoric part.
+    W_ST: 0 ok, 1 inverted (J <= 0 or not finite), 2 non-finite derivative.
+    """
+    for i in range(n):
+        J = wk[W_J * BLOCK + i]
+        m0 = wk[W_M * BLOCK + i]
+        m1 = wk[(W_M + 1) * BLOCK + i]
+        m2 = wk[(W_M + 2) * BLOCK + i]
+        q00 = wk[W_V * BLOCK + i]
+        q01 = wk[(W_V + 1) * BLOCK + i]
+        q02 = wk[(W_V + 2) * BLOCK + i]
+        q10 = wk[(W_V + 3) * BLOCK + i]
+        q11 = wk[(W_V + 4) * BLOCK + i]
+        q12 = wk[(W_V + 5) * BLOCK + i]
+        q20 = wk[(W_V + 6) * BLOCK + i]
+        q21 = wk[(W_V + 7) * BLOCK + i]
+        q22 = wk[(W_V + 8) * BLOCK + i]
+        i0 = wk[W_R * BLOCK + i]
+        i1 = wk[(W_R + 1) * BLOCK + i]
+        i2 = wk[(W_R + 2) * BLOCK + i]
+        v0 = wk[(W_R + 3) * BLOCK + i]
+        v1 = wk[(W_R + 4) * BLOCK + i]
+        v2 = wk[(W_R + 5) * BLOCK + i]
+        h0 = wk[(W_R + 6) * BLOCK + i]
+        h1 = wk[(W_R + 7) * BLOCK + i]
+        h2 = wk[(W_R + 8) * BLOCK + i]
+        w0 = wk[(W_R + 9) * BLOCK + i]
+        w1 = wk[(W_R + 10) * BLOCK + i]
+        w2 = wk[(W_R + 11) * BLOCK + i]
+        chk = i0 + i1 + i2 + v0 + v1 + v2 + h0 + h1 + h2 + w0 + w1 + w2
+        ok_j = (J > 0.0) & (J - J == 0.0)         # x - x == 0 is false for inf and NaN
+        ok_d = chk - chk == 0.0
+        wk[W_ST * BLOCK + i] = 0.0 if ok_j & ok_d else (2.0 if ok_j else 1.0)
+        a0 = 2.0 * i0
+        a1 = 2.0 * i1
+        a2 = 2.0 * i2
+        wk[W_SI * BLOCK + i] = a0 * q00 * q00 + a1 * q01 * q01 + a2 * q02 * q02
+        wk[(W_SI + 1) * BLOCK + i] = a0 * q10 * q10 + a1 * q11 * q11 + a2 * q12 * q12
+        wk[(W_SI + 2) * BLOCK + i] = a0 * q20 * q20 + a1 * q21 * q21 + a2 * q22 * q22
+        wk[(W_SI + 3) * BLOCK + i] = a0 * q00 * q10 + a1 * q01 * q11 + a2 * q02 * q12
+        wk[(W_SI + 4) * BLOCK + i] = a0 * q10 * q20 + a1 * q11 * q21 + a2 * q12 * q22
+        wk[(W_SI + 5) * BLOCK + i] = a0 * q00 * q20 + a1 * q01 * q21 + a2 * q02 * q22
+        b0 = 2.0 * v0
+        b1 = 2.0 * v1
+        b2 = 2.0 * v2
+        wk[W_S * BLOCK + i] = b0 * q00 * q00 + b1 * q01 * q01 + b2 * q02 * q02
+        wk[(W_S + 1) * BLOCK + i] = b0 * q10 * q10 + b1 * q11 * q11 + b2 * q12 * q12
+        wk[(W_S + 2) * BLOCK + i] = b0 * q20 * q20 + b1 * q21 * q21 + b2 * q22 * q22
+        wk[(W_S + 3) * BLOCK + i] = b0 * q00 * q10 + b1 * q01 * q11 + b2 * q02 * q12
+        wk[(W_S + 4) * BLOCK + i] = b0 * q10 * q20 + b1 * q11 * q21 + b2 * q12 * q22
+        wk[(W_S + 5) * BLOCK + i] = b0 * q00 * q20 + b1 * q01 * q21 + b2 * q02 * q22
+        mi0 = 2.0 * i0 + 4.0 * m0 * h0
+        mi1 = 2.0 * i1 + 4.0 * m1 * h1
+        mi2 = 2.0 * i2 + 4.0 * m2 * h2
+        mt0 = mi0 + 2.0 * v0 + 4.0 * m0 * w0
+        mt1 = mi1 + 2.0 * v1 + 4.0 * m1 * w1
+        mt2 = mi2 + 2.0 * v2 + 4.0 * m2 * w2
+        wk[W_MT * BLOCK + i] = max(mt0, max(mt1, mt2))
+        wk[W_MI * BLOCK + i] = max(mi0, max(mi1, mi2))
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def prony_block(wk, ed, eh, decay, gain, ginf, n):
+    """Prony series on the isochoric stress, exact exponential recurrence over the step dt (s):
+
+        H_k <- exp(-dt/tau_k) H_k + gamma_k (tau_k/dt)(1 - exp(-dt/tau_k)) (S0_new - S0_old)
+        S = S_vol + gamma_inf S0_iso + sum_k H_k                                  (Pa)
+
+    decay, gain (k,): the step's factors (``prony_step``). Adds to rows W_S; updates S0_old (ed
+    rows ED_S0) and H (eh rows 6 k + c) of the elements whose status is 0 (the others keep
+    theirs); then a non-finite S or modulus sets status 2."""
+    k = decay.shape[0]
+    if k > 0:
+        for c in range(6):
+            for i in range(n):
+                ok = wk[W_ST * BLOCK + i] == 0.0
+                si = wk[(W_SI + c) * BLOCK + i]
+                old = ed[(ED_S0 + c) * BLOCK + i]
+                wk[(W_D + c) * BLOCK + i] = si - old
+                wk[(W_S + c) * BLOCK + i] += ginf * si
+                ed[(ED_S0 + c) * BLOCK + i] = si if ok else old
+        for j in range(k):
+            dj = decay[j]
+            gj = gain[j]
+            hj = eh[6 * j * BLOCK:(6 * j + 6) * BLOCK]
+            for c in range(6):
+                for i in range(n):
+                    ok = wk[W_ST * BLOCK + i] == 0.0
+                    old = hj[c * BLOCK + i]
+                    h = dj * old + gj * wk[(W_D + c) * BLOCK + i]
+                    hj[c * BLOCK + i] = h if ok else old
+                    wk[(W_S + c) * BLOCK + i] += h
+    else:
+        for c in range(6):
+            for i in range(n):
+                wk[(W_S + c) * BLOCK + i] += wk[(W_SI + c) * BLOCK + i]
+    for i in range(n):
+        s = (wk[W_S * BLOCK + i] + wk[(W_S + 1) * BLOCK + i] + wk[(W_S + 2) * BLOCK + i]
+             + wk[(W_S + 3) * BLOCK + i] + wk[(W_S + 4) * BLOCK + i] + wk[(W_S + 5) * BLOCK + i]
+             + wk[W_MT * BLOCK + i])
+        st = wk[W_ST * BLOCK + i]
+        wk[W_ST * BLOCK + i] = 2.0 if (st == 0.0) & (s - s != 0.0) else st
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def forces_block(wk, ed, ef, rho, hg, hgwave, n):
+    """Stable step, nodal forces and stress work of the block's elements (status 0; the others
+    get dte = inf, zero forces and keep their previous-step S and E).
+
+    dte = L / c with c = sqrt(M / rho) the longitudinal wave speed (s, rows W_DTE);
+    internal forces V0 P B_a with P = F S (N); hourglass forces -c_hg sum_alpha q_alpha
+    gamma_a,alpha with c_hg = Q_hg rho c V0^(2/3) / 4, c from the isochoric (hgwave 0) or full
+    modulus (ef rows 6 a + c); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
+    E = (C - I) / 2 (J, rows W_WORK)."""
+    for i in range(n):
+        ok = wk[W_ST * BLOCK + i] == 0.0
+        mt = wk[W_MT * BLOCK + i]
+        mi = wk[W_MI * BLOCK + i]
+        dte = ed[ED_L * BLOCK + i] / vsqrt(mt / rho) if mt > 0.0 else np.inf
+        wk[W_DTE * BLOCK + i] = dte if ok else np.inf
+        mod = mi if hgwave == 0 else mt
+        chg = -hg * ed[ED_HGF * BLOCK + i] * vsqrt(mod / rho) if (hg > 0.0) & (mod > 0.0) else 0.0
+        s00 = wk[W_S * BLOCK + i]
+        s11 = wk[(W_S + 1) * BLOCK + i]
+        s22 = wk[(W_S + 2) * BLOCK + i]
+        s01 = wk[(W_S + 3) * BLOCK + i]
+        s12 = wk[(W_S + 4) * BLOCK + i]
+        s02 = wk[(W_S + 5) * BLOCK + i]
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = first_piola(
+            wk[W_F * BLOCK + i], wk[(W_F + 1) * BLOCK + i], wk[(W_F + 2) * BLOCK + i],
+            wk[(W_F + 3) * BLOCK + i], wk[(W_F + 4) * BLOCK + i], wk[(W_F + 5) * BLOCK + i],
+            wk[(W_F + 6) * BLOCK + i], wk[(W_F + 7) * BLOCK + i], wk[(W_F + 8) * BLOCK + i],
+            s00, s11, s22, s01, s12, s02)
+        vol = ed[ED_V0 * BLOCK + i]
+        wk[W_P * BLOCK + i] = p00 if ok else 0.0
+        wk[(W_P + 1) * BLOCK + i] = p01 if ok else 0.0
+        wk[(W_P + 2) * BLOCK + i] = p02 if ok else 0.0
+        wk[(W_P + 3) * BLOCK + i] = p10 if ok else 0.0
+        wk[(W_P + 4) * BLOCK + i] = p11 if ok else 0.0
+        wk[(W_P + 5) * BLOCK + i] = p12 if ok else 0.0
+        wk[(W_P + 6) * BLOCK + i] = p20 if ok else 0.0
+        wk[(W_P + 7) * BLOCK + i] = p21 if ok else 0.0
+        wk[(W_P + 8) * BLOCK + i] = p22 if ok else 0.0
+        wk[W_CHG * BLOCK + i] = chg if ok else 0.0
+        e00 = 0.5 * (wk[W_C * BLOCK + i] - 1.0)
+        e11 = 0.5 * (wk[(W_C + 1) * BLOCK + i] - 1.0)
+        e22 = 0.5 * (wk[(W_C + 2) * BLOCK + i] - 1.0)
+        e01 = 0.5 * wk[(W_C + 3) * BLOCK + i]
+        e12 = 0.5 * wk[(W_C + 4) * BLOCK + i]
+        e02 = 0.5 * wk[(W_C + 5) * BLOCK + i]
+        so0 = ed[ED_SO * BLOCK + i]
+        so1 = ed[(ED_SO + 1) * BLOCK + i]
+        so2 = ed[(ED_SO + 2) * BLOCK + i]
+        so3 = ed[(ED_SO + 3) * BLOCK + i]
+        so4 = ed[(ED_SO + 4) * BLOCK + i]
+        so5 = ed[(ED_SO + 5) * BLOCK + i]
+        eo0 = ed[ED_EO * BLOCK + i]
+        eo1 = ed[(ED_EO + 1) * BLOCK + i]
+        eo2 = ed[(ED_EO + 2) * BLOCK + i]
+        eo3 = ed[(ED_EO + 3) * BLOCK + i]
+        eo4 = ed[(ED_EO + 4) * BLOCK + i]
+        eo5 = ed[(ED_EO + 5) * BLOCK + i]
+        w = ((so0 + s00) * (e00 - eo0) + (so1 + s11) * (e11 - eo1) + (so2 + s22) * (e22 - eo2)
+             + 2.0 * ((so3 + s01) * (e01 - eo3) + (so4 + s12) * (e12 - eo4) + (so5 + s02) * (e02 - eo5)))
+        wk[W_WORK * BLOCK + i] = 0.5 * vol * w if ok else 0.0
+        ed[ED_SO * BLOCK + i] = s00 if ok else so0
+        ed[(ED_SO + 1) * BLOCK + i] = s11 if ok else so1
+        ed[(ED_SO + 2) * BLOCK + i] = s22 if ok else so2
+        ed[(ED_SO + 3) * BLOCK + i] = s01 if ok else so3
+        ed[(ED_SO + 4) * BLOCK + i] = s12 if ok else so4
+        ed[(ED_SO + 5) * BLOCK + i] = s02 if ok else so5
+        ed[ED_EO * BLOCK + i] = e00 if ok else eo0
+        ed[(ED_EO + 1) * BLOCK + i] = e11 if ok else eo1
+        ed[(ED_EO + 2) * BLOCK + i] = e22 if ok else eo2
+        ed[(ED_EO + 3) * BLOCK + i] = e01 if ok else eo3
+        ed[(ED_EO + 4) * BLOCK + i] = e12 if ok else eo4
+        ed[(ED_EO + 5) * BLOCK + i] = e02 if ok else eo5
+
+    # nodal forces: corners outside, elements inside (vectorised); zero for failed elements
+    for a in range(8):
+        for i in range(n):
+            vol = ed[ED_V0 * BLOCK + i]
+            b0 = ed[(ED_B + 3 * a) * BLOCK + i] * vol
+            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i] * vol
+            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i] * vol
+            chg = wk[W_CHG * BLOCK + i]
+            g0 = ed[(ED_G + 4 * a) * BLOCK + i] * chg
+            g1 = ed[(ED_G + 4 * a + 1) * BLOCK + i] * chg
+            g2 = ed[(ED_G + 4 * a + 2) * BLOCK + i] * chg
+            g3 = ed[(ED_G + 4 * a + 3) * BLOCK + i] * chg
+            r = 6 * a * BLOCK + i
+            ef[r] = wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1 + wk[(W_P + 2) * BLOCK + i] * b2
+            ef[r + BLOCK] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
+                             + wk[(W_P + 5) * BLOCK + i] * b2)
+            ef[r + 2 * BLOCK] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
+                                 + wk[(W_P + 8) * BLOCK + i] * b2)
+            ef[r + 3 * BLOCK] = (wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1
+                                 + wk[(W_Q + 6) * BLOCK + i] * g2 + wk[(W_Q + 9) * BLOCK + i] * g3)
+            ef[r + 4 * BLOCK] = (wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1
+                                 + wk[(W_Q + 7) * BLOCK + i] * g2 + wk[(W_Q + 10) * BLOCK + i] * g3)
+            ef[r + 5 * BLOCK] = (wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1
+                                 + wk[(W_Q + 8) * BLOCK + i] * g2 + wk[(W_Q + 11) * BLOCK + i] * g3)
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def gather_update(ef, ptr, inc, mass, free, fint, fhg, x, v, vold, dtn, dt):
+def gather_update(ef, ptr, foff, mass, free, fint, fhg, x, v, vold, dtn, dt):
     """Sum element forces per node, then central differences on the free dofs.
 
-    ef (8e, 6): the element forces fe viewed as rows e * 8 + a; ptr, inc: CSR incidence of
-    node -> rows. fint, fhg (n, 3) receive the nodal internal and hourglass forces (N); vold the
-    velocities v^{n-1/2}; v becomes v^{n+1/2} = v^{n-1/2} + dtn (f^hg - f^int) / m on free dofs
-    (0 on fixed and prescribed ones); x becomes the trial x^{n+1} = x^n + dt v^{n+1/2}.
+    ef: the block array of the element nodal forces; ptr, foff: CSR incidence of node ->
+    (element, corner) as the offset in ef of that corner's internal force x-component (the
+    others follow every BLOCK values). fint, fhg (n, 3) receive the nodal
+    internal and hourglass forces (N); vold the velocities v^{n-1/2}; v becomes v^{n+1/2} =
+    v^{n-1/2} + dtn (f^hg - f^int) / m on free dofs (0 on fixed and prescribed ones); x becomes
+    the trial x^{n+1} = x^n + dt v^{n+1/2}.
     """
     nn = x.shape[0]
     for n in prange(nn):
@@ -191,13 +518,13 @@ def gather_update(ef, ptr, inc, mass, free, fint, fhg, x, v, vold, dtn, dt):
         h1 = 0.0
         h2 = 0.0
         for k in range(ptr[n], ptr[n + 1]):
-            r = inc[k]
-            s0 += ef[r, 0]
-            s1 += ef[r, 1]
-            s2 += ef[r, 2]
-            h0 += ef[r, 3]
-            h1 += ef[r, 4]
-            h2 += ef[r, 5]
+            r = foff[k]
+            s0 += ef[r]
+            s1 += ef[r + BLOCK]
+            s2 += ef[r + 2 * BLOCK]
+            h0 += ef[r + 3 * BLOCK]
+            h1 += ef[r + 4 * BLOCK]
+            h2 += ef[r + 5 * BLOCK]
         fint[n, 0] = s0
         fint[n, 1] = s1
         fint[n, 2] = s2

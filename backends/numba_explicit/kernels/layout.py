@@ -92,3 +92,43 @@ R_INVERTED = 10     # element with J <= 0
 R_NONFINITE = 11    # non-finite material derivative / stress
 R_COLLAPSE = 12     # time-step collapse
 R_STATE = 13        # non-finite kinematic state
+
+# ---- element blocks (kernels/element.py) ----
+# Elements are processed in blocks of BLOCK; each block's data is one stretch of the flat array
+# ``ed`` (ED_N rows of BLOCK values, element i of the block in column i), its Prony state one
+# stretch of ``eh`` (6 k rows, row 6 j + c), its nodal forces one stretch of ``ef`` (EF_N rows,
+# row 6 a + c: internal force c = 0..2, hourglass force 3..5 at corner a, N) and the per-step
+# intermediate values a scratch array of W_N rows.
+# Row offsets are compile-time constants: LLVM then proves that a stage's stores never overlap
+# its loads and vectorises the loops over the columns (with 2-D arrays or one array per quantity
+# it would need a run-time overlap check per pair and gives up).
+BLOCK = 32
+ED_B = 0            # B_a,k (1/m), 24 rows, row 3 a + k
+ED_G = 24           # hourglass vectors gamma_a,alpha (-), 32 rows, row 4 a + alpha
+ED_V0 = 56          # reference volume (m^3)
+ED_L = 57           # characteristic length (m)
+ED_HGF = 58         # rho V0^(2/3) / 4 (kg / m)
+ED_S0 = 59          # isochoric S0 of the previous step (Pa), 6 rows (11, 22, 33, 12, 23, 13)
+ED_SO = 65          # S of the previous step (Pa), 6 rows
+ED_EO = 71          # E = (C - I) / 2 of the previous step (-), 6 rows
+ED_N = 77
+EF_N = 48
+W_F = 0             # F, 9 rows (row-major)
+W_Q = 9             # hourglass modes q_alpha,i (m/s), 12 rows, row 3 alpha + i
+W_C = 21            # C = F^T F, 6 rows
+W_J = 27            # det F
+W_M = 28            # eigenvalues of C, 3 rows
+W_V = 31            # eigenvectors of C (Q row-major, column k for m_k), 9 rows
+W_OK = 40           # 1 where the branch-free eigen-decomposition applied
+W_R = 41            # psi_grad_hess_diag: 6 first, 6 second derivatives (Pa), 12 rows
+W_ST = 53           # status: 0 ok, 1 inverted, 2 non-finite (as a float)
+W_SI = 54           # isochoric S0 of this step (Pa), 6 rows
+W_D = 60            # S0 - S0_old (Pa), 6 rows
+W_S = 66            # S (Pa), 6 rows
+W_MT = 72           # largest longitudinal modulus (Pa)
+W_MI = 73           # its isochoric part (Pa)
+W_DTE = 74          # L / c (s)
+W_WORK = 75         # stress work of the step (J)
+W_P = 76            # P = F S (Pa), 9 rows (row-major); 0 for failed elements
+W_CHG = 85          # hourglass damping -c_hg (kg/s); 0 for failed elements
+W_N = 86

@@ -33,9 +33,9 @@ from .layout import *  # noqa: F401,F403
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
     """Advance the model; see the module docstring. All arrays are modified in place."""
-    conn, B, G, V0, L, hgfac, mass, free, pmask, ptr, inc = geo
+    conn, bg, mass, free, pmask, ptr, foff = geo
     p, gam, tau = mat
-    x, v, vold, H, S0old, Sold, Eold, fe, ef, fint, fhg, dvc, dte, status, errv = st
+    x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = st
     snodes, plnodes, scr = cnt
     pnodes, px0, ptimes, pvals = presc
     sym = par[P_SYM]
@@ -50,8 +50,7 @@ def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
         dtp = sc[S_DTPREV]
         # 1. elements
         prony_step(dtp, gam, tau, decay, gain)
-        work, nbad = element_pass(x, v, conn, B, G, V0, L, hgfac, p, decay, gain, par[P_GINF],
-                                  H, S0old, Sold, Eold, fe, dte, status, errv,
+        work, nbad = element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, par[P_GINF], dte, status, errv,
                                   par[P_RHO], par[P_HG], ipar[I_HGWAVE])
         if nbad > 0:
             for e in range(status.shape[0]):
@@ -85,7 +84,7 @@ def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
             dvc[I, 0] = 0.0
             dvc[I, 1] = 0.0
             dvc[I, 2] = 0.0
-        gather_update(ef, ptr, inc, mass, free, fint, fhg, x, v, vold, dtn, dt)
+        gather_update(ef, ptr, foff, mass, free, fint, fhg, x, v, vold, dtn, dt)
         reaction = 0.0
         if ipar[I_PRESC] != 0:
             d = ipar[I_PDOF]
