@@ -118,8 +118,9 @@ def eig3(A: torch.Tensor):
     sv0 = sg * v0
     V = torch.stack([v0, sv0 * v0 * a + 1.0, b, v1, sg * b, sg + v1 * v1 * a, v2, -sv0, -v1]).view(3, 3, N)
     # A [v u w], the Rayleigh quotients v.Av, u.Au, w.Aw and u.Aw
-    AV = A[:, 0, None] * V[None, 0]
-    AV.addcmul_(A[:, 1, None], V[None, 1]).addcmul_(A[:, 2, None], V[None, 2])
+    A0, A1, A2 = A[:, :, None].unbind(1)
+    V0, V1, V2 = V[None].unbind(1)
+    AV = (A0 * V0).addcmul_(A1, V1).addcmul_(A2, V2)
     mv, buu, bww = (V * AV).sum(0).unbind(0)
     buw = (V[:, 1] * AV[:, 2]).sum(0)
     # Jacobi rotation of the (u, w) block: t = sign(theta) / (|theta| + sqrt(theta^2 + 1))

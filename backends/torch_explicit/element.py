@@ -94,11 +94,14 @@ def flat_index(idx: torch.Tensor, n: int) -> torch.Tensor:
 
 def deformation(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor):
     """(F (3, 3, N), q (4, 3, N), J (N,), C (3, 3, N)) from the element nodal values g (6, 8, N)."""
-    F = g[0:3, 0, None] * B[None, 0]
-    q = G[0, :, None] * g[None, 3:6, 0]
+    # per-node views from one unbind each (a Python-level view op costs about as much as a small op)
+    ua, va = g[0:3, :, None].unbind(1), g[None, 3:6].unbind(2)       # (3, 1, N), (1, 3, N)
+    Ba, Ga = B[None].unbind(1), G[:, :, None].unbind(0)              # (1, 3, N), (4, 1, N)
+    F = ua[0] * Ba[0]
+    q = Ga[0] * va[0]
     for a in range(1, 8):
-        F.addcmul_(g[0:3, a, None], B[None, a])
-        q.addcmul_(G[a, :, None], g[None, 3:6, a])
+        F.addcmul_(ua[a], Ba[a])
+        q.addcmul_(Ga[a], va[a])
     F.view(9, -1)[0::4] += 1.0
     J, C = det_and_cauchy_green(F)
     return F, q, J, C
@@ -120,8 +123,9 @@ def det_and_cauchy_green(F: torch.Tensor):
 
 def matmul3(A: torch.Tensor, B: torch.Tensor) -> torch.Tensor:
     """A B per element for A, B (3, 3, N) (e.g. P = F S)."""
-    out = A[:, 0, None] * B[None, 0]
-    return out.addcmul_(A[:, 1, None], B[None, 1]).addcmul_(A[:, 2, None], B[None, 2])
+    a0, a1, a2 = A[:, :, None].unbind(1)
+    b0, b1, b2 = B[None].unbind(1)
+    return (a0 * b0).addcmul_(a1, b1).addcmul_(a2, b2)
 
 
 def full(S: torch.Tensor) -> torch.Tensor:
@@ -258,11 +262,13 @@ def forces(P: torch.Tensor, qc: torch.Tensor, BV: torch.Tensor, G: torch.Tensor)
     """Element nodal forces (6, 8, N): internal V0 P B_a (0:3) and hourglass sum_alpha c_hg q_alpha G_a,alpha (3:6)."""
     fe = torch.empty((6,) + BV.shape[0:1] + BV.shape[2:], dtype=P.dtype, device=P.device)
     fint, fhg = fe[0:3], fe[3:6]
-    torch.mul(P[:, 0, None], BV[None, :, 0], out=fint)
-    fint.addcmul_(P[:, 1, None], BV[None, :, 1]).addcmul_(P[:, 2, None], BV[None, :, 2])
-    torch.mul(qc[0, :, None], G[None, :, 0], out=fhg)
+    p0, p1, p2 = P[:, :, None].unbind(1)
+    b0, b1, b2 = BV[None].unbind(2)
+    torch.mul(p0, b0, out=fint).addcmul_(p1, b1).addcmul_(p2, b2)
+    qs, gs = qc[:, :, None].unbind(0), G[None].unbind(2)
+    torch.mul(qs[0], gs[0], out=fhg)
     for s in range(1, 4):
-        fhg.addcmul_(qc[s, :, None], G[None, :, s])
+        fhg.addcmul_(qs[s], gs[s])
     return fe
 
 
