@@ -17,9 +17,13 @@ product) are flagged and solved by ``eig3_jacobi`` (cyclic Jacobi, the numba fal
 ``torch.linalg.eigh`` would also do, but on the CPU it loops LAPACK over the batch (about 1-2 us
 per matrix: ~10 ms for 5000 elements, more than a whole numba step), and through autograd it gives
 NaN at repeated eigenvalues. Layout: A is (3, 3, N), eigenvalues (3, N), Q (3, 3, N) with
-Q[:, a, e] the eigenvector of eigenvalue a, so A = Q diag(m) Q^T per element. The hybrid is written
-on (N,) component rows (about 190 tensor ops, 1.0 ms for 5000 elements in eager mode on one core,
-0.2 ms through ``torch.compile``); the stacked (3, 3, N) formulation was slower in both modes.
+Q[:, a, e] the eigenvector of eigenvalue a, so A = Q diag(m) Q^T per element. The scalar part
+(eigenvalue, cross products) is written on (N,) component rows; the basis products A [v u w], the
+Rayleigh quotients and the outputs on stacked (3, 3, N) / (3, N) tensors (about 240 dispatched
+ops with views, was 316; ~1 ms for 5000 elements eager on one core, 0.2 ms through
+``torch.compile``). Stacking everything (the cross products from a rolled copy of the rows, the
+selection by ``torch.max``) was not faster at 5000 elements: the copies and the slow
+reductions along a leading dimension cost what the fewer dispatches save.
 """
 
 from __future__ import annotations
