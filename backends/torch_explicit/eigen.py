@@ -121,6 +121,9 @@ def eig3(A: torch.Tensor):
     b = v0 * v1 * a
     sv0 = sg * v0
     V = torch.stack([v0, sv0 * v0 * a + 1.0, b, v1, sg * b, sg + v1 * v1 * a, v2, -sv0, -v1]).view(3, 3, N)
+    # isotropic A: the basis is I, so that (with zero off-diagonals) the rotation below is t = 0 and
+    # the outputs are exactly Q = I, m = diag A (a row times 1 plus zeros times finite entries)
+    V = torch.where(iso, constant((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), dt, dev).view(3, 3, 1), V)
     # A [v u w], the Rayleigh quotients v.Av, u.Au, w.Aw and u.Aw
     A0, A1, A2 = A[:, :, None].unbind(1)
     V0, V1, V2 = V[None].unbind(1)
@@ -135,9 +138,8 @@ def eig3(A: torch.Tensor):
     sn = t * c
     tb = t * buw
     u, w = V[:, 1], V[:, 2]
-    m = torch.where(iso, diag, torch.stack([mv, buu - tb, bww + tb]))
-    Q = torch.stack([v, c * u - sn * w, sn * u + c * w], dim=1)
-    Q = torch.where(iso, constant((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), dt, dev).view(3, 3, 1), Q)
+    m = torch.stack([mv, buu - tb, bww + tb])
+    Q = torch.stack([V[:, 0], c * u - sn * w, sn * u + c * w], dim=1)
     fallback = torch.where(iso, ~offzero, bad)
     return m, Q, fallback
 
