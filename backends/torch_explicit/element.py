@@ -17,9 +17,11 @@ Total Lagrangian hex8, one-point integration (Flanagan & Belytschko 1981):
 Symmetric tensors of the state and the stress (S, S0, H_k, E) are 6-vectors in numba's order 11,
 22, 33, 12, 23, 13 (``VOIGT``), so each op on them is a third smaller than on (3, 3, N); the
 element forces are one (6, 8, N) tensor, internal then hourglass, summed to the nodes by one
-``index_add_``. The pass is ~450 eager ops: each is a pass over a few rows of N, so on the CPU
-the cost is per-op overhead (~1.5 us) plus memory traffic; ops on stacked rows do the work of
-several (F, C, A V, the 6 stress components, the Prony terms) and the failure checks are one sum.
+``index_add_``. The pass dispatches about 730 ops (views included; was 930): the material's
+generated code ~290, the eigen-decomposition ~235, the rest ~200. Each is a pass over a few rows
+of N, so on the CPU the cost is per-op overhead (~1.5 us) plus memory traffic; ops on stacked rows
+do the work of several (F, C, A V, the 6 stress components, the Prony terms), per-node views come
+from one ``unbind`` each and the failure checks are one sum.
 
 F is formed from the displacement u = x - X (not the position): the same F to round-off in
 float64, and in float32 it keeps the strain's digits. The stages (``gather``, ``front`` =
