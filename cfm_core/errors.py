@@ -11,6 +11,8 @@ Two families, so the CLI can tell a user's mistake from a numerical failure:
 
 from __future__ import annotations
 
+import difflib
+
 
 class InputError(ValueError):
     """A user-facing input problem: the message names the field, the value and what is allowed.
@@ -44,3 +46,23 @@ class NumericalError(RuntimeError):
         self.time = time
         self.element = element
         self.quantity = quantity
+
+
+def did_you_mean(word: str, choices) -> str:
+    """The closest names to a mistyped one, as a sentence for an error message.
+
+    Parameters
+    ----------
+    word : str
+        What was given (a command, an option, a key).
+    choices : iterable of str
+        The valid names.
+
+    Returns
+    -------
+    str
+        ``"Did you mean 'thickness'?"`` (up to three names, closest first, by
+        :func:`difflib.get_close_matches` with cutoff 0.6), or ``""`` when none is close.
+    """
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=3, cutoff=0.6)
+    return f"Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""

@@ -43,7 +43,7 @@ def test_cli_drop_test_writes_outputs_and_summary(tmp_path):
                  "--out", str(out), "--scene", str(_small_scene(tmp_path))])
     assert code == 0
     header = (out / "acceleration.csv").read_text().splitlines()[0]
-    assert header == "t,a_raw,a_cfc600"
+    assert header == "t [s],a_raw [m/s^2],a_cfc600 [m/s^2]"
     s = json.loads((out / "summary.json").read_text())
     for key in ("peak_g", "t_peak", "duration", "pulse_width", "steps", "elements", "wall_time", "energy_error",
                 "hourglass_ratio", "backend", "thickness"):

@@ -56,7 +56,8 @@ def markdown_table(rows) -> str:
         lines.append(
             f"| {r['moduli']} | {1e3 * r['thickness']:.0f} | {r['peak_g']:.1f} | {exp if exp else '52.5-80.7'} | "
             f"{1e3 * r['t_peak']:.2f} | {1e3 * r['duration']:.2f} | {1e3 * r['loading_time']:.2f} / "
-            f"{1e3 * r['unloading_time']:.2f} | {100 * r['energy_error']:.2f} % | {100 * r['hourglass_ratio']:.2f} % |")
+            f"{1e3 * r['unloading_time']:.2f} | {100 * r['energy_error']:.2f} % | "
+            f"{'n/a' if r['hourglass_ratio'] is None else format(100 * r['hourglass_ratio'], '.2f') + ' %'} |")
     return "\n".join(lines) + "\n"
 
 

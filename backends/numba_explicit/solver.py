@@ -19,6 +19,7 @@ import numpy as np
 from cfm_backends.explicit import errors, geometry, history
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity
+from cfm_backends.threads import num_threads
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -161,13 +162,7 @@ def run_model(model, progress=None, **options) -> Result:
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     import numba
 
-    old_threads = numba.get_num_threads()
-    threads = o.threads
-    if threads is None and model.n_elements < PARALLEL_MIN:
-        threads = 1
-    if threads is not None:
-        numba.set_num_threads(int(threads))
-    try:
+    with num_threads(numba, o.threads, serial=model.n_elements < PARALLEL_MIN):
         t0 = time.perf_counter()
         with codegen.announce(model.material):
             mod = codegen.load(model.material)
@@ -176,8 +171,6 @@ def run_model(model, progress=None, **options) -> Result:
         compile_time = time.perf_counter() - t0
         prep = prepare(model, o)
         return _loop(model, mod, prep, o, progress, compile_time, numba.get_num_threads())
-    finally:
-        numba.set_num_threads(old_threads)
 
 
 def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: float, threads: int) -> Result:

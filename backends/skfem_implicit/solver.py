@@ -11,13 +11,17 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import nullcontext
 
 import numpy as np
 
+from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
+from cfm_core.material.compile_notice import announce_compile
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
+from .compiled import module_source
 from .linear import dot
 from .options import check_options
 from .stepper import State, StepFailure, Stepper
@@ -69,12 +73,8 @@ def run_model(model, progress=None, **options) -> Result:
         return _run(model, progress, o)
     import numba
 
-    old = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
+    with num_threads(numba, 1):
         return _run(model, progress, o)
-    finally:
-        numba.set_num_threads(old)
 
 
 def _run(model, progress, o) -> Result:
@@ -115,7 +115,10 @@ def _run(model, progress, o) -> Result:
         dt = dt_max / 10.0
     dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
     stepper = Stepper(sys_, o, solver, atol)
-    state = _initial_state(sys_, stepper)
+    notice = (announce_compile(module_source(model.material), "cfm_skfem", "skfem", model.material.name, "elements")
+              if sys_.compiled is not None else nullcontext())  # the numba backend's notice of a cold first run
+    with notice:  # the first evaluation compiles the element kernels
+        state = _initial_state(sys_, stepper)
     rec = _Recorder(sys_, model)
     rec.record(state, None, 0.0)
     setup = time.perf_counter() - wall0

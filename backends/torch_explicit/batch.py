@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from cfm_backends.explicit import errors, history
+from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 
@@ -78,26 +79,25 @@ def run_batch(models, progress=None, raise_errors: bool = True, sync_free: bool 
 
     See :meth:`cfm_backends.torch_explicit.TorchExplicitBackend.run_batch`.
     """
+    return run_parsed(models, TorchOptions.from_mapping(options), progress, raise_errors, sync_free)
+
+
+def run_parsed(models, o: TorchOptions, progress=None, raise_errors: bool = True, sync_free: bool | None = None,
+               device=None, dtype=None):
+    """:func:`run_batch` with its options already parsed (``o``); ``device`` and ``dtype``: the torch
+    device and dtype ``o`` names, when the caller has resolved them already."""
     import torch
 
-    o = TorchOptions.from_mapping(options)
     if o.frame_interval is not None:
         raise InputError("torch batch: frame_interval is not supported in batched runs; run the model alone.")
     check_batch(models)
-    device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
+    if device is None or dtype is None:
+        device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
     if sync_free is None:
         sync_free = device.type == "cuda"
-    old_threads = torch.get_num_threads()
-    threads = o.threads
-    if threads is None and device.type == "cpu" and models[0].n_elements * len(models) < PARALLEL_MIN:
-        threads = 1
-    if threads is not None:
-        torch.set_num_threads(int(threads))
-    try:
-        with torch.inference_mode():
-            out = _Batch(models, o, device, dtype, progress, bool(sync_free)).loop()
-    finally:
-        torch.set_num_threads(old_threads)
+    serial = device.type == "cpu" and models[0].n_elements * len(models) < PARALLEL_MIN
+    with num_threads(torch, o.threads, serial=serial), torch.inference_mode():
+        out = _Batch(models, o, device, dtype, progress, bool(sync_free)).loop()
     if raise_errors:
         for r in out:
             if isinstance(r, NumericalError):

@@ -27,6 +27,7 @@ import numpy as np
 
 from cfm_backends.explicit import errors, history
 from cfm_backends.explicit.history import COLUMNS
+from cfm_backends.threads import num_threads
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -43,20 +44,12 @@ def run_model(model, progress=None, **options) -> Result:
     device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
     if device.type == "cuda" and model.sphere is not None and model.prescribed is None and o.frame_interval is None:
         # a drop test on CUDA: the batched engine with one run, whose step has no host synchronisation
-        from .batch import run_batch
+        from .batch import run_parsed
 
-        return run_batch([model], progress, True, True, **o.as_dict())[0]
-    old_threads = torch.get_num_threads()
-    threads = o.threads
-    if threads is None and device.type == "cpu" and model.n_elements < PARALLEL_MIN:
-        threads = 1
-    if threads is not None:
-        torch.set_num_threads(int(threads))
-    try:
+        return run_parsed([model], o, progress, True, True, device, dtype)[0]
+    with num_threads(torch, o.threads, serial=device.type == "cpu" and model.n_elements < PARALLEL_MIN):
         with torch.inference_mode():
             return _Run(model, o, device, dtype, progress).loop()
-    finally:
-        torch.set_num_threads(old_threads)
 
 
 class _Run:

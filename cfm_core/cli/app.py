@@ -4,7 +4,8 @@ Built-in command groups: material.py (``materials``, ``backends``, ``point``), s
 (``drop-test``, ``run``), compare.py (``compare``), studies.py (``sweep``, ``calibrate``). More
 commands come from the ``cfm.commands`` entry-point group (the verification suite registers
 ``verify`` there): a command module has ``add_parser(subparsers)`` and ``COMMANDS`` (name ->
-handler). User mistakes (InputError) print one paragraph and exit 2; numerical failures
+handler). User mistakes (InputError, and a mistyped command or option, with "did you mean ...?")
+print one paragraph and exit 2; numerical failures
 (NumericalError, including a run whose physics broke) print where and when and exit 3. No
 traceback for either, and no partial output file.
 """
@@ -18,6 +19,7 @@ import warnings
 from .. import plugins
 from ..errors import InputError, NumericalError
 from . import compare, fit, material, scene, studies
+from .suggest import Parser, VersionAction, refuse_unknown
 
 BUILTIN = (material, scene, compare, studies, fit)
 
@@ -42,7 +44,8 @@ def command_modules() -> list:
 
 def build_parser(modules=None) -> argparse.ArgumentParser:
     """The ``cfm`` argument parser with every command module's subcommands."""
-    parser = argparse.ArgumentParser(prog="cfm", description="Circular fiber model framework (SI units: m, s, kg, Pa).")
+    parser = Parser(prog="cfm", description="Circular fiber model framework (SI units: m, s, kg, Pa).")
+    parser.add_argument("--version", action=VersionAction, help="print the package version and the backends available, then exit")
     sub = parser.add_subparsers(dest="command", required=True)
     for module in modules or command_modules():
         module.add_parser(sub)
@@ -53,7 +56,10 @@ def main(argv=None) -> int:
     """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
     error, 3 numerical failure, 130 interrupted)."""
     modules = command_modules()
-    args = build_parser(modules).parse_args(argv)
+    parser = build_parser(modules)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # a mistyped option: one paragraph with the closest options of the command, exit 2
+        refuse_unknown(parser, args.command, extra)
     handlers = {name: fn for module in modules for name, fn in module.COMMANDS.items()}
     try:
         return handlers[args.command](args)

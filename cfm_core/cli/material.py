@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
@@ -56,12 +57,16 @@ def _cmd_point(args) -> int:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")
         if args.rate is None or args.stretch is None:
             raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
-        t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        with warnings.catch_warnings(record=True) as caught:  # printed as the run checks' warnings are
+            warnings.simplefilter("always", RuntimeWarning)
+            t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+        for w in caught:
+            print(f"warning: {w.message}", file=sys.stderr)
         source = "numpy reference"
         if args.backend not in (None, "numpy"):
             P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
             source = f"backend {args.backend} along the reference's path (lateral stress {residual:.1e} of the axial)"
-        write_csv(args.out, point.UNIAXIAL_HEADER, [t, lam, P, lat])
+        write_csv(args.out, point.UNIAXIAL_COLUMNS, [t, lam, P, lat])
         written = [str(args.out)]
         if not args.no_plot:
             png = Path(args.out).with_suffix(".png")
@@ -75,7 +80,7 @@ def _cmd_point(args) -> int:
     t, F = point.read_history(args.history)
     backend = backend_for(args.backend) if args.backend else None
     sigma = point.run_history(material, t, F, backend)
-    write_csv(args.out, point.STRESS_HEADER, [t] + [sigma[:, k] for k in range(6)])
+    write_csv(args.out, point.STRESS_COLUMNS, [t] + [sigma[:, k] for k in range(6)])
     print(f"wrote {args.out}: {t.size} rows of Cauchy stress (Pa)")
     return 0
 
@@ -98,7 +103,8 @@ def add_parser(sub) -> None:
     p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
     p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
     p.add_argument("--no-plot", action="store_true", help="--uniaxial: do not write the stress-stretch PNG next to --out")
-    p.add_argument("--out", required=True, help="output CSV (t,s11,s22,s33,s12,s23,s13 in s and Pa; or t,stretch,nominal_stress,lateral_stretch)")
+    p.add_argument("--out", required=True, help="output CSV (header t [s],s11 [Pa],...,s13 [Pa]; or t [s],stretch [-],nominal_stress [Pa],"
+                                                 "lateral_stretch [-])")
 
 
 COMMANDS = {"materials": _cmd_materials, "backends": _cmd_backends, "point": _cmd_point}

@@ -121,9 +121,10 @@ def _drop_test(args, scene, backend: str) -> int:
     out, outcome = _run_scene(args, pipeline.drop_test, scene, backend)
     outcome.save(out, plot=not args.no_plot, vtu=getattr(args, "vtu", False))
     s = outcome.summary
+    hourglass = "n/a" if s.get("hourglass_ratio", math.nan) is None else f"{100 * s.get('hourglass_ratio', math.nan):.2f} %"
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
           f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
-          f"hourglass/internal {100 * s.get('hourglass_ratio', math.nan):.2f} %")
+          f"hourglass/internal {hourglass}")
     print(f"wrote {out}/acceleration.csv, scene.toml, summary.json" + ("" if args.no_plot else ", acceleration.png"))
     return 0
 

@@ -20,9 +20,27 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from .histories import _finite
 
-#: Units of the acceleration.csv columns, merged into summary.json["units"].
+#: Units of the acceleration.csv columns, merged into summary.json["units"]; the CSV header writes
+#: them as ``name [unit]`` (:func:`unit_header`), as sweep.csv does.
 DROP_TEST_COLUMN_UNITS = {"t": "s", "a_raw": "m/s^2", "a_cfc600": "m/s^2"}
 REACTION_COLUMN_UNITS = {"t": "s", "stretch": "-", "reaction_force": "N", "nominal_stress": "Pa"}
+
+
+def unit_header(column_units: dict) -> list[str]:
+    """CSV column names with their units, ``name [unit]`` (the style of sweep.csv).
+
+    Parameters
+    ----------
+    column_units : dict of str to str
+        Column name -> SI unit, in column order (``"-"`` for dimensionless).
+
+    Returns
+    -------
+    list of str
+        E.g. ``["t [s]", "a_raw [m/s^2]"]``; :func:`cfm_core.tables.read_table` reads the name and
+        checks the unit.
+    """
+    return [f"{name} [{unit}]" for name, unit in column_units.items()]
 
 
 def atomic_write(path, write: Callable[[str], None]) -> Path:
@@ -83,6 +101,42 @@ def write_text(path, text: str) -> Path:
         ``path``.
     """
     return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def output_folder(out, marker: str | None = None, create: bool = True, what: str = "--out") -> Path:
+    """The output folder of a run or a study, checked, created, and without a stale completion file.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The folder.
+    marker : str, optional
+        Name of the file whose presence means the output is complete (``summary.json``,
+        ``fit.json``); removed first, so that an interrupted run leaves none behind.
+    create : bool
+        Create the folder (with its parents) if missing.
+    what : str
+        How the message names the folder: ``"--out"`` (the command line) or ``"output
+        directory"`` (the Python API).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    InputError
+        ``out`` exists and is not a directory.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what} {out} exists and is not a directory.")
+    if create:
+        out.mkdir(parents=True, exist_ok=True)
+    if marker is not None:
+        (out / marker).unlink(missing_ok=True)
+    return out
 
 
 def _finite_array(name: str, a, ndim: int | None = None) -> np.ndarray:
@@ -202,7 +256,7 @@ def write_json(path, data) -> Path:
 
 
 def write_history(out_dir, filename: str, column_units: dict, columns: list, summary: dict) -> Path:
-    """Write ``filename`` (CSV, header = the keys of column_units) then ``summary.json`` in out_dir.
+    """Write ``filename`` (CSV, header ``name [unit]`` from column_units) then ``summary.json`` in out_dir.
 
     Both are checked before the disk is touched; a stale summary.json is removed first and the
     new one is written last, so its presence means the run's output is complete.
@@ -228,7 +282,8 @@ def write_history(out_dir, filename: str, column_units: dict, columns: list, sum
     Raises
     ------
     InputError
-        A column that is not 1-D or columns of different lengths.
+        A column that is not 1-D or columns of different lengths; ``out_dir`` exists and is not a
+        directory.
     NumericalError
         A non-finite value in a column or in the summary; nothing is written.
     """
@@ -240,15 +295,14 @@ def write_history(out_dir, filename: str, column_units: dict, columns: list, sum
         json.dumps(summary, allow_nan=False, default=_json_default)
     except ValueError as exc:
         raise NumericalError(f"refusing to write summary.json: {exc} (NaN or inf in the summary).") from None
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").unlink(missing_ok=True)
-    write_csv(out / filename, list(column_units), arrays)
+    output_folder(out, marker="summary.json", what="output directory")
+    write_csv(out / filename, unit_header(column_units), arrays)
     write_json(out / "summary.json", summary)
     return out
 
 
 def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
-    """``acceleration.csv`` (``t,a_raw,a_cfc600``: s, m/s^2, m/s^2) and summary.json; see
+    """``acceleration.csv`` (header ``t [s],a_raw [m/s^2],a_cfc600 [m/s^2]``) and summary.json; see
     :func:`write_history`.
 
     Parameters
@@ -278,7 +332,7 @@ def write_drop_test(out_dir, t, a_raw, a_cfc, summary: dict) -> Path:
 
 
 def write_reaction(out_dir, t, stretch, force, nominal, summary: dict) -> Path:
-    """``reaction.csv`` (``t,stretch,reaction_force,nominal_stress``: s, -, N, Pa) of a
+    """``reaction.csv`` (header ``t [s],stretch [-],reaction_force [N],nominal_stress [Pa]``) of a
     prescribed-motion scene and summary.json; see :func:`write_history`.
 
     Parameters

@@ -15,10 +15,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError
 from ..post import G0, compare_histories
 from ..post.plots import plot_acceleration, plot_reaction
-from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
+from ..post.writers import output_folder, write_drop_test, write_text, write_reaction, write_vtu_series
 from ..scene.scene import scene_to_toml
 
 
@@ -231,9 +230,4 @@ class ReactionOutcome:
 def _prepare(out) -> Path:
     """The output directory, created; a stale summary.json removed first (a failed run must not
     leave an earlier run's summary behind)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"output directory {out} exists and is not a directory.")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").unlink(missing_ok=True)
-    return out
+    return output_folder(out, marker="summary.json", what="output directory")

@@ -7,6 +7,7 @@ section 3). The outcome keeps the resolved scene, so that what it writes can be 
 from __future__ import annotations
 
 import hashlib
+import os
 import sys
 from typing import Callable
 
@@ -17,6 +18,7 @@ from .. import post
 from ..errors import InputError
 from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
+from ..scene.plausible import check_plausible
 from ..scene.scene import Scene, scene_to_dict
 from ..simulation import checks
 from ..simulation.registry import backend_for
@@ -32,12 +34,46 @@ def default_backend(scene: Scene) -> str:
     return "skfem" if scene.type == "relaxation" else "numba"
 
 
+#: Size of the progress bar's terminal (columns, lines) where the terminal reports none (0).
+FALLBACK_SIZE = (80, 24)
+
+
+def bar_size(stream) -> dict:
+    """tqdm's ``ncols`` / ``nrows`` for a progress bar on ``stream`` where the terminal reports a
+    size of 0 (some CI consoles, serial and container terminals): there tqdm would draw nothing.
+
+    A reported 0 (or 1) becomes ``$COLUMNS`` / ``$LINES`` if set, else :data:`FALLBACK_SIZE`
+    (80 columns, 24 lines); a real size is left to tqdm (empty dict).
+
+    Parameters
+    ----------
+    stream : file
+        Where the bar is drawn (stderr).
+
+    Returns
+    -------
+    dict
+        Keyword arguments for tqdm: ``{}``, or ``ncols`` and/or ``nrows`` (characters, lines).
+    """
+    try:
+        size = os.get_terminal_size(stream.fileno())
+    except (AttributeError, ValueError, OSError):  # io.UnsupportedOperation is both of the last two
+        return {}  # not a terminal: tqdm's own rules (off when stderr is not a terminal)
+    out = {}
+    for key, env, got, fallback in (("ncols", "COLUMNS", size.columns, FALLBACK_SIZE[0]),
+                                    ("nrows", "LINES", size.lines, FALLBACK_SIZE[1])):
+        if got <= 1:
+            given = os.environ.get(env, "").strip()
+            out[key] = int(given) if given.isdigit() and int(given) > 1 else fallback
+    return out
+
+
 def _progress(progress, scene: Scene, label: str):
     """A progress callback from the ``progress`` argument: None/False (none), True (a tqdm bar on
     stderr, off when stderr is not a terminal), or a callable taking the simulated time in s."""
     if progress is True:
         bar = tqdm(total=round(1e3 * scene.end_time, 3), desc=label, unit="ms", file=sys.stderr, disable=None,
-                   mininterval=0.2, bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
+                   mininterval=0.2, **bar_size(sys.stderr), bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3f}/{total:.3f} ms [{elapsed}]")
 
         def update(t: float) -> None:
             n = round(1e3 * min(max(t, 0.0), scene.end_time), 3)
@@ -84,8 +120,10 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         The run failed or its physics broke (penetration, bottoming out, folded element, contact
         at the automatic end time, a stop limit): names where and when.
     """
-    result = backend_for(backend).run(model, progress=progress, **options)
+    be = backend_for(backend)
+    result = be.run(model, progress=progress, **options)
     result.info["warnings"] = checks.check_result(model, result)
+    result.info.setdefault("hourglass_control", bool(be.hourglass_control))  # False: the summary says n/a
     return result
 
 
@@ -168,12 +206,14 @@ def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) ->
     if scene.type != "drop-test":
         raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
     check_output_rate(scene)
+    notes = check_plausible(scene)  # unit slips (220 for 0.220 kg): warned before running
+    report_warnings({"warnings": notes})
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
     model, result = _run(scene, backend, progress, label, options)
-    return drop_test_outcome(scene, model, result)
+    return drop_test_outcome(scene, model, result, notes)
 
 
-def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
+def drop_test_outcome(scene: Scene, model, result, notes=()) -> DropTestOutcome:
     """The post-processed outcome of a finished drop-test run.
 
     Parameters
@@ -184,6 +224,9 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
         The model built from it.
     result : Result
         The backend's result (after the run checks).
+    notes : sequence of str
+        Warnings about the scene's values already printed before the run
+        (:func:`cfm_core.scene.plausible.check_plausible`); listed first in the summary's warnings.
 
     Returns
     -------
@@ -208,9 +251,9 @@ def drop_test_outcome(scene: Scene, model, result) -> DropTestOutcome:
                   "scene": "SI (as in scene.toml)"},
     }
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
-    info["warnings"] = list(result.info.get("warnings", []))
+    info["warnings"] = [*notes, *result.info.get("warnings", [])]
     summary = post.summarize(result, info, (t, a_raw, a_cfc))
-    report_warnings(summary)
+    report_warnings({"warnings": result.info.get("warnings", [])})
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
 
@@ -258,7 +301,56 @@ def batch_key(model) -> str:
     return h.hexdigest()
 
 
-def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) -> list:
+def drop_test_models(scenes) -> list:
+    """The models of drop-test scenes, each checked and built once, or the reason it cannot run.
+
+    Parameters
+    ----------
+    scenes : sequence of Scene
+        Drop-test scenes.
+
+    Returns
+    -------
+    list of Model or Exception
+        In the order of ``scenes``: the built model, or the InputError (not a drop-test scene, an
+        output rate too low for the filter, an invalid value) or other ValueError/RuntimeError its
+        build raised.
+    """
+    models: list = []
+    for scene in scenes:
+        try:
+            if scene.type != "drop-test":
+                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
+            check_output_rate(scene)
+            models.append(build_model(scene))
+        except (ValueError, RuntimeError) as exc:
+            models.append(exc)
+    return models
+
+
+def batch_groups(keys, batch_size: int) -> list[list[int]]:
+    """Indices of equal keys, in groups of at most ``batch_size``: the runs of one batch each.
+
+    Parameters
+    ----------
+    keys : sequence of hashable or None
+        One per run, e.g. :func:`batch_key` of its model; None for a run that is left out.
+    batch_size : int
+        Largest group (>= 1).
+
+    Returns
+    -------
+    list of list of int
+        Groups in the order their keys first appear, each in the order of ``keys``.
+    """
+    groups: dict = {}
+    for i, key in enumerate(keys):
+        if key is not None:
+            groups.setdefault(key, []).append(i)
+    return [members[k:k + batch_size] for members in groups.values() for k in range(0, len(members), batch_size)]
+
+
+def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, models: list | None = None, **options) -> list:
     """Run drop-test scenes; those sharing a mesh run as batches where the backend can (``run_batch``).
 
     Every run gets the same end-of-run checks as :func:`run_model`.
@@ -272,6 +364,9 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         mesh (:func:`batch_key`) as batches of at most ``batch_size``, others one by one.
     batch_size : int
         Largest batch.
+    models : list of Model or Exception, optional
+        :func:`drop_test_models` of ``scenes``, when the caller has built them already (default:
+        built here).
     **options
         Backend options.
 
@@ -282,16 +377,9 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         NumericalError), the others are unaffected.
     """
     be = backend_for(backend)
-    out: list = [None] * len(scenes)
-    models = []
-    for i, scene in enumerate(scenes):
-        try:
-            if scene.type != "drop-test":
-                raise InputError(f"scene type is '{scene.type}'; drop_tests needs 'drop-test' scenes.")
-            check_output_rate(scene)
-            models.append((i, build_model(scene)))
-        except (ValueError, RuntimeError) as exc:
-            out[i] = exc
+    built = drop_test_models(scenes) if models is None else list(models)
+    out: list = [m if isinstance(m, Exception) else None for m in built]
+    models = [(i, m) for i, m in enumerate(built) if not isinstance(m, Exception)]
 
     def finish(i, model, result, checked: bool):
         """The outcome of one run, or its exception; ``checked``: run_model already ran the checks."""
@@ -300,7 +388,8 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
         try:
             if not checked:
                 result.info["warnings"] = checks.check_result(model, result)
-            return drop_test_outcome(scenes[i], model, result)
+                result.info.setdefault("hourglass_control", bool(be.hourglass_control))
+            return drop_test_outcome(scenes[i], model, result, check_plausible(scenes[i]))
         except (ValueError, RuntimeError) as exc:
             return exc
 
@@ -312,18 +401,13 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, **options) 
                 result = exc
             out[i] = finish(i, model, result, checked=True)
         return out
-    groups: dict = {}
-    for i, model in models:
-        groups.setdefault(batch_key(model), []).append((i, model))
-    for members in groups.values():
-        for k in range(0, len(members), batch_size):
-            part = members[k:k + batch_size]
-            try:
-                results = be.run_batch([m for _, m in part], raise_errors=False, **options)
-            except (ValueError, RuntimeError) as exc:
-                results = [exc] * len(part)
-            for (i, model), res in zip(part, results):
-                out[i] = finish(i, model, res, checked=False)
+    for part in batch_groups([None if isinstance(m, Exception) else batch_key(m) for m in built], batch_size):
+        try:
+            results = be.run_batch([built[i] for i in part], raise_errors=False, **options)
+        except (ValueError, RuntimeError) as exc:
+            results = [exc] * len(part)
+        for i, res in zip(part, results):
+            out[i] = finish(i, built[i], res, checked=False)
     return out
 
 

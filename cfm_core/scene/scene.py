@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Mapping
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
 
 __all__ = ["Scene", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
@@ -160,7 +160,7 @@ class Scene:
         d = scene_to_dict(self)
         for key, value in kw.items():
             if key not in allowed:
-                raise InputError(f"unknown override '{key}' for a {self.type} scene; allowed: "
+                raise InputError(f"unknown override '{key}' for a {self.type} scene{_close(key, allowed)}; allowed: "
                                  f"{', '.join(sorted(allowed))}.")
             section, name = allowed[key]
             table = d.setdefault(section, {})
@@ -178,6 +178,12 @@ class Scene:
                 if key not in kw:
                     d["specimen"].pop(key, None)
         return scene_from_dict(d)
+
+
+def _close(word: str, names) -> str:
+    """``" (did you mean 'x'?)"`` for a mistyped name, or ``""`` (:func:`cfm_core.errors.did_you_mean`)."""
+    hint = did_you_mean(word, names)
+    return f" ({hint[0].lower()}{hint[1:]})" if hint else ""
 
 
 def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
@@ -212,7 +218,7 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
     layout = _LAYOUT[stype]
     for key in d:
         if key not in layout:
-            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene; allowed "
+            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, layout)}; allowed "
                              f"sections: {', '.join(layout)}.")
     sections = {}
     for key, cls in layout.items():
@@ -222,7 +228,7 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
         allowed = [f.name for f in fields(cls)]
         for k in table:
             if k not in allowed:
-                raise InputError(f"unknown key '{k}' in [{key}] of a {stype} scene; allowed keys: "
+                raise InputError(f"unknown key '{k}' in [{key}] of a {stype} scene{_close(k, allowed)}; allowed keys: "
                                  f"{', '.join(allowed)}.")
         table = dict(table)
         if key == "specimen" and isinstance(table.get("mesh"), str):

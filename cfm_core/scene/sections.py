@@ -18,13 +18,14 @@ import numpy as np
 
 from ..errors import InputError
 from .mesh import mean_edge_length, read_hex_mesh
+from .plausible import unit_hint
 
 SCENE_TYPES = ("drop-test", "single-element", "relaxation")
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
 
 
 # ----------------------------------------------------------------------------- value checks
-def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="") -> float:
+def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="", fix=None) -> float:
     """``value`` as a float if it is a finite real number in the range, else InputError."""
     lo_s, hi_s = ("<" if lo_open else "<="), ("<" if hi_open else "<=")
     allowed = f"a finite number with {lo:g} {lo_s} {key} {hi_s} {hi:g} {unit}"
@@ -34,8 +35,9 @@ def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, not
     x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
     if not ok:
-        raise InputError(f"[{section}] {key} = {value!r} {unit} is out of range; it must be "
-                         f"{allowed}. {note}".rstrip())
+        hint = unit_hint(key, x, unit, lo, hi, fix) if math.isfinite(x) else ""
+        raise InputError(" ".join(filter(None, (f"[{section}] {key} = {value!r} {unit} is out of range; it "
+                                                 f"must be {allowed}.", note, hint))))
     return x
 
 
@@ -127,7 +129,7 @@ def read_specimen_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarra
 class Specimen:
     """[specimen] of a drop test: a square block on the plate, bottom at z = 0, centred at x=y=0.
 
-    width (m, full in-plane size, default 0.05); thickness (m, default 0.008, allowed 1e-4..0.1);
+    width (m, full in-plane size, default 0.05, at most 1); thickness (m, default 0.008, allowed 1e-4..0.1);
     element_size (m, default 0.001, at most the thickness); density (kg/m^3, default 950, an
     assumption: not in the paper); symmetry ("quarter": only x, y >= 0 is modelled | "none").
     mesh: optional path of a user hexahedral mesh (coordinates in m); then width (x extent of the
@@ -160,8 +162,9 @@ class Specimen:
                 if getattr(self, key) is None:
                     _set(self, **{key: default})
         src = f" (Taken from the mesh '{self.mesh}'.)" if self.mesh is not None else ""
-        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 10.0, note=src.strip()))
-        _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1,
+        fix = "Scale the mesh's coordinates to m" if self.mesh is not None else None
+        _set(self, width=_num(s, "width", self.width, "m", 1e-4, 1.0, note=src.strip(), fix=fix))  # wider: mm as m
+        _set(self, thickness=_num(s, "thickness", self.thickness, "m", 1e-4, 0.1, fix=fix,
                                   note="The paper's specimens are 4.8e-3 to 8.3e-3 m thick." + src))
         if self.mesh is None:
             _set(self, element_size=_num(s, "element_size", self.element_size, "m", 0,
@@ -233,15 +236,17 @@ class Specimen:
 
 @dataclass(frozen=True)
 class Impactor:
-    """[impactor]: rigid hemisphere. radius (m, 0.055), mass (kg, 0.220, the full impactor),
-    velocity (m/s, impact speed, positive = moving down, default 1.0)."""
+    """[impactor]: rigid hemisphere. radius (m, 0.055, at most 1), mass (kg, 0.220, the full impactor),
+    velocity (m/s, impact speed, positive = moving down, default 1.0). Values that are surely a unit
+    slip (mass above 100 kg, speed above 100 m/s) are refused before running by
+    :func:`cfm_core.scene.plausible.check_plausible`."""
 
     radius: float = 0.055
     mass: float = 0.220
     velocity: float = 1.0
 
     def __post_init__(self):
-        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 10.0))
+        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 1.0))  # larger: mm typed as m
         _set(self, mass=_num("impactor", "mass", self.mass, "kg", 0, 1e4, lo_open=True))
         _set(self, velocity=_num("impactor", "velocity", self.velocity, "m/s", 0, 1e3, lo_open=True,
                                  note="It is the impact speed; the direction (down) is implied."))

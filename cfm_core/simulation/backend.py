@@ -35,6 +35,11 @@ class Backend:
         Import names that must be importable for the backend to be available.
     quasi_static : bool
         Whether it can run scenes without inertia (``model.meta["quasi_static"]``).
+    hourglass_control : bool
+        Whether its elements have hourglass modes held by hourglass forces, so that a hourglass
+        energy is meaningful: the explicit one-point hexahedra have them; fully integrated
+        (implicit) elements do not, and their summaries report the hourglass ratio as n/a (null).
+        Default: ``kind == "explicit"``; a backend may set it as a class attribute.
     """
 
     name: str = ""
@@ -45,6 +50,11 @@ class Backend:
     dtypes: tuple[str, ...] = ("float64",)
     requires: tuple[str, ...] = ()
     quasi_static: bool = False  # can run scenes without inertia (model.meta["quasi_static"])
+
+    @property
+    def hourglass_control(self) -> bool:
+        """Whether a hourglass energy applies (one-point explicit hexahedra): ``kind == "explicit"``."""
+        return self.kind == "explicit"
 
     def available(self) -> tuple[bool, str]:
         """Whether the backend is usable here; checks ``requires`` without importing them.

@@ -2,12 +2,14 @@
 uniaxial stress (lateral tractions zero, solved each step) at a constant engineering strain rate.
 
 History CSV: header exactly ``t,F11,F12,F13,F21,F22,F23,F31,F32,F33`` (t in s, F dimensionless,
-rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.tables.read_table`. Output CSV: ``t,s11,s22,s33,s12,s23,s13`` (Cauchy stress in Pa).
+rows in time order; units may be written, ``t [s]``), read by :func:`cfm_core.tables.read_table`. Output CSV: ``t [s],s11 [Pa],...,s13 [Pa]`` (Cauchy stress), or for uniaxial stress
+``t [s],stretch [-],nominal_stress [Pa],lateral_stretch [-]``.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy.optimize import brentq
@@ -21,6 +23,11 @@ from ..tables import read_table
 HISTORY_HEADER = ["t", "F11", "F12", "F13", "F21", "F22", "F23", "F31", "F32", "F33"]
 STRESS_HEADER = ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
 UNIAXIAL_HEADER = ["t", "stretch", "nominal_stress", "lateral_stretch"]
+#: Units of the output columns, and the output CSV headers ``name [unit]`` (as sweep.csv writes them).
+STRESS_UNITS = {"t": "s", **{c: "Pa" for c in STRESS_HEADER[1:]}}
+UNIAXIAL_UNITS = {"t": "s", "stretch": "-", "nominal_stress": "Pa", "lateral_stretch": "-"}
+STRESS_COLUMNS = [f"{c} [{u}]" for c, u in STRESS_UNITS.items()]
+UNIAXIAL_COLUMNS = [f"{c} [{u}]" for c, u in UNIAXIAL_UNITS.items()]
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
@@ -130,9 +137,50 @@ def uniaxial_on_backend(material, backend, t, stretch, lateral):
 def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: float = 0.0):
     """Uniaxial stress at constant engineering strain rate (1/s) to a final stretch (-).
 
-    Returns (t (s), stretch (-), nominal stress P11 (Pa), lateral stretch (-)). The lateral
-    stretch solves sigma22 = sigma33 = 0 at each step (F = diag(l, lt, lt), isotropic material)
-    with the viscoelastic state carried from step to step; ``hold`` (s) keeps the final stretch.
+    The lateral stretch solves sigma22 = sigma33 = 0 at each step (F = diag(l, lt, lt), isotropic
+    material) with the viscoelastic state carried from step to step. It is continued along the
+    path from lt = 1 at stretch 1: each step takes the root nearest to the previous step's lateral
+    stretch (:func:`nearest_root`), so the branch that starts at J = 1 is followed. Where that
+    branch enters the region in which the volumetric energy is not convex (its pressure falls as J
+    grows; J > 10^(1/9) = 1.29 for the paper's Ogden term, e.g. stiff fibres pulled far: k2 = 500
+    at stretch 3 gives J ~ 18), no physical lateral stretch exists any more: a RuntimeWarning names
+    the first stretch and J there and the largest J reached.
+
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material (isotropic).
+    rate : float
+        Engineering strain rate (1/s), > 0.
+    stretch : float
+        Final stretch (-), 0.05 .. 5, not 1.
+    steps : int
+        Steps of the loading ramp (>= 2).
+    hold : float
+        Hold time at the final stretch (s).
+
+    Returns
+    -------
+    t : ndarray, shape (n,)
+        Times (s).
+    stretch : ndarray, shape (n,)
+        Axial stretch (-).
+    nominal : ndarray, shape (n,)
+        Nominal stress P11 (Pa).
+    lateral : ndarray, shape (n,)
+        Lateral stretch (-).
+
+    Raises
+    ------
+    InputError
+        Rate, stretch or steps out of range.
+    NumericalError
+        No lateral stretch gives zero lateral stress near the previous one, or a non-finite stress.
+
+    Warns
+    -----
+    RuntimeWarning
+        The continued lateral stretch gives a J where the volumetric energy is not convex.
     """
     if not (math.isfinite(rate) and rate > 0):
         raise InputError(f"rate = {rate!r} 1/s must be a positive engineering strain rate.")
@@ -145,6 +193,7 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
     if hold > 0:
         t = np.concatenate([t, t_load + np.linspace(0.0, hold, steps + 1)[1:]])
     lam = 1.0 + np.sign(stretch - 1.0) * rate * np.minimum(t, t_load)
+    unstable = None  # first step whose J lies where the volumetric energy is not convex
     with np.errstate(all="ignore"):  # failures are reported as NumericalError, not numpy RuntimeWarnings
         state = None
         lat = np.ones_like(t)
@@ -158,21 +207,117 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
                 S, new_state = ref.viscous_step(material, state, dt, S_iso[0], S_vol[0])
                 return (S[1, 1], S, new_state) if keep else S[1, 1]
 
-            guess = lat[n - 1] if n else 1.0
-            lo, hi = guess, guess
-            for _ in range(200):  # bracket the root: S22 grows with the lateral stretch
-                lo, hi = lo / 1.05, hi * 1.05
-                if lateral_stress(lo) <= 0.0 <= lateral_stress(hi):
-                    break
+            if n:
+                lo, hi = nearest_root(lateral_stress, lat[n - 1])
+                if lo is None:
+                    raise NumericalError(f"uniaxial: no lateral stretch near {lat[n - 1]:.6g} gives zero lateral "
+                                         f"stress at stretch {lam[n]:.6g} (t = {t[n]:g} s).", time=float(t[n]))
+                lt = lo if lo == hi else brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200)
             else:
-                raise NumericalError(f"uniaxial: no lateral stretch gives zero lateral stress at t = {t[n]:g} s.", time=float(t[n]))
-            lt = brentq(lateral_stress, lo, hi, xtol=1e-15, rtol=1e-15, maxiter=200) if n else 1.0
+                lt = 1.0
             _, S, state = lateral_stress(lt, keep=True)
             lat[n] = lt
             P[n] = lam[n] * S[0, 0]  # P = F S, first component
+            if unstable is None and n and not volumetric_convex(material, lam[n], lt):
+                unstable = n
     bad = ~(np.isfinite(P) & np.isfinite(lat))
     if bad.any():
         k = int(np.argmax(bad))
         raise NumericalError(f"uniaxial: the stress is not finite at step {k} (t = {t[k]:g} s, stretch {lam[k]:g}).",
                              time=float(t[k]), element=k, quantity="stress")
+    if unstable is not None:
+        J = lam * lat**2
+        k = int(np.argmax(np.abs(J - 1.0)))
+        warnings.warn(f"uniaxial: from stretch {lam[unstable]:.4g} (t = {t[unstable]:.4g} s) on, the lateral stretch "
+                      f"{lat[unstable]:.4g} that gives zero lateral stress makes J = {J[unstable]:.4g}, where the "
+                      f"volumetric energy of material '{material.name}' is not convex (its pressure falls as J grows; "
+                      f"J > 10^(1/9) = 1.29 for the Ogden term): the bulk modulus cannot hold the lateral pull, and no "
+                      f"physical lateral stretch exists. The curve beyond is not physical (J reaches {J[k]:.4g} at "
+                      f"stretch {lam[k]:.4g}); lower the stretch or the fibre stiffness (k1, k2), or raise kappa.",
+                      RuntimeWarning, stacklevel=2)
     return t, lam, P, lat
+
+
+def nearest_root(f, x0: float, factor: float = 1.01, max_steps: int = 700):
+    """The bracket of the root of ``f`` nearest to ``x0 > 0`` (continuation: the previous step's value).
+
+    Steps outward from x0 on both sides alternately by the ratio ``factor`` (x0 factor^k and
+    x0 / factor^k, k = 1 .. max_steps: x0 x/÷ 1066 for the defaults) and returns the first interval
+    over which f changes sign. A side where f cannot be evaluated (NumericalError: e.g. an
+    exponential overflows) or is not finite stops there.
+
+    Parameters
+    ----------
+    f : callable
+        f(x) -> float.
+    x0 : float
+        Start (> 0), e.g. the lateral stretch of the previous step (-).
+    factor : float
+        Ratio between neighbouring trial points (> 1).
+    max_steps : int
+        Trial points on each side.
+
+    Returns
+    -------
+    lo, hi : float or None
+        An interval with a sign change of f (lo == hi == x0 when f(x0) = 0), or (None, None).
+    """
+
+    def value(x):
+        try:
+            y = float(f(x))
+        except NumericalError:
+            return math.nan
+        return y
+
+    y0 = value(x0)
+    if y0 == 0.0:
+        return x0, x0
+    if not math.isfinite(y0):
+        return None, None
+    up = down = (x0, y0)  # the last finite point on each side
+    for k in range(1, max_steps + 1):
+        for side in (0, 1):
+            last = up if side == 0 else down
+            if last is None:
+                continue
+            x = x0 * factor**k if side == 0 else x0 / factor**k
+            y = value(x)
+            if not math.isfinite(y):
+                up, down = (None, down) if side == 0 else (up, None)
+                continue
+            if (y > 0.0) != (last[1] > 0.0) or y == 0.0:
+                return (last[0], x) if side == 0 else (x, last[0])
+            up, down = ((x, y), down) if side == 0 else (up, (x, y))
+        if up is None and down is None:
+            break
+    return None, None
+
+
+def volumetric_convex(material, stretch: float, lateral: float, h: float = 1e-6) -> bool:
+    """Whether the material's volumetric energy is convex at J = stretch * lateral^2 (U''(J) >= 0).
+
+    The pressure p = U'(J) is read from the volumetric second Piola-Kirchhoff stress
+    S_vol = J p C^-1 of :func:`cfm_core.material.reference.pk2_parts` at F = diag(l, lt, lt) and
+    at the same F scaled to J (1 + h) (same isochoric part); convex where p does not fall.
+
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material.
+    stretch, lateral : float
+        Axial and lateral stretch (-).
+    h : float
+        Relative step in J of the difference (-).
+
+    Returns
+    -------
+    bool
+        True where U''(J) >= 0 (or the material has no volumetric term).
+    """
+    F = np.diag([stretch, lateral, lateral])[None]
+    J = stretch * lateral**2
+    F2 = F * (1.0 + h) ** (1.0 / 3.0)
+    p = [float(ref.pk2_parts(material, G)[1][0, 1, 1]) * float(G[0, 1, 1]) ** 2 / float(np.linalg.det(G[0]))
+         for G in (F, F2)]
+    return not (p[1] - p[0] < 0.0 and abs(p[1] - p[0]) > 1e-12 * max(abs(p[0]), 1e-300) and J > 0)

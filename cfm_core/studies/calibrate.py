@@ -47,13 +47,14 @@ from . import identifiability
 from .dask_runner import SerialRunner
 from ..errors import InputError, NumericalError
 from .measured import CFC
-from .sweep import map_cases
+from .differences import forward_jacobian, forward_steps
+from .sweep import run_all
 from ..material.registry import get_material
 from ..material.registry import make_material
 from ..post.plots import _figure, _save, plot_overlay
 from ..post import G0
 from ..scene.scene import scene_to_toml
-from ..post.writers import write_json, write_text
+from ..post.writers import output_folder, write_json, write_text
 from ..post.filters import cfc_filter
 from ..post import relative_l2
 
@@ -198,14 +199,14 @@ class Problem:
 
         scenes = [self.scene.with_overrides(thickness=c.thickness) for c in self.curves]
         tasks = [(s, params, self.backend) for params in points for s in scenes]
-        results = [None] * len(tasks)
-        for done in map_cases(self.runner, tasks):
-            params, curve = points[done.index // len(scenes)], self.curves[done.index % len(scenes)]
-            if not done.ok:
-                values = ", ".join(f"{k} = {v:.6g}" for k, v in params.items())
-                raise NumericalError(f"the drop test of curve '{curve.name}' ({curve.thickness:g} m) failed at "
-                                     f"{values}: {done.error}")
-            results[done.index] = done.value
+
+        def failure(i: int, error: str) -> NumericalError:
+            params, curve = points[i // len(scenes)], self.curves[i % len(scenes)]
+            values = ", ".join(f"{k} = {v:.6g}" for k, v in params.items())
+            return NumericalError(f"the drop test of curve '{curve.name}' ({curve.thickness:g} m) failed at "
+                                  f"{values}: {error}")
+
+        results = run_all(self.runner, tasks, failure)
         self.runs += len(tasks)
         rate = float(self.scene.settings.output_rate)
         out = []
@@ -252,13 +253,9 @@ class Problem:
         """Forward differences d r / d x, all perturbed drop tests submitted at once."""
         x = np.asarray(x, dtype=float)
         base = self.evaluate(x).residual
-        steps = []
-        for i, lg in enumerate(self.coords.log):
-            h = self.rel_step if lg else self.rel_step * max(abs(x[i]), 1e-12)
-            steps.append(-h if x[i] + h > self.coords.upper[i] else h)
-        xs = [x + h * np.eye(x.size)[i] for i, h in enumerate(steps)]
-        evals = self._evaluate(xs)
-        return np.column_stack([(ev.residual - base) / h for ev, h in zip(evals, steps)])
+        h = [self.rel_step if lg else self.rel_step * max(abs(x[i]), 1e-12) for i, lg in enumerate(self.coords.log)]
+        steps = forward_steps(x, self.coords.upper, h)
+        return forward_jacobian(lambda xs: [ev.residual for ev in self._evaluate(xs)], x, base, steps)
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -370,11 +367,7 @@ def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> li
     interval; correlation; per-curve rel. L2 at start and end; objective history; drop-test count).
     """
 
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a directory.")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "fit.json").unlink(missing_ok=True)
+    out = output_folder(out, marker="fit.json")
     pb, files = result.problem, []
     for j, c in enumerate(pb.curves):
         path = out / f"fit_{_safe(c.name)}.png"

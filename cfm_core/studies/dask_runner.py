@@ -77,6 +77,7 @@ class SerialRunner:
 
     label = "serial (this process)"
     workers = 1
+    in_process = True  # tasks run here: their arguments need not be picklable
 
     def map(self, fn: Callable, items: Iterable) -> Iterator[Done]:
         for i, item in enumerate(items):
@@ -90,6 +91,8 @@ class DaskRunner:
     worker_timeout (s): how long :meth:`map` waits while the scheduler has no worker (or cannot be
     reached) before it ends every task left with an error saying so (default :data:`WORKER_LOST`).
     """
+
+    in_process = False  # tasks are pickled and sent to the workers
 
     def __init__(self, client, label: str, cluster=None, worker_timeout: float = WORKER_LOST):
         self.client, self.label, self.cluster = client, label, cluster

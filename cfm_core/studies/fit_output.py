@@ -12,10 +12,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
 from ..material.registry import get_material
 from ..post.plots import _figure, _save
-from ..post.writers import write_json, write_text
+from ..post.writers import output_folder, write_json, write_text
 from ..scene.scene import builtin_scene, scene_to_toml
 from .fit import LabFitResult
 from .lab_tests import KINDS, LabTest
@@ -92,11 +91,7 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     InputError
         ``out`` exists and is not a directory.
     """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a directory.")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "fit.json").unlink(missing_ok=True)
+    out = output_folder(out, marker="fit.json")
     files = []
     for t, s, f in zip(result.tests, result.P_start, result.P_fit):
         path = out / f"fit_{_safe(t.name)}.png"

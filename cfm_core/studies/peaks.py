@@ -24,7 +24,8 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from .calibrate import coordinates, material_values
 from .dask_runner import SerialRunner
-from .sweep import run_case
+from .differences import forward_jacobian, forward_steps
+from .sweep import run_all
 
 
 @dataclass
@@ -116,11 +117,8 @@ def fit_peaks(scene, targets: dict, names: list, start: dict | None = None, back
     def peaks(xs):
         todo = [x for x in xs if x.tobytes() not in cache]
         tasks = [(scene.with_overrides(thickness=h), coords.to_params(x), backend) for x in todo for h in thick]
-        out = [None] * len(tasks)
-        for done in runner.map(run_case, tasks):
-            if not done.ok:
-                raise NumericalError(f"drop test failed at {tasks[done.index][1]}: {done.error}")
-            out[done.index] = done.value["summary"]["peak_g"]
+        results = run_all(runner, tasks, lambda i, error: NumericalError(f"drop test failed at {tasks[i][1]}: {error}"))
+        out = [r["summary"]["peak_g"] for r in results]
         count[0] += len(tasks)
         for k, x in enumerate(todo):
             cache[x.tobytes()] = np.array(out[k * len(thick):(k + 1) * len(thick)])
@@ -137,10 +135,8 @@ def fit_peaks(scene, targets: dict, names: list, start: dict | None = None, back
 
     def jacobian(x):
         x = np.asarray(x, float)
-        steps = [(-rel_step if x[i] + rel_step > coords.upper[i] else rel_step) for i in range(x.size)]
-        xs = [x] + [x + s * np.eye(x.size)[i] for i, s in enumerate(steps)]
-        p = peaks(xs)
-        return np.column_stack([(p[i + 1] - p[0]) / target / s for i, s in enumerate(steps)])
+        steps = forward_steps(x, coords.upper, [rel_step] * x.size)
+        return forward_jacobian(peaks, x, peaks([x])[0], steps, scale=target)
 
     t0 = time.perf_counter()
     x0 = np.clip(coords.to_x(values), coords.lower, coords.upper)

@@ -38,7 +38,7 @@ from .dask_runner import Done, SerialRunner, error_text
 from ..errors import InputError
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.scene import scene_to_dict
-from ..post.writers import atomic_write, write_drop_test, write_json
+from ..post.writers import atomic_write, output_folder, write_drop_test, write_json
 from ..material.registry import get_material
 from ..runs import pipeline as simulate
 from ..post import SUMMARY_UNITS
@@ -150,31 +150,32 @@ def run_case(task) -> dict:
     scene, case, backend = task
     start = time.perf_counter()
     outcome = simulate.drop_test(scene.with_overrides(**overrides(case)), backend)
-    summary = dict(outcome.summary, run_time=time.perf_counter() - start)
+    return _case_result(outcome, time.perf_counter() - start)
+
+
+def _case_result(outcome, run_time: float) -> dict:
+    """What a finished run of a case returns: t (s), a_raw and a_cfc (m/s^2) and the summary with
+    ``run_time`` (s) added to it and to its units."""
+    summary = dict(outcome.summary, run_time=run_time)
     summary["units"] = dict(summary.get("units", {}), run_time="s")
     return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}
 
 
 def run_cases(task) -> list:
-    """Run drop tests as batches; task = ([(scene, {name: value}), ...], backend). Runs on a worker.
+    """Run drop tests as a batch; task = ([scene, ...], backend, models). Runs on a worker.
 
-    The runs share a mesh (grouped by :func:`map_cases`) and go through the backend's ``run_batch``
-    (:func:`cfm_core.runs.pipeline.drop_tests`). Returns, per run, (True, the dict of
-    :func:`run_case`) or (False, error text); ``run_time`` is the batch's time divided by its size.
+    The scenes share a mesh (grouped by :func:`map_cases`) and go through the backend's ``run_batch``
+    (:func:`cfm_core.runs.pipeline.drop_tests`); models: their models, built by :func:`map_cases`
+    (a runner in this process), or None (built here: models do not travel to other processes).
+    Returns, per run, (True, the dict of :func:`run_case`) or (False, error text); ``run_time`` is
+    the batch's time divided by its size.
     """
-    items, backend = task
+    scenes, backend, models = task
     start = time.perf_counter()
-    outcomes = simulate.drop_tests([scene.with_overrides(**overrides(case)) for scene, case in items], backend)
-    share = (time.perf_counter() - start) / max(len(items), 1)
-    out = []
-    for outcome in outcomes:
-        if isinstance(outcome, Exception):
-            out.append((False, error_text(outcome)))
-            continue
-        summary = dict(outcome.summary, run_time=share)
-        summary["units"] = dict(summary.get("units", {}), run_time="s")
-        out.append((True, {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}))
-    return out
+    outcomes = simulate.drop_tests(scenes, backend, models=models)
+    share = (time.perf_counter() - start) / max(len(scenes), 1)
+    return [(False, error_text(outcome)) if isinstance(outcome, Exception) else (True, _case_result(outcome, share))
+            for outcome in outcomes]
 
 
 def batches(backend: str) -> bool:
@@ -191,29 +192,68 @@ def map_cases(runner, tasks: list, batch_size: int = 64):
     On a backend with ``run_batch`` (torch) the tasks whose models share a mesh
     (:func:`cfm_core.runs.pipeline.batch_key`) are sent to the runner as batches of at most
     ``batch_size`` (:func:`run_cases`), else one by one (:func:`run_case`); either way each task
-    gets its own Done with its index in ``tasks``.
+    gets its own Done with its index in ``tasks``. The models are built once, here; a runner in this
+    process (``runner.in_process``) runs them, others build them again where they run. A task whose
+    model cannot be built (an invalid value) is done at once, with its error.
     """
     if not tasks or not batches(tasks[0][2]):
         yield from runner.map(run_case, tasks)
         return
-    groups: dict = {}
-    for i, (scene, case, backend) in enumerate(tasks):
+    scenes, models = [], []
+    for scene, case, _ in tasks:
         try:
-            key = simulate.batch_key(simulate.build_model(scene.with_overrides(**overrides(case))))
-        except (ValueError, RuntimeError):
-            key = f"alone-{i}"          # the run reports its own error
-        groups.setdefault((backend, key), []).append(i)
-    parts = [(backend, members[k:k + batch_size]) for (backend, _), members in groups.items()
-             for k in range(0, len(members), batch_size)]
-    items = [([(tasks[i][0], tasks[i][1]) for i in members], backend) for backend, members in parts]
+            scenes.append(scene.with_overrides(**overrides(case)))
+        except (ValueError, RuntimeError) as exc:  # an invalid value: that run fails alone
+            scenes.append(None)
+            models.append(exc)
+            continue
+        models += simulate.drop_test_models(scenes[-1:])
+    for i, model in enumerate(models):
+        if isinstance(model, Exception):
+            yield Done(i, error=error_text(model))
+    keys = [None if isinstance(m, Exception) else (t[2], simulate.batch_key(m)) for t, m in zip(tasks, models)]
+    parts = simulate.batch_groups(keys, batch_size)
+    local = getattr(runner, "in_process", False)
+    items = [([scenes[i] for i in members], tasks[members[0]][2], [models[i] for i in members] if local else None)
+             for members in parts]
     for done in runner.map(run_cases, items):
-        members = parts[done.index][1]
+        members = parts[done.index]
         if not done.ok:
             for i in members:
                 yield Done(i, error=done.error)
             continue
         for i, (ok, value) in zip(members, done.value):
             yield Done(i, value) if ok else Done(i, error=value)
+
+
+def run_all(runner, tasks: list, failure) -> list:
+    """The results of the drop tests ``tasks`` = [(scene, case, backend)] in task order, or an error.
+
+    Parameters
+    ----------
+    runner : SerialRunner or DaskRunner
+        Where the drop tests run (:func:`map_cases`: batches where the backend can).
+    tasks : list of tuple
+        (scene, {name: value} in SI units, backend name) per drop test.
+    failure : callable
+        ``failure(index, error text) -> Exception`` for a task that failed.
+
+    Returns
+    -------
+    list of dict
+        Per task, the dict of :func:`run_case`: t (s), a_raw and a_cfc (m/s^2), summary.
+
+    Raises
+    ------
+    Exception
+        ``failure(...)`` of the first task that fails (the tasks left are not waited for).
+    """
+    out: list = [None] * len(tasks)
+    for done in map_cases(runner, tasks):
+        if not done.ok:
+            raise failure(done.index, done.error)
+        out[done.index] = done.value
+    return out
 
 
 # ----------------------------------------------------------------------------- the sweep
@@ -235,9 +275,7 @@ def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None,
     progress: callable receiving one line of text per finished run (e.g. printing to stderr).
     """
     runner = runner or SerialRunner()
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a directory.")
+    out = output_folder(out, create=False)
     start = time.perf_counter()
     todo = cases(axes)
     ids = [run_id(scene, backend, c) for c in todo]

@@ -1,6 +1,7 @@
 """The same physics checks on every backend (cfm_core.simulation.checks): an impactor far too heavy
-(the 220 g written as 220, read as kg) stops the run with exit status 3 naming node or element,
-time and quantity; the paper's kind of drop test passes them without warnings, and the checks do
+(the 220 g written as 220, read as kg; warned about before running by cfm_core.scene.plausible)
+stops the run with a NumericalError naming node or element, time and
+quantity; the paper's kind of drop test passes them without warnings, and the checks do
 not change a single number of the result."""
 
 import json
@@ -11,6 +12,8 @@ import pytest
 from cfm_core.cli import main
 from cfm_core.errors import NumericalError
 from cfm_core.runs import drop_test
+from cfm_core.runs.pipeline import run_model
+from cfm_core.scene.builder import build_model
 from cfm_core.scene import builtin_scene
 from cfm_core.simulation import checks
 
@@ -32,7 +35,7 @@ def _available(name):
 def test_an_impactor_of_220_kg_stops_the_run_on_every_backend(backend):
     _available(backend)
     with pytest.raises(NumericalError) as err:
-        drop_test(coarse(mass=220.0, end_time=0.006), backend)
+        run_model(build_model(coarse(mass=220.0, end_time=0.006)), backend)
     e = err.value
     assert e.quantity in QUANTITIES, str(e)
     assert e.time is not None and 0.0 < e.time <= 0.006
@@ -67,6 +70,9 @@ def test_the_full_coarse_drop_test_passes_every_check_without_warnings():
 
 
 def test_cli_exit_3_and_no_summary_for_mass_in_grams(tmp_path, capsys):
+    """The 220 g written as 220: a warning naming the likely slip before the run, then the run
+    checks stop it (exit 3, no summary.json; shared case units-mass-in-grams: no successful
+    non-physical run)."""
     pytest.importorskip("numba")
     scene = tmp_path / "scene.toml"
     scene.write_text('[scene]\ntype = "drop-test"\nend_time = 0.006\n[specimen]\nwidth = 0.02\nthickness = 0.005\n'
@@ -74,6 +80,7 @@ def test_cli_exit_3_and_no_summary_for_mass_in_grams(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["drop-test", "--scene", str(scene), "--out", str(out), "--quiet", "--no-plot"]) == 3
     err = capsys.readouterr().err
+    assert "warning: [impactor] mass = 220 kg" in err and "did you mean 0.22 kg (220 g)?" in err
     assert "numerical failure" in err and "t = " in err and "Traceback" not in err
     assert not (out / "summary.json").exists()
 

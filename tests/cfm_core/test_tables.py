@@ -123,3 +123,30 @@ def test_compare_reads_runs_through_the_same_reader(tmp_path):
     _write(d / "acceleration.csv", "t,a_raw,a_cfc600\n0,0,0\n1e-5,1,nan\n")
     with pytest.raises(InputError, match="line 3: a_cfc600 = 'nan'"):
         read_run(d)
+
+
+def test_run_files_carry_units_and_both_header_styles_read_back_equal(tmp_path):
+    """acceleration.csv and reaction.csv are written with ``name [unit]`` headers (as sweep.csv);
+    cfm compare reads them and the older files without units to the same numbers, and refuses a
+    header whose unit is not the one the column is read in."""
+    from cfm_core.post.writers import write_drop_test, write_reaction
+
+    t = np.arange(4) * 2e-5
+    new = write_drop_test(tmp_path / "new", t, t * 1e4, t * 2e4 + 0.1, {"backend": "numba"})
+    assert (new / "acceleration.csv").read_text().splitlines()[0] == "t [s],a_raw [m/s^2],a_cfc600 [m/s^2]"
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "summary.json").write_text(json.dumps({"backend": "numba"}))
+    lines = (new / "acceleration.csv").read_text().splitlines()
+    _write(old / "acceleration.csv", "\n".join(["t,a_raw,a_cfc600", *lines[1:]]) + "\n")
+    a, b = read_run(new), read_run(old)
+    np.testing.assert_array_equal(a.t, t)
+    np.testing.assert_array_equal(a.y, t * 2e4 + 0.1)  # the numbers are unchanged by the header
+    np.testing.assert_array_equal(a.t, b.t)
+    np.testing.assert_array_equal(a.y, b.y)
+    rx = write_reaction(tmp_path / "rx", t, 1 - t, 3 * t, 4 * t, {"backend": "skfem"})
+    assert (rx / "reaction.csv").read_text().splitlines()[0] == "t [s],stretch [-],reaction_force [N],nominal_stress [Pa]"
+    np.testing.assert_array_equal(read_run(rx).y, 3 * t)
+    _write(old / "acceleration.csv", "t [s],a_raw [g],a_cfc600 [g]\n0,0,0\n1e-5,1,2\n")
+    with pytest.raises(InputError, match=r"a_cfc600"):
+        read_run(old)

@@ -68,7 +68,8 @@ def run_case(case) -> tuple[dict, dict]:
            "energy_error": float(run["energy_error"]), "peak": float(y[k]), "t_peak": float(t[k]),
            "final": float(y[-1]), "t_end": float(t[-1]), "samples": np.interp(ts, t, y).tolist()}
     if run["summary"]:
-        rec["summary"] = {key: float(run["summary"][key]) for key in SUMMARY_KEYS if key in run["summary"]}
+        rec["summary"] = {key: float(run["summary"][key]) for key in SUMMARY_KEYS
+                          if run["summary"].get(key) is not None}  # None: n/a (no hourglass on skfem)
     return rec, {"scene": scene, "run": run}
 
 

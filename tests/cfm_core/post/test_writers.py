@@ -73,7 +73,7 @@ def test_drop_test_output(tmp_path, monkeypatch):
     t = np.arange(5) * 2e-5
     out = write_drop_test(tmp_path / "run", t, np.ones(5), 2 * np.ones(5), {"peak_g": 0.2, "units": {"peak_g": "g"}})
     assert order == ["acceleration.csv", "summary.json"]  # summary last: its presence means success
-    assert (out / "acceleration.csv").read_text().splitlines()[0] == "t,a_raw,a_cfc600"
+    assert (out / "acceleration.csv").read_text().splitlines()[0] == "t [s],a_raw [m/s^2],a_cfc600 [m/s^2]"
     data = np.loadtxt(out / "acceleration.csv", delimiter=",", skiprows=1)
     assert np.array_equal(data[:, 0], t) and np.all(data[:, 2] == 2.0)
     s = json.loads((out / "summary.json").read_text())
@@ -121,3 +121,21 @@ def test_plots_written_atomically(tmp_path):
     for name in ("a.png", "o.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "o.png"]
+
+
+def test_output_folder_refuses_a_file_creates_the_folder_and_removes_a_stale_marker(tmp_path):
+    from cfm_core.errors import InputError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError, match=f"--out {tmp_path / 'file'} exists and is not a directory"):
+        writers.output_folder(tmp_path / "file")
+    with pytest.raises(InputError, match="output directory .* is not a directory"):
+        writers.output_folder(tmp_path / "file", what="output directory")
+    assert not (tmp_path / "new").exists() and writers.output_folder(tmp_path / "new", create=False) == tmp_path / "new"
+    assert not (tmp_path / "new").exists()
+    out = writers.output_folder(tmp_path / "a" / "b", marker="summary.json")
+    assert out.is_dir()
+    (out / "summary.json").write_text("{}")
+    (out / "keep.csv").write_text("t\n")
+    writers.output_folder(out, marker="summary.json")
+    assert not (out / "summary.json").exists() and (out / "keep.csv").exists()

@@ -23,7 +23,7 @@ def write_history(path, t, F):
 def read_out(path):
     with open(path) as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
+    assert rows[0] == ["t [s]", "s11 [Pa]", "s22 [Pa]", "s33 [Pa]", "s12 [Pa]", "s23 [Pa]", "s13 [Pa]"]
     return np.array(rows[1:], dtype=float)
 
 
@@ -49,7 +49,7 @@ def test_uniaxial_mode_zero_lateral_stress_and_energy_consistency(tmp_path):
     assert main(["point", "--material", "cfm", "--elastic", "--uniaxial", "--rate", "100", "--stretch", "0.5",
                  "--steps", "50", "--out", str(out)]) == 0
     rows = list(csv.reader(open(out)))
-    assert rows[0] == ["t", "stretch", "nominal_stress", "lateral_stretch"]
+    assert rows[0] == ["t [s]", "stretch [-]", "nominal_stress [Pa]", "lateral_stretch [-]"]
     data = np.array(rows[1:], dtype=float)
     assert data[-1, 1] == pytest.approx(0.5)
     assert data[-1, 0] == pytest.approx(0.005)

@@ -72,7 +72,7 @@ def test_serial_sweep_records_failures_and_completes_the_rest(serial):
             summary = json.loads((folder / "summary.json").read_text())
             assert summary["sweep"] == {"thickness": r["thickness [m]"], "k1": r["k1 [Pa]"]}
             assert summary["peak_g"] == r["peak_g [g]"]
-            assert (folder / "acceleration.csv").read_text().startswith("t,a_raw,a_cfc600\n")
+            assert (folder / "acceleration.csv").read_text().startswith("t [s],a_raw [m/s^2],a_cfc600 [m/s^2]\n")
     ok = {(r["thickness [m]"], r["k1 [Pa]"]): r["peak_g [g]"] for r in rows if r["status"] == "ok"}
     assert ok[(0.005, 1000.0)] > ok[(0.005, 1320.0)] > ok[(0.008, 1000.0)] > ok[(0.008, 1320.0)]
     assert (out / "peaks.png").stat().st_size > 0

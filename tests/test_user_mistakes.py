@@ -1,0 +1,135 @@
+"""What a fresh user gets wrong: values in mm where the product reads m, a mistyped command, option
+or scene key ("did you mean ...?") refused before anything runs (exit 2, one paragraph, no
+traceback); values in g or mm/s where it reads kg and m/s (shared case units-mass-in-grams) warned
+before the run, which the run checks then stop (exit 3); and ``cfm --version``."""
+
+import subprocess
+import sys
+import time
+from importlib import metadata
+
+import pytest
+
+from cfm_core.errors import InputError
+from cfm_core.scene.plausible import check_plausible
+from cfm_core.scene.scene import builtin_scene
+
+
+def cfm(*args, timeout=120):
+    start = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "cfm_core.cli", *args], capture_output=True, text=True,
+                         timeout=timeout)
+    return run.returncode, run.stdout, run.stderr, time.perf_counter() - start
+
+
+def _one_paragraph(err):
+    assert "Traceback" not in err and "usage:" not in err
+    assert err.strip() and "\n" not in err.strip(), err
+
+
+@pytest.mark.parametrize("option, value, expected", [
+    ("--radius", "55", "[impactor] radius = 55.0 m is out of range"),
+    ("--radius", "5", "[impactor] radius = 5.0 m is out of range"),
+    ("--width", "5", "[specimen] width = 5.0 m is out of range"),
+    ("--thickness", "8", "[specimen] thickness = 8.0 m is out of range"),
+    ("--element-size", "2", "[specimen] element_size = 2.0 m is out of range"),
+])
+def test_unit_slips_are_refused_before_running_with_the_likely_mistake(tmp_path, option, value, expected):
+    out = tmp_path / "o"
+    code, _, err, _ = cfm("drop-test", option, value, "--out", str(out), "--quiet", "--no-plot")
+    assert code == 2
+    _one_paragraph(err)
+    assert expected in err
+    slip = f"{value} mm"
+    si = f"{float(value) / 1000:g}"
+    assert f"did you mean {si} " in err and f"({slip})?" in err and f"{option} {si}" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("key, value, slip, what", [
+    ("mass", "220.0", "did you mean 0.22 kg (220 g)?", "impactor mass"),
+    ("velocity", "1000.0", "did you mean 1 m/s (1000 mm/s)?", "impact speed"),
+])
+def test_mass_or_speed_in_g_or_mm_per_s_warned_first_then_stopped_by_the_run_checks(tmp_path, key, value, slip, what):
+    """The shared case (mass = 220.0 read as 220 kg; 1000 for 1000 mm/s): a warning naming the slip
+    before the run, then exit 3 from the run checks (no summary.json), never a finished run."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'[scene]\ntype = "drop-test"\n[specimen]\nelement_size = 0.002\n[impactor]\n{key} = {value}\n')
+    out = tmp_path / "o"
+    code, _, err, _ = cfm("run", "--scene", str(scene), "--out", str(out), "--quiet")
+    first = err.strip().splitlines()[0]
+    assert first.startswith("warning:") and f"not a plausible {what}" in first and slip in first
+    assert code == 3 and "Traceback" not in err
+    assert not (out / "summary.json").exists()
+
+
+@pytest.mark.parametrize("over, warned", [
+    ({"mass": 20.0}, False), ({"mass": 50.0}, True), ({"mass": 100.0}, True),  # heavy impactors run
+    ({"velocity": 20.0}, False), ({"velocity": 60.0}, True), ({"radius": 0.25}, False), ({"radius": 0.8}, True),
+    ({"width": 0.5}, False), ({"width": 0.9}, True), ({}, False),
+])
+def test_legitimate_heavy_or_large_values_run_with_at_most_a_warning(over, warned):
+    notes = check_plausible(builtin_scene("drop-test").with_overrides(**over))
+    assert len(notes) == int(warned)
+    if warned:
+        key, value = next(iter(over.items()))
+        assert f"{key} = {value:g} " in notes[0] and "it runs as given" in notes[0]
+
+
+@pytest.mark.parametrize("over", [{"radius": 1.01}, {"width": 1.01}])
+def test_just_above_the_bounds_is_refused(over):
+    with pytest.raises(InputError, match="out of range"):
+        check_plausible(builtin_scene("drop-test").with_overrides(**over))
+
+
+@pytest.mark.parametrize("over", [{"mass": 100.5}, {"velocity": 101.0}])
+def test_mass_and_speed_above_the_slip_bound_are_warned_as_slips_not_refused(over):
+    notes = check_plausible(builtin_scene("drop-test").with_overrides(**over))
+    assert len(notes) == 1 and "almost surely a unit slip" in notes[0] and "It runs as given" in notes[0]
+
+
+@pytest.mark.parametrize("args, hint", [
+    (["drop-tset"], "Did you mean 'drop-test'?"),
+    (["drop-test", "--thicknesss", "0.005", "--out", "o"], "--thicknesss: did you mean '--thickness'?"),
+    (["drop-test", "--thikness=0.005", "--out", "o"], "--thikness: did you mean '--thickness'?"),
+    (["drop-test", "--moduli", "longterm", "--out", "o"], "Did you mean 'long-term'?"),
+    (["sweep", "--vary", "k1=1", "--out", "o", "--workrs", "2"], "--workrs: did you mean '--workers'?"),
+])
+def test_typos_get_the_closest_names(tmp_path, args, hint):
+    code, _, err, _ = cfm(*args)
+    assert code == 2 and hint in err
+    _one_paragraph(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_mistyped_scene_key_gets_the_closest_key(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('[scene]\ntype = "drop-test"\n[specimen]\nthicknes = 0.005\n')
+    code, _, err, _ = cfm("drop-test", "--scene", str(path), "--out", str(tmp_path / "o"))
+    assert code == 2 and "unknown key 'thicknes' in [specimen] of a drop-test scene (did you mean 'thickness'?)" in err
+    _one_paragraph(err)
+
+
+def test_version_names_the_package_version_and_the_backends():
+    code, out, err, _ = cfm("--version")
+    assert code == 0 and err == ""
+    first, *rest = out.splitlines()
+    assert first.startswith(f"cfm-materials {metadata.version('cfm-materials')} (Python ")
+    backends = {line.split()[0] for line in rest[1:]}
+    assert rest[0] == "backends:" and {"numba", "skfem", "torch"} <= backends
+    assert all("available" in line or "BROKEN" in line for line in rest[1:])
+
+
+def test_a_mesh_in_millimetres_is_refused_with_a_hint_to_scale_it(tmp_path):
+    import meshio
+
+    from cfm_core.scene.mesh import structured_hex_mesh
+
+    nodes, hexes = structured_hex_mesh(25.0, 25.0, 8.0, 5, 5, 2, (0.0, 0.0, 0.0))  # a quarter, in mm
+    path = tmp_path / "quarter_mm.vtu"
+    meshio.write(path, meshio.Mesh(nodes, [("hexahedron", hexes)]))
+    with pytest.raises(InputError) as err:
+        builtin_scene("drop-test").with_overrides(mesh=str(path))
+    text = str(err.value)
+    assert "width = 50.0 m is out of range" in text and "did you mean 0.05 m (50 mm)?" in text
+    assert "Scale the mesh's coordinates to m" in text and "Write width" not in text
