@@ -213,9 +213,8 @@ class _Batch:
     def loop(self):
         import torch
 
-        from . import batch_contact
+        from . import batch_contact, element
         from .contact import plane_contact
-        from . import element
         from .element import scatter
 
         o, B, N, n = self.o, self.B, self.N, self.n
