@@ -85,13 +85,13 @@ def build(model, o, device, dtype):
 
 
 def initial_state(k: int, ne: int, dtype, device):
-    """Zero Prony history (k, 3, 3, N) and zero previous S0, S, E (3, 3, N)."""
+    """Zero Prony history (k, 6, N) and zero previous S0, S, E (6, N) (symmetric tensors as 6-vectors)."""
     import torch
 
     from .element import ElementState
 
     z = lambda *shape: torch.zeros(shape, dtype=dtype, device=device)  # noqa: E731
-    return ElementState(z(k, 3, 3, ne), z(3, 3, ne), z(3, 3, ne), z(3, 3, ne))
+    return ElementState(z(k, 6, ne), z(6, ne), z(6, ne), z(6, ne))
 
 
 def interp(t: float, times: np.ndarray, values: np.ndarray) -> float:

@@ -213,7 +213,7 @@ class _Batch:
     def loop(self):
         import torch
 
-        from . import batch_contact
+        from . import batch_contact, element
         from .contact import plane_contact
         from .element import scatter
 
@@ -251,13 +251,13 @@ class _Batch:
         while True:
             # 1. elements at x^n
             kin, resp, overflow = self._element_pass(dtp, alive)
-            bad = resp.bad.view(B, N)
-            first_bad = torch.where(bad != 0, ar, N).amin(1)
+            first_bad = torch.where(resp.failed.view(B, N), ar, N).amin(1)
             failed = alive & (first_bad < N)
             fb = first_bad.clamp(max=N - 1)
             ge = torch.arange(B, device=dev) * N + fb
-            kind = torch.where(bad.gather(1, fb[:, None])[:, 0] == 1, INVERTED, NONFINITE)
-            self._flag(code, err, failed, kind, fb, t, kin.J.index_select(0, ge), kin.m.index_select(1, ge), DT0)
+            Jb = kin.J.index_select(0, ge)
+            kind = torch.where(element.inverted(Jb), INVERTED, NONFINITE)
+            self._flag(code, err, failed, kind, fb, t, Jb, kin.m.index_select(1, ge), DT0)
             if overflow is not None:
                 self._flag(code, err, alive & overflow, FALLBACK, fb * 0, t, t, kin.m[:, :B], DT0)
             alive = alive & ~failed
@@ -273,7 +273,7 @@ class _Batch:
             dt = torch.where(alive, dt, torch.where(dtp > 0.0, dtp, 1.0))
             dtn = 0.5 * (dtp + dt)
             # 3. central differences
-            nodal = scatter(resp.fint, resp.fhg, self.idx, B * n)
+            nodal = scatter(resp.fe, self.idx, B * n)
             fint, fhg = nodal[0:3], nodal[3:6]
             vold.copy_(v)
             v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (F(dtn)[:, None] / self.mass.view(B, n))).mul_(

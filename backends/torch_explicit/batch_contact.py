@@ -67,13 +67,13 @@ def _candidates(xs, sp: BatchSphere, cx: float, cy: float, Z, R: float, M) -> _C
 def _root(c: _Cand, dz):
     """(s, ds/d dz) (B, s) for the sphere moved by dz (B,)."""
     qz = c.P[2] - dz[:, None]
-    cq = c.c0 + qz * qz
-    b = c.b0 + qz * c.D[2]
+    cq = torch.addcmul(c.c0, qz, qz)
+    b = torch.addcmul(c.b0, qz, c.D[2])
     disc = torch.sqrt(torch.clamp(b * b - cq, min=0.0))
     s = torch.where(b > 0.0, -cq / (b + disc), disc - b)
-    ez = qz + s * c.D[2]
-    den = c.b0 + s * c.dd + ez * c.D[2]
-    ds = torch.where(den <= 0.0, 0.0, ez / den)
+    ez = torch.addcmul(qz, s, c.D[2])
+    den = torch.addcmul(c.b0, s, c.dd).addcmul_(ez, c.D[2])
+    ds = torch.where(den <= 0.0, 0.0, ez / den)  # same arithmetic as the single run's contact._root
     ok = (cq < 0.0) & c.inside
     return torch.where(ok, s, 0.0), torch.where(ok, ds, 0.0)
 

@@ -54,7 +54,7 @@ class _Candidates(NamedTuple):
 
 
 def _candidates(xs, sn: SphereNodes, cx: float, cy: float, Z: float, R: float, M: float):
-    P = torch.stack([xs[0] - cx, xs[1] - cy, xs[2] - Z])
+    P = xs - torch.tensor([[cx], [cy], [Z]], dtype=xs.dtype).to(xs.device, non_blocking=True)
     d2 = (P * P).sum(0)
     d = torch.sqrt(d2)
     un = P / d * sn.free
@@ -66,28 +66,27 @@ def _candidates(xs, sn: SphereNodes, cx: float, cy: float, Z: float, R: float, M
     D = un.index_select(1, cand) / w
     qc = sn.mass.index_select(0, cand) / w
     nz = P[2] / d
-    return _Candidates(cand, P, D, qc, nz, qc * nz / M, P[0] * P[0] + P[1] * P[1] - R * R,
-                       P[0] * D[0] + P[1] * D[1], D[0] * D[0] + D[1] * D[1])
+    Pxy, Dxy = P[0:2], D[0:2]
+    return _Candidates(cand, P, D, qc, nz, qc * nz / M, (Pxy * Pxy).sum(0) - R * R, (Pxy * Dxy).sum(0),
+                       (Dxy * Dxy).sum(0))
 
 
 def _root(c: _Candidates, dz):
-    """(s, ds/d dz) per candidate: s >= 0 with |P - dz e_z + s D| = R (0 where outside)."""
+    """(2, c): s and ds/d dz per candidate, s >= 0 with |P - dz e_z + s D| = R (0 where outside)."""
     qz = c.P[2] - dz
-    cq = c.c0 + qz * qz
-    b = c.b0 + qz * c.D[2]
+    cq = torch.addcmul(c.c0, qz, qz)
+    b = torch.addcmul(c.b0, qz, c.D[2])
     disc = torch.sqrt(b * b - cq)
     s = torch.where(b > 0.0, -cq / (b + disc), disc - b)
-    ez = qz + s * c.D[2]
-    den = c.b0 + s * c.dd + ez * c.D[2]
+    ez = torch.addcmul(qz, s, c.D[2])
+    den = torch.addcmul(c.b0, s, c.dd).addcmul_(ez, c.D[2])
     ds = torch.where(den <= 0.0, 0.0, ez / den)
-    inside = cq < 0.0
-    return torch.where(inside, s, 0.0), torch.where(inside, ds, 0.0)
+    return torch.where(cq < 0.0, torch.stack([s, ds]), 0.0)
 
 
 def _h(c: _Candidates, dz):
     """(h(dz) - dz, h'(dz) - 1) = (sum coef s, sum coef ds) as a (2,) tensor."""
-    s, ds = _root(c, dz)
-    return (c.coef * torch.stack([s, ds])).sum(1)
+    return (_root(c, dz) * c.coef).sum(1)
 
 
 def _newton_host(c: _Candidates, tol: float):
@@ -188,7 +187,7 @@ def sphere_contact(u, v, dvc, sn: SphereNodes, cx: float, cy: float, Z: float, V
     dz, checks = _newton_host(c, tol) if block == 1 else _newton_device(c, tol, block)
     checks += 1
     # apply: nodes land on the sphere moved by dz; the sphere moves by -sum q n_z / M
-    s, _ = _root(c, dz)
+    s = _root(c, dz)[0]
     q = c.qc * s
     moved = s > 0.0
     dx = torch.where(moved, s, 0.0) * c.D

@@ -14,6 +14,15 @@ Total Lagrangian hex8, one-point integration (Flanagan & Belytschko 1981):
     dt_e = L / sqrt(M_max / rho),   M_a = 2 psi_a + 4 m_a psi_aa        (stable step, Pa)
     stress work: V0 (S_old + S) / 2 : (E - E_old),   E = (C - I) / 2    (J)
 
+Symmetric tensors of the state and the stress (S, S0, H_k, E) are 6-vectors in numba's order 11,
+22, 33, 12, 23, 13 (``VOIGT``), so each op on them is a third smaller than on (3, 3, N); the
+element forces are one (6, 8, N) tensor, internal then hourglass, summed to the nodes by one
+``index_add_``. The pass dispatches about 730 ops (views included; was 930): the material's
+generated code ~290, the eigen-decomposition ~235, the rest ~200. Each is a pass over a few rows
+of N, so on the CPU the cost is per-op overhead (~1.5 us) plus memory traffic; ops on stacked rows
+do the work of several (F, C, A V, the 6 stress components, the Prony terms), per-node views come
+from one ``unbind`` each and the failure checks are one sum.
+
 F is formed from the displacement u = x - X (not the position): the same F to round-off in
 float64, and in float32 it keeps the strain's digits. The stages (``gather``, ``front`` =
 ``deformation`` + ``eigen.eig3`` + ``derivatives``, ``response``, ``scatter``) are pure functions (no host
@@ -27,7 +36,14 @@ from typing import NamedTuple
 
 import torch
 
-from .eigen import eig3
+from .eigen import constant, eig3
+
+VOIGT = (0, 4, 8, 1, 5, 2)              # 11, 22, 33, 12, 23, 13 of a (3, 3) viewed as (9,)
+FULL = (0, 3, 5, 3, 1, 4, 5, 4, 2)      # the (3, 3) entries of a Voigt 6-vector
+# products Q[I_k, a] Q[J_k, a] of the eigenvector matrix (viewed as (9,)) for the 6 Voigt pairs k and a
+QI = tuple(3 * i + a for i in (0, 1, 2, 0, 1, 0) for a in range(3))
+QJ = tuple(3 * j + a for j in (0, 1, 2, 1, 2, 2) for a in range(3))
+WORK_WEIGHTS = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)   # S : E of symmetric tensors from their 6-vectors
 
 
 class Kinematics(NamedTuple):
@@ -41,21 +57,25 @@ class Kinematics(NamedTuple):
 
 
 class ElementState(NamedTuple):
-    H: torch.Tensor        # (k, 3, 3, N) Prony history (Pa)
-    S0: torch.Tensor       # (3, 3, N) instantaneous isochoric S of the previous step (Pa)
-    S: torch.Tensor        # (3, 3, N) second Piola-Kirchhoff stress of the previous step (Pa)
-    E: torch.Tensor        # (3, 3, N) Green-Lagrange strain of the previous step
+    H: torch.Tensor        # (k, 6, N) Prony history (Pa)
+    S0: torch.Tensor       # (6, N) instantaneous isochoric S of the previous step (Pa)
+    S: torch.Tensor        # (6, N) second Piola-Kirchhoff stress of the previous step (Pa)
+    E: torch.Tensor        # (6, N) Green-Lagrange strain of the previous step
 
 
 class Response(NamedTuple):
-    fint: torch.Tensor     # (3, 8, N) internal element nodal forces (N)
-    fhg: torch.Tensor      # (3, 8, N) hourglass element nodal forces (N)
+    fe: torch.Tensor       # (6, 8, N) element nodal forces (N): internal (0:3), hourglass (3:6)
     dte: torch.Tensor      # (N,) L / c (s), inf for failed elements
-    bad: torch.Tensor      # (N,) int8: 0 ok, 1 inverted (J <= 0), 2 non-finite stress
+    failed: torch.Tensor   # (N,) bool: inverted (see :func:`inverted`) or non-finite stress
     work: torch.Tensor     # () stress work increment (J, modelled part)
     work_e: torch.Tensor   # (N,) stress work increment per element (J)
     state: ElementState    # the updated state
-    summary: torch.Tensor  # (5,) float64: min dte, its element, first failed element (N if none), work, fallback count
+    summary: torch.Tensor  # (5,) float64: min dte, its element, failed element count, work, fallback count
+
+
+def inverted(J: torch.Tensor) -> torch.Tensor:
+    """(...) bool: det F not positive or not finite (an inverted element; numba's status 1)."""
+    return ~((J > 0.0) & (J < torch.inf))
 
 
 def gather(uv: torch.Tensor, idx: torch.Tensor, ne: int) -> torch.Tensor:
@@ -76,18 +96,24 @@ def flat_index(idx: torch.Tensor, n: int) -> torch.Tensor:
 
 def deformation(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor):
     """(F (3, 3, N), q (4, 3, N), J (N,), C (3, 3, N)) from the element nodal values g (6, 8, N)."""
-    F = g[0:3, 0, None] * B[None, 0]
-    q = G[0, :, None] * g[None, 3:6, 0]
+    # per-node views from one unbind each (a Python-level view op costs about as much as a small op)
+    ua, va = g[0:3, :, None].unbind(1), g[None, 3:6].unbind(2)       # (3, 1, N), (1, 3, N)
+    Ba, Ga = B[None].unbind(1), G[:, :, None].unbind(0)              # (1, 3, N), (4, 1, N)
+    F = ua[0] * Ba[0]
+    q = Ga[0] * va[0]
     for a in range(1, 8):
-        F.addcmul_(g[0:3, a, None], B[None, a])
-        q.addcmul_(G[a, :, None], g[None, 3:6, a])
-    F = F + torch.eye(3, dtype=F.dtype, device=F.device)[:, :, None]
+        F.addcmul_(ua[a], Ba[a])
+        q.addcmul_(Ga[a], va[a])
+    F.view(9, -1)[0::4] += 1.0
     J, C = det_and_cauchy_green(F)
     return F, q, J, C
 
 
 def det_and_cauchy_green(F: torch.Tensor):
-    """(J = det F (N,), C = F^T F (3, 3, N)) of deformation gradients F (3, 3, N)."""
+    """(J = det F (N,), C = F^T F (3, 3, N)) of deformation gradients F (3, 3, N).
+
+    J: numba's cofactor expansion along the first row.
+    """
     f00, f01, f02 = F[0, 0], F[0, 1], F[0, 2]
     f10, f11, f12 = F[1, 0], F[1, 1], F[1, 2]
     f20, f21, f22 = F[2, 0], F[2, 1], F[2, 2]
@@ -99,8 +125,19 @@ def det_and_cauchy_green(F: torch.Tensor):
 
 def matmul3(A: torch.Tensor, B: torch.Tensor) -> torch.Tensor:
     """A B per element for A, B (3, 3, N) (e.g. P = F S)."""
-    out = A[:, 0, None] * B[None, 0]
-    return out.addcmul_(A[:, 1, None], B[None, 1]).addcmul_(A[:, 2, None], B[None, 2])
+    a0, a1, a2 = A[:, :, None].unbind(1)
+    b0, b1, b2 = B[None].unbind(1)
+    return (a0 * b0).addcmul_(a1, b1).addcmul_(a2, b2)
+
+
+def full(S: torch.Tensor) -> torch.Tensor:
+    """(3, 3, N) symmetric tensors from their Voigt 6-vectors S (6, N)."""
+    return S.index_select(0, constant(FULL, torch.int64, S.device)).view(3, 3, -1)
+
+
+def voigt(A: torch.Tensor) -> torch.Tensor:
+    """(6, N) Voigt 6-vectors (11, 22, 33, 12, 23, 13) of symmetric tensors A (3, 3, N)."""
+    return A.reshape(9, -1).index_select(0, constant(VOIGT, torch.int64, A.device))
 
 
 def derivatives(ghd, p, m: torch.Tensor) -> torch.Tensor:
@@ -146,21 +183,25 @@ def kinematics(g: torch.Tensor, B: torch.Tensor, G: torch.Tensor) -> Kinematics:
 
 
 def principal_stresses(D: torch.Tensor, Q: torch.Tensor):
-    """(S0_iso, S_vol) (3, 3, N) in Pa: Q diag(2 psi_a) Q^T of the isochoric and volumetric parts.
+    """(S0_iso, S_vol) (6, N) in Pa: Q diag(2 psi_a) Q^T of the isochoric and volumetric parts.
 
-    D (12, N): the derivatives (:func:`derivatives`); Q (3, 3, N): eigenvectors of C.
+    D (12, N): the derivatives (:func:`derivatives`); Q (3, 3, N): eigenvectors of C. Both parts
+    from one table of eigenvector products q_ia q_ja (the 6 pairs, 3 directions a).
     """
-    coef = 2.0 * D[0:6].view(2, 3, -1)                       # 2 psi_a of the isochoric, volumetric parts
-    W = Q[None] * coef[:, None]                              # (part, i, a, N)
-    S2 = W[:, :, None, 0] * Q[None, None, :, 0]
-    S2.addcmul_(W[:, :, None, 1], Q[None, None, :, 1]).addcmul_(W[:, :, None, 2], Q[None, None, :, 2])
+    coef = 2.0 * D[0:6].view(2, 3, 1, -1)                    # 2 psi_a of the isochoric, volumetric parts
+    Q9 = Q.reshape(9, -1)
+    dev = Q.device
+    QQ = (Q9.index_select(0, constant(QI, torch.int64, dev)) * Q9.index_select(0, constant(QJ, torch.int64, dev)))
+    QQ = QQ.view(6, 3, -1).transpose(0, 1)                   # (a, pair, N)
+    S2 = coef[:, 0] * QQ[None, 0]
+    S2.addcmul_(coef[:, 1], QQ[None, 1]).addcmul_(coef[:, 2], QQ[None, 2])
     return S2[0], S2[1]
 
 
 def prony_update(S0, S_vol, H, S0_old, factors, ginf: float):
     """(S, H_new): S = S_vol + gamma_inf S0 + sum_k H_k with H_k <- decay_k H_k + gain_k (S0 - S0_old).
 
-    H (k, 3, 3, N), S0_old (3, 3, N): the Prony state; factors (2, k): decay_k, gain_k of the step,
+    H (k, 6, N), S0_old (6, N): the Prony state; factors (2, k): decay_k, gain_k of the step,
     or (2, k, N) per element with ginf (N,) (a batch of runs, each with its own step and series);
     no Prony terms (k = 0): S = S_vol + S0 (elastic).
     """
@@ -170,12 +211,13 @@ def prony_update(S0, S_vol, H, S0_old, factors, ginf: float):
     d = S0 - S0_old
     if factors.dim() == 2:
         S = S_vol.add(S0, alpha=ginf)
-        Hn = H * factors[0, :, None, None, None]
+        f = factors[:, :, None, None]
     else:
         S = S_vol + S0 * ginf
-        Hn = H * factors[0, :, None, None, :]
+        f = factors[:, :, None, :]
+    Hn = torch.addcmul(H * f[0], f[1], d)
     for j in range(k):
-        S.add_(Hn[j].add_(d * factors[1, j]))
+        S.add_(Hn[j])
     return S, Hn
 
 
@@ -186,49 +228,50 @@ def stress(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf:
     D (12, N): the material derivatives at kin.m (:func:`derivatives`); factors (2, k): Prony decay
     and gain of the step since the previous pass; hgc = -Q_hg rho V0^(2/3) / 4 (N,); hgwave 0:
     hourglass wave speed from the isochoric modulus, 1: from the full one.
-    Returns (P = F S (3, 3, N), c_hg q (4, 3, N), dte, bad, work, work per element (N,), new state,
-    summary).
+    Returns (P = F S (3, 3, N), c_hg q (4, 3, N), dte, failed, work, work per element (N,), new
+    state, summary).
     """
     F, q, J, C, m, Q = kin.F, kin.q, kin.J, kin.C, kin.m, kin.Q
-    ne = F.shape[-1]
     S0, S_vol = principal_stresses(D, Q)
     S, Hn = prony_update(S0, S_vol, state.H, state.S0, factors, ginf)
-    # longitudinal moduli along the principal directions (Pa): isochoric and total
+    # longitudinal moduli along the principal directions (Pa): isochoric and total (numba's order)
     m4 = 4.0 * m
-    mi = (2.0 * D[0:3]).addcmul(m4, D[6:9])
-    mt = (mi + 2.0 * D[3:6]).addcmul(m4, D[9:12])
+    mi = (2.0 * D[0:3]).addcmul_(m4, D[6:9])
+    mt = (mi + 2.0 * D[3:6]).addcmul_(m4, D[9:12])
     mt_max = mt.amax(0)
-    inverted = ~(J > 0.0) | ~torch.isfinite(J)
-    nonfinite = ~torch.isfinite(D.sum(0)) | ~torch.isfinite(S.sum((0, 1)) + mt_max)
-    failed = inverted | nonfinite
-    bad = torch.where(inverted, 1, torch.where(nonfinite, 2, 0)).to(torch.int8)
-    dte = torch.where(mt_max > 0.0, L / torch.sqrt(mt_max / rho), torch.inf)
-    dte = torch.where(failed, torch.inf, dte)
+    # failed: inverted, or a non-finite derivative or stress (one sum carries any inf / nan)
+    failed = inverted(J) | ~torch.isfinite(D.sum(0) + S.sum(0) + mt_max)
+    dte = torch.where((mt_max > 0.0) & ~failed, L / torch.sqrt(mt_max / rho), torch.inf)
     # first Piola-Kirchhoff stress and the hourglass mode forces per unit hourglass vector
-    P = matmul3(F, S)
-    mod = (mi if hgwave == 0 else mt).amax(0)
+    P = matmul3(F, full(S))
+    mod = mi.amax(0) if hgwave == 0 else mt_max
     qc = q * torch.where(mod > 0.0, hgc * torch.sqrt(mod / rho), 0.0)
     # stress work (trapezoid in time) and the new state
-    E = 0.5 * (C - torch.eye(3, dtype=C.dtype, device=C.device)[:, :, None])
-    w = ((state.S + S) * (E - state.E)).sum((0, 1))
+    E = voigt(C)
+    E[0:3] -= 1.0
+    E *= 0.5
+    w = ((state.S + S) * (E - state.E) * constant(WORK_WEIGHTS, S.dtype, S.device)[:, None]).sum(0)
     work_e = 0.5 * (V0 * w)
     work = work_e.sum()
     dmin, emin = torch.min(dte, 0)
-    first_bad = torch.where(failed, torch.arange(ne, device=F.device), ne).amin()
     f64 = torch.float64
-    summary = torch.stack([dmin.to(f64), emin.to(f64), first_bad.to(f64), work.to(f64),
+    summary = torch.stack([dmin.to(f64), emin.to(f64), failed.sum().to(f64), work.to(f64),
                            kin.fallback.sum().to(f64)])
-    return P, qc, dte, bad, work, work_e, ElementState(Hn, S0, S, E), summary
+    return P, qc, dte, failed, work, work_e, ElementState(Hn, S0, S, E), summary
 
 
-def forces(P: torch.Tensor, qc: torch.Tensor, BV: torch.Tensor, G: torch.Tensor):
-    """Element nodal forces (3, 8, N) each: internal V0 P B_a and hourglass sum_alpha c_hg q_alpha G_a,alpha."""
-    fint = P[:, 0, None] * BV[None, :, 0]
-    fint.addcmul_(P[:, 1, None], BV[None, :, 1]).addcmul_(P[:, 2, None], BV[None, :, 2])
-    fhg = qc[0, :, None] * G[None, :, 0]
+def forces(P: torch.Tensor, qc: torch.Tensor, BV: torch.Tensor, G: torch.Tensor) -> torch.Tensor:
+    """Element nodal forces (6, 8, N): internal V0 P B_a (0:3) and hourglass sum_alpha c_hg q_alpha G_a,alpha (3:6)."""
+    fe = torch.empty((6,) + BV.shape[0:1] + BV.shape[2:], dtype=P.dtype, device=P.device)
+    fint, fhg = fe[0:3], fe[3:6]
+    p0, p1, p2 = P[:, :, None].unbind(1)
+    b0, b1, b2 = BV[None].unbind(2)
+    torch.mul(p0, b0, out=fint).addcmul_(p1, b1).addcmul_(p2, b2)
+    qs, gs = qc[:, :, None].unbind(0), G[None].unbind(2)
+    torch.mul(qs[0], gs[0], out=fhg)
     for s in range(1, 4):
-        fhg.addcmul_(qc[s, :, None], G[None, :, s])
-    return fint, fhg
+        fhg.addcmul_(qs[s], gs[s])
+    return fe
 
 
 def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, ginf: float, BV, G, L, V0, hgc,
@@ -239,15 +282,12 @@ def response(kin: Kinematics, D: torch.Tensor, state: ElementState, factors, gin
     :class:`Stages`) when its stress and forces functions are to be used (compiled ones).
     """
     st_fn, f_fn = (stress, forces) if stages is None else (stages.stress, stages.forces)
-    P, qc, dte, bad, work, work_e, new, summary = st_fn(kin, D, state, factors, ginf, L, V0, hgc, rho, hgwave)
-    fint, fhg = f_fn(P, qc, BV, G)
-    return Response(fint, fhg, dte, bad, work, work_e, new, summary)
+    P, qc, dte, failed, work, work_e, new, summary = st_fn(kin, D, state, factors, ginf, L, V0, hgc, rho, hgwave)
+    return Response(f_fn(P, qc, BV, G), dte, failed, work, work_e, new, summary)
 
 
-def scatter(fint: torch.Tensor, fhg: torch.Tensor, idx: torch.Tensor, n: int) -> torch.Tensor:
-    """Nodal sums (6, n): internal (0:3) and hourglass (3:6) forces from the element forces (3, 8, N)
-    each, by ``index_add_`` over idx = conn^T flattened."""
-    out = torch.zeros((6, n), dtype=fint.dtype, device=fint.device)
-    out[0:3].index_add_(1, idx, fint.reshape(3, -1))
-    out[3:6].index_add_(1, idx, fhg.reshape(3, -1))
-    return out
+def scatter(fe: torch.Tensor, idx: torch.Tensor, n: int) -> torch.Tensor:
+    """Nodal sums (6, n): internal (0:3) and hourglass (3:6) forces from the element forces fe
+    (6, 8, N), by one ``index_add_`` over idx = conn^T flattened."""
+    out = torch.zeros((6, n), dtype=fe.dtype, device=fe.device)
+    return out.index_add_(1, idx, fe.view(6, -1))

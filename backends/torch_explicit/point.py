@@ -24,7 +24,7 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
     import torch
 
     from .eigen import eig3_full
-    from .element import det_and_cauchy_green, derivatives, matmul3, principal_stresses, prony_update
+    from .element import det_and_cauchy_green, derivatives, full, inverted, matmul3, principal_stresses, prony_update
 
     t, F = check_point_inputs(t, F)
     dev, dt = resolve_device(device), resolve_dtype(dtype)
@@ -38,29 +38,29 @@ def point_history(material, t, F, device="cpu", dtype="float64") -> np.ndarray:
     with torch.inference_mode():
         f = torch.as_tensor(F.transpose(1, 2, 0).copy(), dtype=dt, device=dev)       # (3, 3, n)
         J, C = det_and_cauchy_green(f)
-        inverted = ~(J > 0.0) | ~torch.isfinite(J)
-        Cs = torch.where(inverted, torch.eye(3, dtype=dt, device=dev)[:, :, None], C)
+        inv = inverted(J)
+        Cs = torch.where(inv, torch.eye(3, dtype=dt, device=dev)[:, :, None], C)
         m, Q = eig3_full(Cs)
         D = derivatives(ghd, p, m)
         S0, S_vol = principal_stresses(D, Q)
         steps = np.diff(t, prepend=t[0])
         fac = np.array([mat.prony_factors(float(h), gam, tau) for h in steps]).reshape(n, 2, k)
         fac = torch.as_tensor(fac, dtype=dt, device=dev)
-        H = torch.zeros((k, 3, 3, 1), dtype=dt, device=dev)
-        S0_old = torch.zeros((3, 3, 1), dtype=dt, device=dev)
+        H = torch.zeros((k, 6, 1), dtype=dt, device=dev)
+        S0_old = torch.zeros((6, 1), dtype=dt, device=dev)
         S = torch.empty_like(S0)
         for i in range(n):
-            s0 = S0[:, :, i:i + 1]
-            Si, H = prony_update(s0, S_vol[:, :, i:i + 1], H, S0_old, fac[i], ginf)
-            S[:, :, i:i + 1] = Si
+            s0 = S0[:, i:i + 1]
+            Si, H = prony_update(s0, S_vol[:, i:i + 1], H, S0_old, fac[i], ginf)
+            S[:, i:i + 1] = Si
             S0_old = s0
-        sig = matmul3(matmul3(f, S), f.transpose(0, 1)) * (1.0 / J)     # J^-1 F S F^T
+        sig = matmul3(matmul3(f, full(S)), f.transpose(0, 1)) * (1.0 / J)     # J^-1 F S F^T
         out = torch.stack([sig[0, 0], sig[1, 1], sig[2, 2], sig[0, 1], sig[1, 2], sig[0, 2]], dim=1)
         nonfinite = ~torch.isfinite(D.sum(0)) | ~torch.isfinite(out.sum(1))
-        failed = inverted | nonfinite
+        failed = inv | nonfinite
         first = int(torch.where(failed, torch.arange(n, device=dev), n).amin())
     if first < n:
-        if bool(inverted[first]):
+        if bool(inv[first]):
             raise NumericalError(f"point {first} (t = {t[first]:.6g} s): det F = {float(J[first]):.4g} <= 0 "
                                  f"(inverted).", time=float(t[first]), element=first, quantity="J")
         raise errors.nonfinite(material, f"point {first} (t = {t[first]:.6g} s)", m[:, first].tolist(),

@@ -144,9 +144,9 @@ class _Run:
         start = time.perf_counter()
         while True:
             # 1. elements at x^n (Prony factors of the previous step)
-            kin, resp, (dmin, emin, first_bad, work, _) = self._element_pass(dtp)
-            if first_bad < a.ne:
-                raise self._element_error(int(first_bad), resp, kin, t)
+            kin, resp, (dmin, emin, nfailed, work, _) = self._element_pass(dtp)
+            if nfailed > 0:
+                raise self._element_error(resp, kin, t)
             IE += work
             # 2. stable step
             dtc = o.safety * dmin
@@ -157,7 +157,7 @@ class _Run:
                 raise self._collapse_error(t, int(emin), dtc, DT0)
             dtn = 0.5 * (dtp + dt)
             # 3. central differences
-            nodal = scatter(resp.fint, resp.fhg, a.idx, a.n)
+            nodal = scatter(resp.fe, a.idx, a.n)
             fint, fhg = nodal[0:3], nodal[3:6]
             self.vold.copy_(v)
             v.add_((fhg - fint) * (dtn / a.mass)).mul_(a.free)
@@ -253,11 +253,14 @@ class _Run:
         return res
 
     # ---- errors ----
-    def _element_error(self, e: int, resp, kin, t: float):
+    def _element_error(self, resp, kin, t: float):
         import torch
 
+        from .element import inverted
+
+        e = int(torch.nonzero(resp.failed)[0, 0])      # the first failed element
         J = float(kin.J[e])
-        if int(resp.bad[e]) == 1:
+        if bool(inverted(kin.J[e])):
             return errors.inverted(self.model, e, t, J)
         m = [float(x) for x in kin.m[:, e].tolist()]
         return errors.nonfinite(self.model.material, f"element {e} at t = {t:.6g} s", m, J, t, e,

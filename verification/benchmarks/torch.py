@@ -19,8 +19,13 @@
 3. Speed: solver wall time (compilation excluded, reported apart) and nanoseconds per
    element-cycle (wall / (elements x steps)) of numba and of torch on the CPU (eager float64 and
    float32; compiled with ``--compile``) with the same thread count (``--threads``, default 1),
-   best of ``--repeat`` runs, as ratios torch / numba; on the default drop test and on a refined
-   one (0.5 mm elements, 8x the elements) simulated for ``--refined-time`` seconds of the impact.
+   best of ``--repeat`` runs, as ratios torch / numba; also the process CPU time of the run call
+   (``time.process_time``, set-up included: much less disturbed than wall time by other processes
+   on a shared machine) and its ratio; on the default drop test, on a coarse one (2 mm elements,
+   ``--coarse``, where torch's per-op overhead dominates) and on a refined one (0.5 mm elements, 8x
+   the elements) simulated for ``--refined-time`` seconds of the impact. The torch eager float64
+   step is described by its aten ops per step (counted with a dispatch mode over the first 4 ms of
+   the impact, views included) and host synchronisations per step.
 
 Timings on a loaded machine are not meaningful: the load average is printed first.
 """
@@ -82,17 +87,40 @@ def point_agreement() -> dict:
 
 
 def timed(backend: str, model, repeat: int, **options):
-    """Best (smallest solver wall time) of ``repeat`` runs: the Result."""
+    """Best (smallest solver wall time) of ``repeat`` runs: the Result, with ``info['cpu_time']`` the
+    smallest process CPU time (s) of a run call (``time.process_time``, set-up included)."""
     from cfm_core.simulation.registry import get_backend
 
-    best, first = None, None
+    best, first, cpu = None, None, float("inf")
     for _ in range(repeat):
+        c0 = time.process_time()
         r = get_backend(backend).run(model, **options)
+        cpu = min(cpu, time.process_time() - c0)
         first = r.info.get("compile_time") if first is None else first
         if best is None or r.wall_time < best.wall_time:
             best = r
     best.info["first_compile_time"] = first
+    best.info["cpu_time"] = cpu
     return best
+
+
+def ops_per_step(model, end_time: float = 0.004) -> float:
+    """aten ops per step of the torch eager float64 run (one thread) over the first ``end_time`` s,
+    counted with a ``TorchDispatchMode`` (every op the step dispatches, views included)."""
+    from torch.utils._python_dispatch import TorchDispatchMode
+
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+
+    class _Count(TorchDispatchMode):
+        n = 0
+
+        def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+            _Count.n += 1
+            return func(*args, **(kwargs or {}))
+
+    with _Count():
+        r = TorchExplicitBackend().run(replace(model, end_time=end_time), threads=1, warm_up=False)
+    return _Count.n / r.steps
 
 
 def agreement(thickness: float) -> None:
@@ -125,13 +153,19 @@ def speed(label: str, model, repeat: int, compile_: bool, threads: list[int]) ->
         if compile_:
             rows.append((f"torch compiled cpu float64, {th} thread(s)",
                          timed("torch", model, repeat, threads=th, compile=True)))
-    ref = {th: r.wall_time for name, r in rows if name.startswith("numba") for th in [r.info["threads"]]}
+    ref = {r.info["threads"]: r for name, r in rows if name.startswith("numba")}
     for name, r in rows:
         extra = (f", compilation {r.info['first_compile_time']:.1f} s apart (first run)"
                  if r.info.get("compile") else "")
-        ratio = r.wall_time / ref.get(r.info["threads"], float("nan"))
+        nb = ref.get(r.info["threads"])
+        ratio = r.wall_time / nb.wall_time if nb else float("nan")
+        cpu_ratio = r.info["cpu_time"] / nb.info["cpu_time"] if nb else float("nan")
         print(f"  {name:<40} {r.wall_time:8.3f} s {r.info['ns_per_element_cycle']:7.0f} ns/element-cycle "
-              f"{r.steps:6d} steps  {ratio:5.2f} x numba{extra}", flush=True)
+              f"{r.steps:6d} steps  {ratio:5.2f} x numba; CPU {r.info['cpu_time']:7.3f} s, {cpu_ratio:5.2f} x "
+              f"numba{extra}", flush=True)
+    r64 = next(r for name, r in rows if name.startswith("torch eager cpu float64"))
+    print(f"  torch eager float64 step: {ops_per_step(model):.0f} aten ops, "
+          f"{r64.info['host_syncs_per_step']:.2f} host synchronisations", flush=True)
 
 
 def batch_models(b: int, end_time: float, element_size: float = 0.001):
@@ -185,6 +219,8 @@ def main(argv=None) -> None:
     ap.add_argument("--refined-time", type=float, default=0.004,
                     help="simulated time of the refined (0.5 mm) drop test, s (default 0.004)")
     ap.add_argument("--skip-refined", action="store_true", help="skip the refined drop test")
+    ap.add_argument("--coarse", action="store_true", help="also time the coarse drop test (8 mm, 2 mm elements)")
+    ap.add_argument("--speed-only", action="store_true", help="only the speed section (3)")
     ap.add_argument("--threads", type=int, nargs="+", default=[1],
                     help="thread counts to time, the same for both backends (default: 1)")
     ap.add_argument("--batch", action="store_true", help="also time batched torch runs (section 4)")
@@ -203,14 +239,18 @@ def main(argv=None) -> None:
         if args.batch_only:
             print(f"\nbenchmark took {time.perf_counter() - t0:.0f} s")
             return
-    print("\n1. material point vs cfm_core.material.reference.stress_history (max |d sigma| / max |sigma|):")
-    pa = point_agreement()
-    print(f"  float64 {pa['float64']:.2e}, float32 {pa['float32']:.2e}", flush=True)
-    print("\n2. drop test agreement with numba (same mesh, same step rule):")
-    for thickness in (0.008, 0.005):
-        agreement(thickness)
+    if not args.speed_only:
+        print("\n1. material point vs cfm_core.material.reference.stress_history (max |d sigma| / max |sigma|):")
+        pa = point_agreement()
+        print(f"  float64 {pa['float64']:.2e}, float32 {pa['float32']:.2e}", flush=True)
+        print("\n2. drop test agreement with numba (same mesh, same step rule):")
+        for thickness in (0.008, 0.005):
+            agreement(thickness)
     print("\n3. speed (solver wall time, compilation excluded):")
     speed("default drop test (8 mm, 1 mm elements)", scene_model(), args.repeat, args.compile, args.threads)
+    if args.coarse:
+        speed("coarse drop test (8 mm, 2 mm elements)", scene_model(0.008, 0.002), args.repeat, args.compile,
+              args.threads)
     if not args.skip_refined:
         speed(f"refined drop test (8 mm, 0.5 mm elements, first {1e3 * args.refined_time:g} ms)",
               scene_model(0.008, 0.0005, args.refined_time), args.repeat, args.compile, args.threads)
