@@ -195,4 +195,4 @@ def announce(material, kernel: str = "advance", stream=None):
     manager): :func:`cfm_core.material.compile_notice.announce_compile`, the notice the skfem
     backend prints too. Silent when the cache has them."""
     return compile_notice.announce_compile(source_of(material), "cfm_numba", "numba", material.name, kernel,
-                                           stream, "about 20 s on a free core" if kernel == "advance" else "some seconds")
+                                           stream, "about 30 s on a free core" if kernel == "advance" else "some seconds")
