@@ -29,6 +29,12 @@ from .vmath import vsqrt
 # <<< standalone
 
 
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+def rotate(c, s, a, b):
+    """The plane rotation (c a - s b, s a + c b)."""
+    return c * a - s * b, s * a + c * b
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def jacobi_rotation(app, aqq, apq):
     """(c, s, t) of the rotation annihilating apq (Numerical Recipes, sec. 11.1)."""
@@ -71,54 +77,30 @@ def eig3_jacobi(a00, a01, a02, a11, a12, a22):
             a00 -= t * a01
             a11 += t * a01
             a01 = 0.0
-            r0 = c * a02 - s * a12
-            a12 = s * a02 + c * a12
-            a02 = r0
-            r0 = c * q00 - s * q01
-            q01 = s * q00 + c * q01
-            q00 = r0
-            r0 = c * q10 - s * q11
-            q11 = s * q10 + c * q11
-            q10 = r0
-            r0 = c * q20 - s * q21
-            q21 = s * q20 + c * q21
-            q20 = r0
+            a02, a12 = rotate(c, s, a02, a12)
+            q00, q01 = rotate(c, s, q00, q01)
+            q10, q11 = rotate(c, s, q10, q11)
+            q20, q21 = rotate(c, s, q20, q21)
         # pair (0, 2): the third index is 1
         if a02 != 0.0:
             c, s, t = jacobi_rotation(a00, a22, a02)
             a00 -= t * a02
             a22 += t * a02
             a02 = 0.0
-            r0 = c * a01 - s * a12
-            a12 = s * a01 + c * a12
-            a01 = r0
-            r0 = c * q00 - s * q02
-            q02 = s * q00 + c * q02
-            q00 = r0
-            r0 = c * q10 - s * q12
-            q12 = s * q10 + c * q12
-            q10 = r0
-            r0 = c * q20 - s * q22
-            q22 = s * q20 + c * q22
-            q20 = r0
+            a01, a12 = rotate(c, s, a01, a12)
+            q00, q02 = rotate(c, s, q00, q02)
+            q10, q12 = rotate(c, s, q10, q12)
+            q20, q22 = rotate(c, s, q20, q22)
         # pair (1, 2): the third index is 0
         if a12 != 0.0:
             c, s, t = jacobi_rotation(a11, a22, a12)
             a11 -= t * a12
             a22 += t * a12
             a12 = 0.0
-            r0 = c * a01 - s * a02
-            a02 = s * a01 + c * a02
-            a01 = r0
-            r0 = c * q01 - s * q02
-            q02 = s * q01 + c * q02
-            q01 = r0
-            r0 = c * q11 - s * q12
-            q12 = s * q11 + c * q12
-            q11 = r0
-            r0 = c * q21 - s * q22
-            q22 = s * q21 + c * q22
-            q21 = r0
+            a01, a02 = rotate(c, s, a01, a02)
+            q01, q02 = rotate(c, s, q01, q02)
+            q11, q12 = rotate(c, s, q11, q12)
+            q21, q22 = rotate(c, s, q21, q22)
     return a00, a11, a22, q00, q01, q02, q10, q11, q12, q20, q21, q22
 
 
@@ -236,13 +218,7 @@ def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     s = t * c
     buu -= t * buw
     bww += t * buw
-    r0 = c * u0 - s * w0
-    w0 = s * u0 + c * w0
-    u0 = r0
-    r0 = c * u1 - s * w1
-    w1 = s * u1 + c * w1
-    u1 = r0
-    r0 = c * u2 - s * w2
-    w2 = s * u2 + c * w2
-    u2 = r0
+    u0, w0 = rotate(c, s, u0, w0)
+    u1, w1 = rotate(c, s, u1, w1)
+    u2, w2 = rotate(c, s, u2, w2)
     return ok, mv, buu, bww, v0, u0, w0, v1, u1, w1, v2, u2, w2
