@@ -94,8 +94,8 @@ class Parameter:
             x = float(value)
         except (TypeError, ValueError):
             raise InputError(
-                f"{context} '{self.name}' must be a number in {self.unit}, got {value!r}; "
-                f"allowed range {self.range_text()} {self.unit}."
+                f"{context} '{self.name}' must be a number{self._in_unit()}, got {value!r}; "
+                f"allowed range {self.range_text()}{self._unit_suffix()}."
             ) from None
         ok = math.isfinite(x)
         ok = ok and (x > self.low if self.low_open else x >= self.low)
@@ -103,10 +103,17 @@ class Parameter:
         ok = ok and not (self.nonzero and x == 0.0)
         if not ok:
             raise InputError(
-                f"{context} '{self.name}' = {value!r} {self.unit} is outside the allowed range "
-                f"{self.range_text()} {self.unit} ({self.description or 'no description'})."
+                f"{context} '{self.name}' = {value!r}{self._unit_suffix()} is outside the allowed range "
+                f"{self.range_text()}{self._unit_suffix()} ({self.description or 'no description'})."
             )
         return x
+
+    def _unit_suffix(self) -> str:
+        """" Pa" after a value; nothing for a dimensionless one (unit "-", which reads as a dash)."""
+        return "" if self.unit in ("-", "") else f" {self.unit}"
+
+    def _in_unit(self) -> str:
+        return " (dimensionless)" if self.unit in ("-", "") else f" in {self.unit}"
 
 
 def positive(name: str, unit: str, default: float, description: str = "") -> Parameter:

@@ -80,9 +80,14 @@ def _progress(progress, scene: Scene, label: str):
             if n > bar.n:
                 bar.update(n - bar.n)
 
-        def close() -> None:  # a drop test ends at separation, before the end time: show the time reached
-            bar.total = bar.n
-            bar.refresh()
+        def close(t_reached: float | None = None) -> None:
+            """Finish the bar: a finished run (t_reached, s) ends at the time it reached (a drop test
+            ends at separation, before the end time); a failed one keeps its end time, so the bar
+            shows how far it got instead of 100 %."""
+            if t_reached is not None:
+                update(t_reached)
+                bar.total = bar.n
+                bar.refresh()
             bar.close()
 
         update.close = close
@@ -169,9 +174,12 @@ def _run(scene: Scene, backend: str, progress, label: str, options: dict):
     callback = _progress(progress, scene, label)
     try:
         result = run_model(model, backend, callback, **options)
-    finally:
+    except BaseException:
         if hasattr(callback, "close"):
             callback.close()
+        raise
+    if hasattr(callback, "close"):
+        callback.close(float(result.t[-1]) if len(result.t) else None)
     return model, result
 
 

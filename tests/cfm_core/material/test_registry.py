@@ -166,3 +166,13 @@ def test_asymmetric_energy_is_refused_at_registration_not_first_use():
     with pytest.raises(InputError, match="not symmetric in the principal stretches"):
         register_material((lopsided & ogden_volumetric).named("lopsided"))
     assert "lopsided" not in plugins.names("materials")
+
+
+def test_range_errors_name_the_unit_and_leave_dimensionless_values_bare():
+    """'k2' = -1.0 is outside ... (no stray '-' for the dimensionless unit); Pa values keep theirs."""
+    with pytest.raises(InputError) as err:
+        make_material("cfm", {"k2": -1.0})
+    text = str(err.value)
+    assert "'k2' = -1.0 is outside the allowed range (0, inf) (" in text and " - " not in text
+    with pytest.raises(InputError, match=r"'k1' = -3.0 Pa is outside the allowed range \(0, inf\) Pa"):
+        make_material("cfm", {"k1": -3.0})
