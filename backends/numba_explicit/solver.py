@@ -218,7 +218,10 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     hist = np.zeros((4096, K.H_N))
     stop = "end_time"
     reported = 0.0
-    monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
+    conn = prep.geo[0]
+    vols = np.empty((conn.shape[0], 8))
+    # physics checks (cfm_core.simulation.checks), every ~1 % of the end time; the fold check compiled
+    monitor = Monitor(model, corner_volumes=lambda x, hexes: mod.corner_volumes(x, conn, vols))
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     start = time.perf_counter()
     while True:
