@@ -184,6 +184,23 @@ def kinematics_block(wk, bg, x, v, conn, e0, n):
         wk[(W_Q + 11) * BLOCK + i] = q32
 
 
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+def put_eigen(wk, i, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22):
+    """Eigenvalues m (rows W_M) and eigenvectors Q (rows W_V, row-major) of column i."""
+    wk[W_M * BLOCK + i] = m0
+    wk[(W_M + 1) * BLOCK + i] = m1
+    wk[(W_M + 2) * BLOCK + i] = m2
+    wk[W_V * BLOCK + i] = q00
+    wk[(W_V + 1) * BLOCK + i] = q01
+    wk[(W_V + 2) * BLOCK + i] = q02
+    wk[(W_V + 3) * BLOCK + i] = q10
+    wk[(W_V + 4) * BLOCK + i] = q11
+    wk[(W_V + 5) * BLOCK + i] = q12
+    wk[(W_V + 6) * BLOCK + i] = q20
+    wk[(W_V + 7) * BLOCK + i] = q21
+    wk[(W_V + 8) * BLOCK + i] = q22
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def eigen_block(wk, n):
     """J = det F, C = F^T F and the branch-free eigen-decomposition of C for the first n columns
@@ -216,18 +233,7 @@ def eigen_block(wk, n):
         wk[(W_C + 4) * BLOCK + i] = c12
         wk[(W_C + 5) * BLOCK + i] = c02
         wk[W_J * BLOCK + i] = J
-        wk[W_M * BLOCK + i] = m0
-        wk[(W_M + 1) * BLOCK + i] = m1
-        wk[(W_M + 2) * BLOCK + i] = m2
-        wk[W_V * BLOCK + i] = q00
-        wk[(W_V + 1) * BLOCK + i] = q01
-        wk[(W_V + 2) * BLOCK + i] = q02
-        wk[(W_V + 3) * BLOCK + i] = q10
-        wk[(W_V + 4) * BLOCK + i] = q11
-        wk[(W_V + 5) * BLOCK + i] = q12
-        wk[(W_V + 6) * BLOCK + i] = q20
-        wk[(W_V + 7) * BLOCK + i] = q21
-        wk[(W_V + 8) * BLOCK + i] = q22
+        put_eigen(wk, i, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22)
         wk[W_OK * BLOCK + i] = 1.0 if ok else 0.0
 
 
@@ -246,18 +252,7 @@ def eigen_fallback(wk, n):
                 m0 = 1.0
                 m1 = 1.0
                 m2 = 1.0
-            wk[W_M * BLOCK + i] = m0
-            wk[(W_M + 1) * BLOCK + i] = m1
-            wk[(W_M + 2) * BLOCK + i] = m2
-            wk[W_V * BLOCK + i] = q00
-            wk[(W_V + 1) * BLOCK + i] = q01
-            wk[(W_V + 2) * BLOCK + i] = q02
-            wk[(W_V + 3) * BLOCK + i] = q10
-            wk[(W_V + 4) * BLOCK + i] = q11
-            wk[(W_V + 5) * BLOCK + i] = q12
-            wk[(W_V + 6) * BLOCK + i] = q20
-            wk[(W_V + 7) * BLOCK + i] = q21
-            wk[(W_V + 8) * BLOCK + i] = q22
+            put_eigen(wk, i, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22)
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")  # explicitly False: callees inherit the caller's
