@@ -24,7 +24,9 @@ def parse_params(items) -> dict:
 
 
 def add_material_options(p: argparse.ArgumentParser, default_material: str | None = "cfm"):
-    p.add_argument("--material", default=default_material, help="registered material name (see 'cfm materials')")
+    default = f"; default: {default_material}" if default_material else "; default: the scene's"
+    p.add_argument("--material", default=default_material,
+                   help=f"registered material name (see 'cfm materials'){default}")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="override a material parameter, SI units (Pa, s, -); repeatable")
     p.add_argument("--moduli", choices=["instantaneous", "long-term"], default=None,

@@ -131,3 +131,10 @@ def test_uniaxial_on_a_backend_follows_the_reference_and_draws_a_plot(tmp_path, 
     got = np.loadtxt(out, delimiter=",", skiprows=1)
     assert np.abs(got[:, 2] - ref[:, 2]).max() < 1e-9 * np.abs(ref[:, 2]).max()
     assert out.with_suffix(".png").stat().st_size > 10_000
+
+
+def test_point_help_names_the_default_material(capsys):
+    """A user running `cfm point` without --material learns from --help which material is used."""
+    with pytest.raises(SystemExit):
+        main(["point", "--help"])
+    assert "default: cfm" in " ".join(capsys.readouterr().out.split())
