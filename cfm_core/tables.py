@@ -87,6 +87,23 @@ class Table:
         return self.data[:, self.columns.index(name)]
 
 
+def unit_header(column_units: dict) -> list[str]:
+    """CSV column names with their units, ``name [unit]`` (the style of sweep.csv), the header
+    :func:`read_table` reads back (the name, and the unit checked).
+
+    Parameters
+    ----------
+    column_units : dict of str to str
+        Column name -> SI unit, in column order (``"-"`` for dimensionless).
+
+    Returns
+    -------
+    list of str
+        E.g. ``["t [s]", "a_raw [m/s^2]"]``.
+    """
+    return [f"{name} [{unit}]" for name, unit in column_units.items()]
+
+
 def _same_unit(given: str, expected: str) -> bool:
     g = given.replace(" ", "")
     forms = UNIT_ALIASES.get(expected, {expected})

@@ -4,7 +4,8 @@ Numba caches compiled code only for functions defined in a real file, and the ke
 the material's functions as globals. So the module is written once per material source:
 
     header + kernels/layout.py + material.numba_source() [+ a psi_grad_hess_diag wrapper]
-           + njit wrappers of its functions + the other kernel files (eigen.py, ...),
+           + njit wrappers of its functions + their vectorisable variant (vector_source)
+           + the other kernel files (vmath.py, eigen.py, ...),
     all kernel files without their standalone blocks
 
 into ``$CFM_CACHE_DIR`` (default ``~/.cache/cfm/numba``), named by a hash of its full text, and
@@ -19,8 +20,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from cfm_backends.numba_common import STANDALONE_BLOCK as _BLOCK
-from cfm_backends.numba_common import material_functions
+from cfm_backends.numba_common import material_functions, strip_standalone
 from cfm_core.material.cache import generated_name, import_generated
 from cfm_core.material import compile_notice
 
@@ -48,7 +48,7 @@ def cache_dir() -> Path:
 def kernel_text() -> list[str]:
     """The kernel sources (in KERNEL_FILES order) without their standalone blocks."""
     here = Path(__file__).with_name("kernels")
-    return [f"# ---- kernels/{name} ----\n" + _BLOCK.sub("", (here / name).read_text())
+    return [f"# ---- kernels/{name} ----\n" + strip_standalone((here / name).read_text())
             for name in KERNEL_FILES]
 
 
@@ -115,7 +115,7 @@ class _Vectorise(ast.NodeTransformer):
 def vector_source(source: str, names: list[str]) -> str:
     """The vectorisable variant of a material's numba source: functions renamed with ``_v``
     and transcendental calls replaced (:class:`_Vectorise`); used by the element pass's block
-    stage (``kernels/constitutive.material_block``), the scalar functions stay as they are."""
+    stage (``kernels/element.material_block``); the scalar functions stay as they are."""
     tree = ast.fix_missing_locations(_Vectorise(names).visit(ast.parse(source)))
     return ast.unparse(tree)
 

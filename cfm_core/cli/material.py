@@ -13,6 +13,7 @@ from ..post.plots import plot_uniaxial
 from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
+from ..tables import unit_header
 from .options import add_material_options, parse_params
 
 
@@ -66,7 +67,7 @@ def _cmd_point(args) -> int:
         if args.backend not in (None, "numpy"):
             P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
             source = f"backend {args.backend} along the reference's path (lateral stress {residual:.1e} of the axial)"
-        write_csv(args.out, point.UNIAXIAL_COLUMNS, [t, lam, P, lat])
+        write_csv(args.out, unit_header(point.UNIAXIAL_UNITS), [t, lam, P, lat])
         written = [str(args.out)]
         if not args.no_plot:
             png = Path(args.out).with_suffix(".png")
@@ -80,7 +81,7 @@ def _cmd_point(args) -> int:
     t, F = point.read_history(args.history)
     backend = backend_for(args.backend) if args.backend else None
     sigma = point.run_history(material, t, F, backend)
-    write_csv(args.out, point.STRESS_COLUMNS, [t] + [sigma[:, k] for k in range(6)])
+    write_csv(args.out, unit_header(point.STRESS_UNITS), [t] + [sigma[:, k] for k in range(6)])
     print(f"wrote {args.out}: {t.size} rows of Cauchy stress (Pa)")
     return 0
 

@@ -18,29 +18,13 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError, NumericalError
+from ..tables import unit_header
 from .histories import _finite
 
 #: Units of the acceleration.csv columns, merged into summary.json["units"]; the CSV header writes
-#: them as ``name [unit]`` (:func:`unit_header`), as sweep.csv does.
+#: them as ``name [unit]`` (:func:`cfm_core.tables.unit_header`), as sweep.csv does.
 DROP_TEST_COLUMN_UNITS = {"t": "s", "a_raw": "m/s^2", "a_cfc600": "m/s^2"}
 REACTION_COLUMN_UNITS = {"t": "s", "stretch": "-", "reaction_force": "N", "nominal_stress": "Pa"}
-
-
-def unit_header(column_units: dict) -> list[str]:
-    """CSV column names with their units, ``name [unit]`` (the style of sweep.csv).
-
-    Parameters
-    ----------
-    column_units : dict of str to str
-        Column name -> SI unit, in column order (``"-"`` for dimensionless).
-
-    Returns
-    -------
-    list of str
-        E.g. ``["t [s]", "a_raw [m/s^2]"]``; :func:`cfm_core.tables.read_table` reads the name and
-        checks the unit.
-    """
-    return [f"{name} [{unit}]" for name, unit in column_units.items()]
 
 
 def atomic_write(path, write: Callable[[str], None]) -> Path:

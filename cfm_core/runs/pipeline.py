@@ -126,9 +126,14 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         at the automatic end time, a stop limit): names where and when.
     """
     be = backend_for(backend)
-    result = be.run(model, progress=progress, **options)
+    return _checked(be, model, be.run(model, progress=progress, **options))
+
+
+def _checked(be, model, result):
+    """A finished run's result with the end-of-run checks' warnings and whether the backend has
+    hourglass control (False: the summary says n/a), as every drop test and run returns it."""
     result.info["warnings"] = checks.check_result(model, result)
-    result.info.setdefault("hourglass_control", bool(be.hourglass_control))  # False: the summary says n/a
+    result.info.setdefault("hourglass_control", bool(be.hourglass_control))
     return result
 
 
@@ -395,8 +400,7 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, models: lis
             return result
         try:
             if not checked:
-                result.info["warnings"] = checks.check_result(model, result)
-                result.info.setdefault("hourglass_control", bool(be.hourglass_control))
+                _checked(be, model, result)
             return drop_test_outcome(scenes[i], model, result, check_plausible(scenes[i]))
         except (ValueError, RuntimeError) as exc:
             return exc

@@ -22,11 +22,9 @@ from ..tables import read_table
 HISTORY_HEADER = ["t", "F11", "F12", "F13", "F21", "F22", "F23", "F31", "F32", "F33"]
 STRESS_HEADER = ["t", "s11", "s22", "s33", "s12", "s23", "s13"]
 UNIAXIAL_HEADER = ["t", "stretch", "nominal_stress", "lateral_stretch"]
-#: Units of the output columns, and the output CSV headers ``name [unit]`` (as sweep.csv writes them).
+#: Units of the output columns (headers ``name [unit]``: :func:`cfm_core.tables.unit_header`).
 STRESS_UNITS = {"t": "s", **{c: "Pa" for c in STRESS_HEADER[1:]}}
 UNIAXIAL_UNITS = {"t": "s", "stretch": "-", "nominal_stress": "Pa", "lateral_stretch": "-"}
-STRESS_COLUMNS = [f"{c} [{u}]" for c, u in STRESS_UNITS.items()]
-UNIAXIAL_COLUMNS = [f"{c} [{u}]" for c, u in UNIAXIAL_UNITS.items()]
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
