@@ -16,6 +16,7 @@ from cfm_core.material.prony import PronySeries
 from cfm_core.material.sym import exp, where
 from cfm_core.material.terms import isochoric
 
+from .neo_hookean import neo_hookean
 from .volumetric import ogden_volumetric
 
 
@@ -37,7 +38,7 @@ def lipid(l1, l2, l3, c):
     sympy.Expr
         Energy per reference volume (Pa).
     """
-    return c / 2 * (l1**2 + l2**2 + l3**2 - 3)
+    return neo_hookean.energy(l1, l2, l3, c)  # the Neo-Hookean energy with c as its modulus
 
 
 def fibre_family(x, k1, k2):
