@@ -34,7 +34,7 @@ from cfm_core.errors import InputError, NumericalError
 
 #: Modules whose public callables are checked in full (besides what cfm_core.__all__ reaches).
 MODULES = [
-    "cfm_core.plugins", "cfm_core.errors",
+    "cfm_core.plugins", "cfm_core.errors", "cfm_core.tables",
     "cfm_core.material", "cfm_core.material.cache", "cfm_core.material.codegen", "cfm_core.material.kinematics",
     "cfm_core.material.material", "cfm_core.material.parameters", "cfm_core.material.prony",
     "cfm_core.material.reference", "cfm_core.material.registry", "cfm_core.material.spec", "cfm_core.material.sym",
