@@ -275,6 +275,41 @@ def unregister(kind: str, name: str) -> None:
     _runtime[_kind(kind).name].pop(name, None)
 
 
+def origin(kind: str, name: str) -> dict:
+    """Where a plugin comes from: its distribution and version, or that it was registered at run time.
+
+    Parameters
+    ----------
+    kind : str
+        A declared kind, e.g. ``"materials"``.
+    name : str
+        The plugin's name.
+
+    Returns
+    -------
+    dict
+        ``{"name", "distribution", "version", "value"}``: the distribution (``None`` for a runtime
+        registration or an unknown entry point origin), its version, and the entry point's
+        ``module:attribute`` (``"runtime"`` for :func:`register`).
+
+    Raises
+    ------
+    InputError
+        Unknown name or undeclared ``kind``.
+    """
+    if name in _runtime[_kind(kind).name]:
+        obj = _runtime[kind][name]
+        return {"name": name, "distribution": None, "version": None,
+                "value": f"runtime ({getattr(obj, '__module__', None) or type(obj).__module__})"}
+    table = _entry_point_table(kind)
+    if name not in table:
+        get(kind, name)  # raises the unknown-name error
+    ep = table[name]
+    dist = getattr(ep, "dist", None)
+    return {"name": name, "distribution": getattr(dist, "name", None), "version": getattr(dist, "version", None),
+            "value": ep.value}
+
+
 def refresh() -> None:
     """Forget cached entry points and loaded plugins of every kind (after installing or removing
     plugins); runtime registrations are kept."""

@@ -1,0 +1,228 @@
+"""Provenance: what produced an output, recorded in every file a run or study writes.
+
+One record per run or study, the same everywhere (``summary.json``, the ``[run]`` section of
+``scene.toml``, sweep/calibration/fit JSON, the verification report): the backend and where it
+came from, its resolved options (defaults included, so a repeat does not depend on defaults that
+may change), dtype, device and threads, the material and the digest of its definition, the
+content digest of every input file, and the code that ran (:func:`cfm_core.fingerprint.code_state`).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from pathlib import Path
+
+from .. import fingerprint, plugins
+from ..material.cache import spec_fingerprint
+from ..simulation.registry import backend_for
+
+
+def resolved_options(backend: str, options: dict | None = None) -> dict:
+    """A backend's options with every default filled in, as plain values.
+
+    Parameters
+    ----------
+    backend : str
+        Registered backend name.
+    options : dict, optional
+        The options given (``cfm backends --options`` lists names, units and ranges).
+
+    Returns
+    -------
+    dict
+        Every declared option of the backend with the value the run uses (given or default); a
+        backend that declares no options class gets ``options`` as given.
+
+    Raises
+    ------
+    InputError
+        Unknown backend, an option it does not declare, or a value out of its range.
+    """
+    cls = getattr(backend_for(backend), "options_class", None)
+    if cls is None:
+        return dict(options or {})
+    return cls.from_mapping(dict(options or {})).as_dict()
+
+
+def backend_record(backend: str, options: dict | None = None) -> dict:
+    """The backend part of a provenance record.
+
+    Parameters
+    ----------
+    backend : str
+        Registered backend name.
+    options : dict, optional
+        The options given to the run.
+
+    Returns
+    -------
+    dict
+        ``name``, ``distribution``, ``version``, ``entry_point`` (where the backend class came
+        from), ``options`` (all resolved, :func:`resolved_options`), and ``dtype``, ``device``,
+        ``threads`` (None where the backend has no such choice; threads None = the backend's
+        automatic count).
+    """
+    where = plugins.origin("backends", backend)
+    opts = resolved_options(backend, options)
+    be = backend_for(backend)
+    return {"name": backend, "distribution": where["distribution"], "version": where["version"],
+            "entry_point": where["value"], "options": opts,
+            "dtype": opts.get("dtype", (getattr(be, "dtypes", None) or ("float64",))[0]),
+            "device": opts.get("device", (getattr(be, "devices", None) or ("cpu",))[0]),
+            "threads": opts.get("threads")}
+
+
+def material_record(material) -> dict:
+    """The material part of a provenance record.
+
+    Parameters
+    ----------
+    material : Material
+        The bound material of the run (``model.material``).
+
+    Returns
+    -------
+    dict
+        ``name``, ``distribution``, ``version``, ``entry_point`` of the material plugin (None for
+        a material composed in Python and not registered), ``definition_digest`` (changes when any
+        term's source, parameters or the code generator changes; None for interactively defined
+        terms), ``parameters`` (every value, SI), ``moduli``, ``elastic``.
+    """
+    spec = material.spec
+    try:
+        where = plugins.origin("materials", spec.name)
+    except ValueError:
+        where = {"distribution": None, "version": None, "value": None}
+    return {"name": spec.name, "distribution": where["distribution"], "version": where["version"],
+            "entry_point": where["value"], "definition_digest": spec_fingerprint(spec),
+            "parameters": dict(material.values), "moduli": material.moduli, "elastic": bool(material.elastic)}
+
+
+def input_files(paths) -> dict:
+    """Content digests of input files.
+
+    Parameters
+    ----------
+    paths : iterable of str or path-like, or dict of name to path
+        The files (a mesh, measured curves, lab tests); empty names and None are skipped.
+
+    Returns
+    -------
+    dict
+        ``path (as given) -> "sha256:<hex>"`` of each file's bytes.
+
+    Raises
+    ------
+    InputError
+        A file cannot be read.
+    """
+    from ..errors import InputError
+
+    items = paths.items() if isinstance(paths, dict) else ((p, p) for p in paths)
+    out = {}
+    for label, path in items:
+        if not path:
+            continue
+        try:
+            out[str(label)] = "sha256:" + fingerprint.file_digest(path)
+        except OSError as exc:
+            raise InputError(f"input file {str(path)!r} cannot be read for its content digest: {exc}.") from None
+    return out
+
+
+def scene_files(scene) -> dict:
+    """The input files a scene reads (its mesh), with their content digests (:func:`input_files`).
+
+    Parameters
+    ----------
+    scene : Scene
+        Any scene.
+
+    Returns
+    -------
+    dict
+        ``path -> "sha256:<hex>"``; empty for built-in meshes.
+    """
+    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
+    return input_files([mesh] if mesh else [])
+
+
+def provenance(backend: str | None = None, options: dict | None = None, material=None, files: dict | None = None,
+               **extra) -> dict:
+    """A provenance record: code, machine, backend, material and input files.
+
+    Parameters
+    ----------
+    backend : str, optional
+        Backend name (omitted from the record when None, e.g. a fit that ran no backend).
+    options : dict, optional
+        The backend options given.
+    material : Material, optional
+        The bound material.
+    files : dict, optional
+        ``path -> digest`` from :func:`input_files` / :func:`scene_files`.
+    **extra
+        Further JSON-able entries (e.g. ``overrides``: what the command line changed).
+
+    Returns
+    -------
+    dict
+        ``code`` (:func:`cfm_core.fingerprint.code_state`), ``python``, ``platform``,
+        ``cpu_count`` (usable cores), ``backend`` (:func:`backend_record`), ``material``
+        (:func:`material_record`), ``input_files`` and ``extra``'s entries.
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count()
+    record = {"code": dict(fingerprint.code_state()), "python": platform.python_version(),
+              "platform": platform.platform(), "cpu_count": cores}
+    if backend is not None:
+        record["backend"] = backend_record(backend, options)
+    if material is not None:
+        record["material"] = material_record(material)
+    record["input_files"] = dict(files or {})
+    record.update(extra)
+    return record
+
+
+def describe_differences(records: dict) -> list[str]:
+    """What differs between runs, one short phrase per difference, for titles and comparisons.
+
+    Parameters
+    ----------
+    records : dict
+        ``label -> provenance record`` (:func:`provenance`) of each run shown.
+
+    Returns
+    -------
+    list of str
+        E.g. ``"backend: numba | torch"``, ``"dtype: float64 | float32"``,
+        ``"option hourglass: 0.1 | 0.05"``, ``"k2: 1.66 | 3"``, ``"mesh: a1b2c3 | d4e5f6"`` (content
+        digests), in the order of ``records``; empty when nothing recorded differs.
+    """
+    recs = list(records.values())
+    if len(recs) < 2:
+        return []
+
+    def flat(r: dict) -> dict:
+        b, m = r.get("backend") or {}, r.get("material") or {}
+        out = {"backend": b.get("name"), "dtype": b.get("dtype"), "device": b.get("device"),
+               "material": m.get("name"), "moduli": m.get("moduli"), "elastic": m.get("elastic")}
+        out.update({f"option {k}": v for k, v in (b.get("options") or {}).items() if k not in ("dtype", "device")})
+        out.update({k: v for k, v in (m.get("parameters") or {}).items()})
+        files = r.get("input_files") or {}
+        out["input files"] = ", ".join(f"{Path(k).name}:{v.split(':')[-1][:8]}" for k, v in sorted(files.items())) or None
+        out.update({k: v for k, v in (r.get("scene_values") or {}).items()})
+        return out
+
+    flats = [flat(r) for r in recs]
+    keys = list(dict.fromkeys(k for f in flats for k in f))
+    phrases = []
+    for k in keys:
+        values = [f.get(k) for f in flats]
+        if any(v != values[0] for v in values[1:]):
+            phrases.append(f"{k}: " + " | ".join("-" if v is None else (f"{v:g}" if isinstance(v, float) else str(v))
+                                                 for v in values))
+    return phrases
