@@ -1,0 +1,277 @@
+"""Output folders that never mislead: checked before the work, written aside, published whole.
+
+A run or a study writes its files into a fresh hidden folder beside ``--out`` (the *stage*),
+made before the solve, so that an unwritable or full destination is found before minutes of work.
+Only when everything was written is the stage published: the files of an earlier cfm output in
+``--out`` (those its manifest lists, or cfm's known output names for outputs written before
+manifests existed) are removed and the new files moved in, with a manifest
+(:data:`MANIFEST`) naming them. Files cfm did not write are never touched. A failure removes the
+stage and leaves ``--out`` as it was, so no folder ever holds the files of two runs.
+
+Public API: :func:`staged_folder` (a context manager), :func:`check_folder_target`,
+:func:`check_file_target`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import secrets
+import shutil
+from pathlib import Path
+
+from ..errors import InputError
+
+#: File in a published folder listing the files cfm wrote there (JSON: {"files": [...]})
+MANIFEST = ".cfm-output.json"
+
+#: Names cfm wrote before manifests existed (version 0.2.0 and older): treated as cfm's own.
+LEGACY_NAMES = ("summary.json", "scene.toml", "acceleration.csv", "acceleration.png", "reaction.csv",
+                "reaction.png", "specimen.pvd", "sweep.csv", "sweep.parquet", "sweep.json", "peaks.png",
+                "fit.json", "fit.png", "objective.png", "fitted_scene.toml", "report.json", "report.md")
+LEGACY_PATTERNS = ("specimen_*.vtu",)
+
+#: Files whose presence means an output is complete: published last.
+MARKERS = ("summary.json", "fit.json", "sweep.json", "report.json")
+
+#: Free space kept beyond what an output needs (bytes).
+SPACE_MARGIN = 16 * 2**20
+
+
+def _existing_ancestor(path: Path) -> Path:
+    path = path.absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _probe(folder: Path, what: str, target: Path) -> None:
+    """Create and remove a file in ``folder``: the only reliable writability test (root ignores
+    modes; ``chattr +i`` and read-only mounts do not show in ``os.access``)."""
+    probe = folder / f".cfm-probe-{os.getpid()}-{secrets.token_hex(4)}"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise InputError(f"{what} {target} cannot be written: {folder} refuses new files "
+                         f"({exc.strerror or exc}); choose a folder you can write to.") from None
+
+
+def _check_space(folder: Path, need_bytes: int, what: str, target: Path) -> None:
+    if need_bytes <= 0:
+        return
+    free = shutil.disk_usage(folder).free
+    if free < need_bytes + SPACE_MARGIN:
+        raise InputError(f"{what} {target}: the output needs about {need_bytes / 2**20:.1f} MiB but only "
+                         f"{free / 2**20:.1f} MiB are free on that disk; free some space or choose another folder.")
+
+
+def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
+    """Check that ``out`` can become an output folder, before any work is done.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The folder (it may not exist yet).
+    what : str
+        How messages name it (``"--out"``, ``"output directory"``).
+    need_bytes : int
+        Bytes the output will take (0: not checked); refused when the disk has less free space
+        plus :data:`SPACE_MARGIN`.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    InputError
+        ``out`` or one of its parents is a file, it or the folder it would be made in cannot be
+        written, or the disk is too full.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what} {out} exists and is not a directory; name a folder (new or of an earlier run).")
+    base = _existing_ancestor(out)
+    if not base.is_dir():
+        raise InputError(f"{what} {out}: {base} is a file, so no folder can be made there; choose another path.")
+    _probe(base, what, out)
+    if out.exists():
+        _probe(out, what, out)
+    _check_space(base, need_bytes, what, out)
+    return out
+
+
+def check_file_target(path, what: str = "--out", need_bytes: int = 0) -> Path:
+    """Check that ``path`` can be written as a file, before any work is done.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (it may exist: it is replaced atomically when written).
+    what : str
+        How messages name it (``"--out"``, ``"--plot"``, ``"--json"``).
+    need_bytes : int
+        Bytes the file will take (0: not checked).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        ``path`` is an existing directory, a parent is a file, the folder cannot be written or the
+        disk is too full.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {path} is an existing directory, but a file is written there; name a file "
+                         f"(e.g. {path / 'out'}{path.suffix or ''}).")
+    base = _existing_ancestor(path.parent)
+    if not base.is_dir():
+        raise InputError(f"{what} {path}: {base} is a file, so no folder can be made there; choose another path.")
+    _probe(base, what, path)
+    _check_space(base, need_bytes, what, path)
+    return path
+
+
+def earlier_files(out: Path) -> list[Path]:
+    """Files of an earlier cfm output in ``out``: those its manifest lists, or cfm's legacy names.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        An existing folder.
+
+    Returns
+    -------
+    list of pathlib.Path
+        Existing files (the manifest itself included), sorted; folders listed in a manifest are
+        included as folders.
+    """
+    found: set[Path] = set()
+    manifest = out / MANIFEST
+    if manifest.is_file():
+        try:
+            names = json.loads(manifest.read_text(encoding="utf-8")).get("files", [])
+        except (OSError, ValueError, AttributeError):
+            names = []
+        found.update(out / n for n in names if isinstance(n, str) and "/" not in n and n not in ("", ".", ".."))
+        found.add(manifest)
+    found.update(out / n for n in LEGACY_NAMES)
+    for pattern in LEGACY_PATTERNS:
+        found.update(out.glob(pattern))
+    return sorted(p for p in found if p.exists() or p.is_symlink())
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+
+
+def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
+    """Move a finished stage's files into ``out``, replacing an earlier cfm output there.
+
+    Parameters
+    ----------
+    stage : pathlib.Path
+        The folder holding the new output (removed afterwards).
+    out : pathlib.Path
+        The destination (created if missing).
+    keep : tuple of str
+        Names of earlier entries to keep (a study's resumable run cache), unless the stage holds
+        a new entry of the same name.
+
+    Returns
+    -------
+    list of str
+        The names published (also written to the manifest).
+    """
+    names = sorted(p.name for p in stage.iterdir())
+    if not out.exists():
+        _write_manifest(stage, names)
+        os.replace(stage, out)
+        return names
+    for old in earlier_files(out):
+        if old.name not in keep or old.name in names:
+            _remove(old)
+    for name in sorted(names, key=lambda n: (n in MARKERS, n)):  # the completion marker last
+        target = out / name
+        if target.exists() or target.is_symlink():
+            _remove(target)  # a foreign file of a name cfm writes: replaced by the new output
+        os.replace(stage / name, target)
+    kept = [k for k in keep if (out / k).exists() and k not in names]
+    _write_manifest(out, sorted({*names, *kept}))
+    shutil.rmtree(stage, ignore_errors=True)
+    return names
+
+
+def _write_manifest(folder: Path, names: list[str]) -> None:
+    tmp = folder / f".{MANIFEST}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps({"written_by": "cfm-materials", "files": names}, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, folder / MANIFEST)
+
+
+@contextlib.contextmanager
+def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool = True, keep: tuple[str, ...] = ()):
+    """Write an output into a stage beside ``out`` and publish it only if the block succeeds.
+
+    Use it around the whole work, so that the destination is checked before the solve::
+
+        with staged_folder(args.out) as stage:
+            outcome = cfm.drop_test(scene)
+            outcome.save(stage)
+
+    Parameters
+    ----------
+    out : str or path-like
+        The output folder (new, or one holding an earlier cfm output).
+    what : str
+        How messages name it (``"--out"``, ``"output directory"``).
+    need_bytes : int
+        Estimated size of the output (bytes; 0: not checked).
+    overwrite : bool
+        False: refuse (InputError, before any work) when ``out`` holds an earlier cfm output.
+    keep : tuple of str
+        Entries of the earlier output to keep (e.g. a sweep's resumable ``runs`` folder).
+
+    Yields
+    ------
+    pathlib.Path
+        The stage folder to write into (hidden, beside ``out``).
+
+    Raises
+    ------
+    InputError
+        From :func:`check_folder_target`, or ``overwrite`` is False and ``out`` holds an earlier
+        output. Exceptions of the block propagate after the stage is removed; ``out`` is untouched.
+    """
+    out = check_folder_target(out, what, need_bytes)
+    if not overwrite and out.is_dir() and earlier_files(out):
+        raise InputError(f"{what} {out} holds the files of an earlier run ({', '.join(p.name for p in earlier_files(out)[:4])}"
+                         f"{', ...' if len(earlier_files(out)) > 4 else ''}); without overwriting, choose a new folder "
+                         f"or drop the no-overwrite flag (its files are then replaced).")
+    parent = out.absolute().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        stage = parent / f".{out.absolute().name}.cfm-stage-{os.getpid()}-{secrets.token_hex(4)}"
+        stage.mkdir()
+    except OSError as exc:
+        raise InputError(f"{what} {out} cannot be written: {exc.strerror or exc}; choose a folder you can write to.") from None
+    try:
+        yield stage
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    try:
+        publish(stage, out, keep)
+    except OSError as exc:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise InputError(f"{what} {out}: the finished output could not be moved into place ({exc.strerror or exc}); "
+                         f"nothing was published.") from None
