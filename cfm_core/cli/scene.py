@@ -6,10 +6,13 @@ import math
 from pathlib import Path
 
 from ..errors import InputError
+from ..post.staging import staged_folder
 from ..runs import pipeline
+from ..runs.outcomes import output_bytes
+from ..runs.settings import plan_run
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..simulation.registry import backend_for
-from .options import add_material_options, out_dir, parse_params
+from .options import add_material_options, parse_params
 
 
 def add_parser(sub) -> None:
@@ -18,7 +21,8 @@ def add_parser(sub) -> None:
                                    "Writes acceleration.csv (t s, a_raw and a_cfc600 m/s^2), summary.json and "
                                    "acceleration.png into --out.")
     p.add_argument("--scene", help="scene TOML file (default: the built-in drop-test scene)")
-    p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--backend", default=None, help="backend name (default: the scene's [run] backend, else numba; "
+                                                   "see 'cfm backends')")
     p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N; default cpu)")
     p.add_argument("--dtype", choices=["float64", "float32"],
                    help="floating-point type for backends that have a choice (torch; default float64)")
@@ -39,9 +43,17 @@ def add_parser(sub) -> None:
     add_material_options(p, default_material=None)
     p.add_argument("--vtu", action="store_true", help="also write the deformed specimen over time (ParaView .pvd/.vtu)")
     p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    p.add_argument("--out", required=True, help="output directory")
+    _add_output_options(p)
     add_run_parser(sub)
+
+
+def _add_output_options(p) -> None:
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--no-overwrite", action="store_true",
+                   help="refuse an --out folder that holds an earlier run (default: its files are replaced; files "
+                        "cfm did not write are always kept)")
+    p.add_argument("--out", required=True, help="output directory (checked before the run; written whole when the "
+                                                "run succeeded)")
 
 
 def scene_from_args(args):
@@ -80,12 +92,13 @@ def _option_value(text: str, kind: str):
     return text
 
 
-def _backend_options(args, backend: str) -> dict:
+def _backend_options(args, backend: str) -> tuple[dict, dict]:
     """The backend options of the command line: ``--option NAME=VALUE`` (repeatable), ``--vtu``,
-    ``--device`` and ``--dtype``; InputError for a name the backend does not declare."""
+    ``--device`` and ``--dtype``; InputError for a name the backend does not declare. Also how each
+    was given (for the notes when one overrides the scene's [run] value)."""
     declared = getattr(backend_for(backend), "options_class", None)
     specs = declared.specs() if declared is not None else {}
-    options = {}
+    options, given_as = {}, {}
     for item in getattr(args, "option", None) or []:
         name, sep, value = item.partition("=")
         name = name.strip()
@@ -96,8 +109,10 @@ def _backend_options(args, backend: str) -> dict:
             raise InputError(f"--option {name}: backend '{backend}' has no option of that name; its options are "
                              f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
         options[name] = _option_value(value, specs[name].kind)
+        given_as[name] = f"--option {name}={value.strip()}"
     if getattr(args, "vtu", False):
         options["frame_interval"] = 2e-4
+        given_as["frame_interval"] = "--vtu (frame_interval = 0.0002 s)"
     for flag in ("device", "dtype"):
         value = getattr(args, flag, None)
         if value is not None:
@@ -105,32 +120,48 @@ def _backend_options(args, backend: str) -> dict:
                 raise InputError(f"--{flag} {value}: backend '{backend}' has no choice of {flag} (only torch has: "
                                  f"--backend torch --{flag} {value}).")
             options[flag] = value
-    return options
+            given_as[flag] = f"--{flag} {value}"
+    return options, given_as
 
 
-def _run_scene(args, run, scene, backend: str):
-    """(the --out folder, ``run(scene, backend, ...)``) with a progress bar unless ``--quiet``; an
-    earlier run's summary.json in --out is removed first, so a failure cannot leave it looking current."""
-    out = out_dir(args)
-    (out / "summary.json").unlink(missing_ok=True)
-    return out, run(scene, backend, progress=not args.quiet, **_backend_options(args, backend))
+def _plan(args, scene):
+    """The backend and options of the run: the scene's [run] section, overridden by the command line."""
+    run = scene.run
+    name = args.backend or (run.backend if run is not None else None) or pipeline.default_backend(scene)
+    options, given_as = _backend_options(args, name)
+    given_as["backend"] = f"--backend {args.backend}"
+    where = f"{Path(args.scene).name} [run]" if getattr(args, "scene", None) else "the scene's [run]"
+    return plan_run(scene, args.backend, options, default=pipeline.default_backend(scene), given_as=given_as,
+                    where=where)
 
 
-def _drop_test(args, scene, backend: str) -> int:
+def _run_and_write(args, scene) -> tuple:
+    """Check --out, run the scene, write its files into a stage and publish them: (outcome, the
+    --out folder, the names written). An unwritable, full or wrong-kind --out is refused before
+    the run; a failed run leaves --out as it was."""
+    plan = _plan(args, scene)
+    plot, vtu = not args.no_plot, getattr(args, "vtu", False)
+    need = output_bytes(scene, plan.options, plot=plot, vtu=vtu)
+    with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite) as stage:
+        outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)
+        names = outcome.write(stage, plot=plot, vtu=vtu) if scene.type == "drop-test" else outcome.write(stage, plot=plot)
+    return outcome, Path(args.out), names
+
+
+def _drop_test(args, scene) -> int:
     """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
-    out, outcome = _run_scene(args, pipeline.drop_test, scene, backend)
-    outcome.save(out, plot=not args.no_plot, vtu=getattr(args, "vtu", False))
+    outcome, out, names = _run_and_write(args, scene)
     s = outcome.summary
     hourglass = "n/a" if s.get("hourglass_ratio", math.nan) is None else f"{100 * s.get('hourglass_ratio', math.nan):.2f} %"
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
           f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
           f"hourglass/internal {hourglass}")
-    print(f"wrote {out}/acceleration.csv, scene.toml, summary.json" + ("" if args.no_plot else ", acceleration.png"))
+    print(f"wrote {out}/: {', '.join(names)}")
     return 0
 
 
 def _cmd_drop_test(args) -> int:
-    return _drop_test(args, scene_from_args(args), args.backend)
+    return _drop_test(args, scene_from_args(args))
 
 
 def add_run_parser(sub) -> None:
@@ -149,8 +180,7 @@ def add_run_parser(sub) -> None:
                    help="a backend option in SI units, repeatable ('cfm backends --options' lists them)")
     add_material_options(p, default_material=None)
     p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    p.add_argument("--out", required=True, help="output directory")
+    _add_output_options(p)
 
 
 def _scene_for_run(args):
@@ -167,16 +197,14 @@ def _scene_for_run(args):
 
 def _cmd_run(args) -> int:
     scene = _scene_for_run(args)
-    backend = args.backend or pipeline.default_backend(scene)
     if scene.type == "drop-test":
-        return _drop_test(args, scene, backend)
-    out, outcome = _run_scene(args, pipeline.reaction_test, scene, backend)
-    outcome.save(out, plot=not args.no_plot)
+        return _drop_test(args, scene)
+    outcome, out, names = _run_and_write(args, scene)
     s = outcome.summary
     print(f"largest |reaction force| {abs(s['peak_force']):.4g} N at {1e3 * s['t_peak_force']:.3g} ms, final "
           f"{s['final_force']:.4g} N ({100 * s['final_over_peak']:.2f} % of it); {s['steps']} steps, "
           f"{s['wall_time']:.2f} s solver")
-    print(f"wrote {out}/reaction.csv, scene.toml, summary.json" + ("" if args.no_plot else ", reaction.png"))
+    print(f"wrote {out}/: {', '.join(names)}")
     return 0
 
 

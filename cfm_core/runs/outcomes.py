@@ -4,7 +4,9 @@ An outcome keeps the scene it ran (fully resolved), the backend-neutral model, t
 :class:`~cfm_core.simulation.Result`, the post-processed histories and the summary. It offers the
 histories as a pandas DataFrame (units in the column names) and writes itself: ``save(dir)``
 writes exactly the files the command line writes (CSV, ``scene.toml``, plot, ``summary.json``
-last, so that its presence means the output is complete).
+last, so that its presence means the output is complete), staged
+(:func:`cfm_core.post.staging.staged_folder`): checked before anything is written, published
+whole, the files of an earlier run in the folder replaced, files cfm did not write kept.
 """
 
 from __future__ import annotations
@@ -15,10 +17,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import InputError
 from ..post import G0, compare_histories
 from ..post.plots import plot_acceleration, plot_reaction
-from ..post.writers import output_folder, write_drop_test, write_text, write_reaction, write_vtu_series
+from ..post.staging import staged_folder
+from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
 from ..scene.scene import scene_to_toml
+from .provenance import describe_run
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -27,6 +32,22 @@ if TYPE_CHECKING:
 def _material_text(summary: dict) -> str:
     """``cfm (long-term)``, or ``ogden (elastic)``: the moduli convention only where it applies."""
     return f"{summary['material']} ({'elastic' if summary.get('elastic') else summary['moduli']})"
+
+
+def _run_text(summary: dict) -> str:
+    """``cfm (long-term), numba float64, hourglass 0.05, k2 = 3 (default 1.66)``: the material,
+    the backend with its dtype, and what differs from the defaults
+    (:func:`cfm_core.runs.provenance.describe_run`)."""
+    record = summary.get("provenance")
+    phrases = describe_run(record) if record else [summary.get("backend", "?")]
+    return ", ".join([_material_text(summary), *phrases])
+
+
+def _staged_save(out, overwrite: bool, write) -> Path:
+    """``write(folder)`` into a stage beside ``out``, published into ``out`` when it succeeded."""
+    with staged_folder(out, what="output directory", overwrite=overwrite) as stage:
+        write(stage)
+    return Path(out)
 
 
 @dataclass
@@ -84,22 +105,27 @@ class DropTestOutcome:
         -------
         str
             Two lines: thickness (mm), speed (m/s), impactor mass (g) and radius (mm), friction,
-            element size (mm); material with its moduli convention (or "elastic"), backend.
+            element size (mm), the mesh file when one is read; material with its moduli convention
+            (or "elastic"), backend and dtype, backend options and material parameters that differ
+            from their defaults.
         """
         s, sc = self.summary, self.scene
         name = f"{sc.settings.name}: " if sc.settings.name not in (None, "", sc.type) else ""
         friction = f", friction {sc.contact.friction:g}" if sc.contact.friction else ""
+        mesh = f", mesh {Path(sc.specimen.mesh).name}" if sc.specimen.mesh else ""
         return (f"{name}drop test {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, "
                 f"{1e3 * sc.impactor.mass:g} g R{1e3 * sc.impactor.radius:g} mm{friction}, "
-                f"{1e3 * s['element_size']:g} mm elements\n{_material_text(s)}, {s['backend']}")
+                f"{1e3 * s['element_size']:g} mm elements{mesh}\n{_run_text(s)}")
 
-    def save(self, out, plot: bool = True, vtu: bool = False) -> Path:
+    def save(self, out, plot: bool = True, vtu: bool = False, overwrite: bool = True) -> Path:
         """Write the run's files, the same the command line writes.
 
-        ``acceleration.csv`` (t s, a_raw and a_cfc600 m/s^2), ``scene.toml`` (the resolved scene,
-        so that ``cfm run --scene DIR/scene.toml`` repeats the run), ``acceleration.png`` and the
-        ParaView series (``specimen_*.vtu``, ``specimen.pvd``), then ``summary.json`` last: its
-        presence means the output is complete.
+        ``acceleration.csv`` (t s, a_raw and a_cfc600 m/s^2), ``scene.toml`` (the resolved scene
+        with its [run] section, so that ``cfm run --scene DIR/scene.toml`` repeats the run),
+        ``acceleration.png`` and the ParaView series (``specimen_*.vtu``, ``specimen.pvd``), then
+        ``summary.json`` last. Written into a stage beside ``out`` and published only when all
+        were written; the files of an earlier cfm output in ``out`` (stale VTU frames included)
+        are removed, files cfm did not write are kept.
 
         Parameters
         ----------
@@ -110,6 +136,8 @@ class DropTestOutcome:
         vtu : bool
             Write the deformed specimen over time (needs a run with stored frames, backend option
             ``frame_interval`` in s).
+        overwrite : bool
+            False: refuse a directory holding an earlier cfm output.
 
         Returns
         -------
@@ -119,18 +147,48 @@ class DropTestOutcome:
         Raises
         ------
         InputError
-            ``out`` exists and is not a directory, or ``vtu`` was asked of a run without frames.
+            ``out`` exists and is not a directory, cannot be written, holds an earlier output and
+            ``overwrite`` is False, or ``vtu`` was asked of a run without frames.
         NumericalError
-            A history or summary value is not finite (nothing is written as complete).
+            A history or summary value is not finite (nothing is published).
         """
-        out = _prepare(out)
+        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot, vtu))
+
+    def write(self, folder, plot: bool = True, vtu: bool = False) -> list[str]:
+        """Write the files of :meth:`save` into ``folder`` directly, without staging (for a caller
+        that stages the folder itself, as the command line does around the whole run).
+
+        Parameters
+        ----------
+        folder : str or path-like
+            An existing, empty directory (a stage).
+        plot, vtu : bool
+            As for :meth:`save`.
+
+        Returns
+        -------
+        list of str
+            The names written, the ParaView frames as one ``specimen_*.vtu (N frames)`` entry.
+
+        Raises
+        ------
+        InputError, NumericalError
+            As for :meth:`save`.
+        """
+        out = Path(folder)
+        names = ["acceleration.csv", "scene.toml", "summary.json"]
         if vtu:
+            if not self.result.frames:
+                raise InputError("vtu output needs a run with stored frames (backend option frame_interval, s; "
+                                 "the command line's --vtu sets it).")
             write_vtu_series(out, self.model.nodes, self.model.hexes, self.result.frames)
+            names += ["specimen.pvd", f"specimen_*.vtu ({len(self.result.frames)} frames)"]
         write_text(out / "scene.toml", scene_to_toml(self.scene))
         if plot:
             plot_acceleration(out / "acceleration.png", self.t, self.a_raw, self.a_cfc, self.title())
+            names.insert(3, "acceleration.png")
         write_drop_test(out, self.t, self.a_raw, self.a_cfc, self.summary)
-        return out
+        return names
 
     def compare(self, reference: "DropTestOutcome") -> dict:
         """This run's CFC 600 acceleration against a reference run's.
@@ -195,17 +253,19 @@ class ReactionOutcome:
         Returns
         -------
         str
-            Scene type, final stretch, material with its moduli convention, backend.
+            Scene type, final stretch; material with its moduli convention, backend and dtype, and
+            what differs from the defaults (as :meth:`DropTestOutcome.title`).
         """
         s = self.summary
         name = f"{self.scene.settings.name}: " if self.scene.settings.name not in (None, "", self.scene.type) else ""
-        return f"{name}{self.scene.type}, stretch {s['stretch']:g}, {_material_text(s)}, {s['backend']}"
+        return f"{name}{self.scene.type}, stretch {s['stretch']:g}\n{_run_text(s)}"
 
-    def save(self, out, plot: bool = True) -> Path:
+    def save(self, out, plot: bool = True, overwrite: bool = True) -> Path:
         """Write the run's files, the same the command line writes.
 
-        ``reaction.csv`` (t s, stretch -, reaction_force N, nominal_stress Pa), ``scene.toml``,
-        ``reaction.png``, then ``summary.json`` last.
+        ``reaction.csv`` (t s, stretch -, reaction_force N, nominal_stress Pa), ``scene.toml``
+        (with its [run] section), ``reaction.png``, then ``summary.json`` last; staged as
+        :meth:`DropTestOutcome.save`.
 
         Parameters
         ----------
@@ -213,6 +273,8 @@ class ReactionOutcome:
             Output directory (created if missing).
         plot : bool
             Write ``reaction.png``.
+        overwrite : bool
+            False: refuse a directory holding an earlier cfm output.
 
         Returns
         -------
@@ -222,19 +284,83 @@ class ReactionOutcome:
         Raises
         ------
         InputError
-            ``out`` exists and is not a directory.
+            ``out`` exists and is not a directory, cannot be written, or holds an earlier output
+            and ``overwrite`` is False.
         NumericalError
             A history or summary value is not finite.
         """
-        out = _prepare(out)
+        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot))
+
+    def write(self, folder, plot: bool = True) -> list[str]:
+        """Write the files of :meth:`save` into ``folder`` directly, without staging.
+
+        Parameters
+        ----------
+        folder : str or path-like
+            An existing, empty directory (a stage).
+        plot : bool
+            Write ``reaction.png``.
+
+        Returns
+        -------
+        list of str
+            The names written.
+
+        Raises
+        ------
+        InputError, NumericalError
+            As for :meth:`save`.
+        """
+        out = Path(folder)
         write_text(out / "scene.toml", scene_to_toml(self.scene))
         if plot:
             plot_reaction(out / "reaction.png", self.t, self.force, self.title())
         write_reaction(out, self.t, self.stretch, self.force, self.nominal, self.summary)
-        return out
+        return ["reaction.csv", "scene.toml", "summary.json", *(["reaction.png"] if plot else [])]
 
 
-def _prepare(out) -> Path:
-    """The output directory, created; a stale summary.json removed first (a failed run must not
-    leave an earlier run's summary behind)."""
-    return output_folder(out, marker="summary.json", what="output directory")
+#: Bytes per value in the written files (CSV text, VTU base64 of 8-byte values), an upper estimate.
+_CSV_BYTES, _VTU_BYTES = 26, 11
+#: Bytes of a PNG figure (6.4 x 4.2 in at 150 dpi), an upper estimate.
+PNG_BYTES = 400_000
+
+
+def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: bool = False) -> int:
+    """An upper estimate of the size of a run's output, for the free-space check before the run.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (end time in s, output rate in Hz, specimen geometry in m or its mesh file).
+    options : dict, optional
+        Backend options (``frame_interval``, s: how often a VTU frame is stored).
+    plot : bool
+        A PNG is written.
+    vtu : bool
+        The ParaView series is written.
+
+    Returns
+    -------
+    int
+        Bytes: the history CSV (4 columns at the output rate up to the end time), the PNG, and
+        for ``vtu`` one frame per ``frame_interval`` (points, displacement and cells of the mesh).
+    """
+    rows = scene.end_time * float(scene.settings.output_rate) + 2
+    total = int(rows * 4 * _CSV_BYTES) + (PNG_BYTES if plot else 0) + 20_000
+    interval = (options or {}).get("frame_interval")
+    if vtu and interval and scene.type == "drop-test":
+        frames = int(scene.end_time / float(interval)) + 2
+        spec = scene.specimen
+        if spec.mesh:
+            try:
+                per_frame = 4 * Path(spec.mesh).stat().st_size
+            except OSError:
+                per_frame = 0
+        else:
+            h = spec.element_size
+            n = max(1, round(spec.width / h / (2 if spec.symmetry == "quarter" else 1)))
+            nz = max(1, round(spec.thickness / h))
+            nodes, cells = (n + 1) ** 2 * (nz + 1), n * n * nz
+            per_frame = (6 * nodes + 10 * cells) * _VTU_BYTES
+        total += frames * per_frame
+    return total

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -23,6 +24,8 @@ from ..scene.scene import Scene, scene_to_dict
 from ..simulation import checks
 from ..simulation.registry import backend_for
 from .outcomes import DropTestOutcome, ReactionOutcome
+from .provenance import json_ready, provenance, scene_files
+from .settings import RunPlan, plan_run, run_record
 
 #: Run statistics a backend may report that are copied into the summary.
 _RESULT_INFO = ("compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio")
@@ -188,45 +191,80 @@ def _run(scene: Scene, backend: str, progress, label: str, options: dict):
     return model, result
 
 
-def drop_test(scene: Scene, backend: str = "numba", progress=None, **options) -> DropTestOutcome:
+def drop_test(scene: Scene, backend: str | None = None, progress=None, **options) -> DropTestOutcome:
     """Run a drop-test scene and post-process it (SAE J211/1 CFC 600 at the scene's output rate).
+
+    The scene's ``[run]`` section (a ``scene.toml`` written by an earlier run, read with
+    :func:`cfm_core.load_scene`) gives the backend, dtype, device and options, so that the run
+    is repeated exactly; ``backend`` and ``options`` given here override it (a note on stderr
+    says which). Without a section: numba with its default options.
 
     Parameters
     ----------
     scene : Scene
         A ``drop-test`` scene, e.g. ``cfm.builtin_scene("drop-test").with_overrides(thickness=0.005)``
         (SI units).
-    backend : str
-        ``"numba"`` (default), ``"torch"``, ``"skfem"`` or any registered backend.
+    backend : str, optional
+        ``"numba"``, ``"torch"``, ``"skfem"`` or any registered backend; default: the scene's
+        ``[run] backend``, else ``"numba"``.
     progress : bool or callable, optional
         True for a progress bar on stderr, or a callable taking the simulated time (s).
     **options
-        Backend options (``cfm backends --options``), e.g. ``device="cuda"`` for torch.
+        Backend options (``cfm backends --options``), e.g. ``device="cuda"`` for torch; they
+        override the scene's ``[run]`` options of the same name.
 
     Returns
     -------
     DropTestOutcome
         Histories (t s, a_raw and a_cfc m/s^2), summary (``peak_g``, ``t_peak`` s, ``duration``
-        s, ...), ``to_dataframe()``, ``save(dir)``.
+        s, ..., ``provenance``), ``to_dataframe()``, ``save(dir)``.
 
     Raises
     ------
     InputError
-        Not a drop-test scene, unknown backend, bad options.
+        Not a drop-test scene, unknown backend, bad options (also in the scene's ``[run]``).
     NumericalError
         The run failed or its physics broke (names where and when).
     """
+    return run_planned(scene, plan_run(scene, backend, options), progress)
+
+
+def run_planned(scene: Scene, plan: RunPlan, progress=None):
+    """Run a scene with a :class:`~cfm_core.runs.settings.RunPlan` (:func:`plan_run`): its notes
+    and warnings printed first, then :func:`drop_test` or :func:`reaction_test`'s work.
+
+    Parameters
+    ----------
+    scene : Scene
+        Any scene.
+    plan : RunPlan
+        Backend and options (the scene's ``[run]`` already merged in).
+    progress : bool or callable, optional
+        As for :func:`drop_test`.
+
+    Returns
+    -------
+    DropTestOutcome or ReactionOutcome
+        By the scene's type.
+
+    Raises
+    ------
+    InputError, NumericalError
+        As for :func:`drop_test` and :func:`reaction_test`.
+    """
+    for text in plan.notes:
+        print(f"note: {text}", file=sys.stderr)
     if scene.type != "drop-test":
-        raise InputError(f"scene type is '{scene.type}'; drop_test needs a 'drop-test' scene.")
+        return _reaction_test(scene, plan, progress)
     check_output_rate(scene)
-    notes = check_plausible(scene)  # unit slips (220 for 0.220 kg): warned before running
+    notes = [*plan.warnings, *check_plausible(scene)]  # unit slips (220 for 0.220 kg): warned before running
     report_warnings({"warnings": notes})
-    label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({backend})"
-    model, result = _run(scene, backend, progress, label, options)
-    return drop_test_outcome(scene, model, result, notes)
+    label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({plan.backend})"
+    model, result = _run(scene, plan.backend, progress, label, plan.options)
+    return drop_test_outcome(scene, model, result, notes, options=plan.options)
 
 
-def drop_test_outcome(scene: Scene, model, result, notes=()) -> DropTestOutcome:
+def drop_test_outcome(scene: Scene, model, result, notes=(), options: dict | None = None) -> DropTestOutcome:
     """The post-processed outcome of a finished drop-test run.
 
     Parameters
@@ -240,14 +278,17 @@ def drop_test_outcome(scene: Scene, model, result, notes=()) -> DropTestOutcome:
     notes : sequence of str
         Warnings about the scene's values already printed before the run
         (:func:`cfm_core.scene.plausible.check_plausible`); listed first in the summary's warnings.
+    options : dict, optional
+        The backend options the run was given (recorded, resolved, in the provenance and [run]).
 
     Returns
     -------
     DropTestOutcome
-        Filtered histories (SAE J211/1 CFC 600) and the summary; its scene holds every material
-        parameter value, so that the scene.toml it writes repeats the run even if defaults change.
+        Filtered histories (SAE J211/1 CFC 600) and the summary (with ``provenance``); its scene
+        holds every material parameter value and the [run] section, so that the scene.toml it
+        writes repeats the run even if defaults change.
     """
-    scene = resolved(scene, model)
+    scene = resolved(scene, model, result.backend, options)
     rate = float(scene.settings.output_rate)
     t, a_raw, a_cfc = post.acceleration_histories(result, model.mass_full, rate=rate)
     info = {
@@ -258,20 +299,23 @@ def drop_test_outcome(scene: Scene, model, result, notes=()) -> DropTestOutcome:
         "density": scene.specimen.density, "friction": scene.contact.friction, "mesh": scene.specimen.mesh or "",
         "velocity": model.meta["velocity"], "symmetry": model.meta["symmetry"],
         "material": model.material.name, "moduli": model.material.moduli, "elastic": model.material.elastic,
-        "parameters": dict(model.material.values), "scene": scene_to_dict(scene),
+        "parameters": dict(model.material.values), "scene": json_ready(scene_to_dict(scene)),
         "units": {"thickness": "m", "width": "m", "element_size": "m", "velocity": "m/s", "elements_modelled": "-",
                   "impactor_radius": "m", "density": "kg/m^3", "friction": "-", "parameters": "SI (Pa, s, -)",
                   "scene": "SI (as in scene.toml)"},
     }
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
     info["warnings"] = [*notes, *result.info.get("warnings", [])]
+    extra = _provenance(scene, model, result.backend, options)
+    info.update(extra, units={**info["units"], **extra["units"]})
     summary = post.summarize(result, info, (t, a_raw, a_cfc))
     report_warnings({"warnings": result.info.get("warnings", [])})
     return DropTestOutcome(scene, model, result, t, a_raw, a_cfc, summary)
 
 
-def resolved(scene: Scene, model) -> Scene:
-    """The scene with every material parameter value written out (defaults included).
+def resolved(scene: Scene, model, backend: str | None = None, options: dict | None = None) -> Scene:
+    """The scene with every material parameter value written out (defaults included) and, given
+    the backend, the [run] section of the run (:func:`cfm_core.runs.settings.run_record`).
 
     Parameters
     ----------
@@ -279,13 +323,33 @@ def resolved(scene: Scene, model) -> Scene:
         The scene that ran.
     model : Model
         The model built from it (its bound material holds every value, SI units).
+    backend : str, optional
+        The backend it ran on (None: the [run] section is left as it is).
+    options : dict, optional
+        The options it was given.
 
     Returns
     -------
     Scene
-        The same scene with ``[material.parameters]`` complete.
+        The same scene with ``[material.parameters]`` complete (a relative mesh path made
+        absolute, so that the scene reads the same file from any folder) and its [run] section.
     """
-    return scene.with_overrides(parameters=dict(model.material.values))
+    over = {"parameters": dict(model.material.values)}
+    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
+    if mesh and not Path(mesh).is_absolute():
+        spec = scene.specimen
+        over.update(mesh=str(Path(mesh).absolute()), width=spec.width, thickness=spec.thickness,
+                    element_size=spec.element_size)
+    scene = scene.with_overrides(**over)
+    return scene if backend is None else scene.with_run(run_record(scene, backend, options))
+
+
+def _provenance(scene: Scene, model, backend: str, options: dict | None) -> dict:
+    """Summary entries naming how the run was made: dtype, device and the provenance record."""
+    record = json_ready(provenance(backend, options, model.material, scene_files(scene)))
+    return {"dtype": record["backend"]["dtype"], "device": record["backend"]["device"], "provenance": record,
+            "units": {"provenance": "record of what produced this output (code, backend with resolved options in SI, "
+                                    "material, input-file digests)"}}
 
 
 def batch_key(model) -> str:
@@ -401,7 +465,7 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, models: lis
         try:
             if not checked:
                 _checked(be, model, result)
-            return drop_test_outcome(scenes[i], model, result, check_plausible(scenes[i]))
+            return drop_test_outcome(scenes[i], model, result, check_plausible(scenes[i]), options=options)
         except (ValueError, RuntimeError) as exc:
             return exc
 
@@ -426,12 +490,15 @@ def drop_tests(scenes, backend: str = "torch", batch_size: int = 64, models: lis
 def reaction_test(scene: Scene, backend: str | None = None, progress=None, **options) -> ReactionOutcome:
     """Run a single-element or relaxation scene: reaction-force histories and their summary.
 
+    The scene's ``[run]`` section gives the backend and options as for :func:`drop_test`.
+
     Parameters
     ----------
     scene : Scene
         A ``single-element`` or ``relaxation`` scene (SI units).
     backend : str, optional
-        Backend name; default :func:`default_backend` (skfem for relaxation, numba otherwise).
+        Backend name; default: the scene's ``[run] backend``, else :func:`default_backend`
+        (skfem for relaxation, numba otherwise).
     progress, **options
         As for :func:`drop_test`.
 
@@ -450,18 +517,24 @@ def reaction_test(scene: Scene, backend: str | None = None, progress=None, **opt
     if scene.type not in ("single-element", "relaxation"):
         raise InputError(f"scene type is '{scene.type}'; reaction_test needs a 'single-element' or "
                          f"'relaxation' scene (drop tests: drop_test).")
-    backend = backend or default_backend(scene)
+    return run_planned(scene, plan_run(scene, backend, options, default=default_backend(scene)), progress)
+
+
+def _reaction_test(scene: Scene, plan: RunPlan, progress) -> ReactionOutcome:
+    report_warnings({"warnings": plan.warnings})
+    backend, options = plan.backend, plan.options
     model, result = _run(scene, backend, progress, f"{scene.type} ({backend})", options)
-    scene = resolved(scene, model)
+    scene = resolved(scene, model, result.backend, options)
     t, stretch, force, nominal = post.reaction_histories(result, model)
     meta = model.meta
     info = {k: meta[k] for k in ("scene_type", "size", "stretch", "load_time", "hold", "rate", "lateral")
             if k in meta}
     info.update(scene_name=scene.settings.name or "", material=model.material.name, moduli=model.material.moduli,
                 elastic=model.material.elastic, parameters=dict(model.material.values), elements=model.n_elements,
-                scene=scene_to_dict(scene))
-    info["units"] = {"parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
-    info["warnings"] = list(result.info.get("warnings", []))
+                scene=json_ready(scene_to_dict(scene)))
+    info.update(_provenance(scene, model, result.backend, options))
+    info["units"] = {**info["units"], "parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
+    info["warnings"] = [*plan.warnings, *result.info.get("warnings", [])]
     summary = post.summarize_reaction(result, t, force, info)
-    report_warnings(summary)
+    report_warnings({"warnings": result.info.get("warnings", [])})
     return ReactionOutcome(scene, model, result, t, stretch, force, nominal, summary)

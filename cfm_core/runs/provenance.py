@@ -9,6 +9,7 @@ content digest of every input file, and the code that ran (:func:`cfm_core.finge
 
 from __future__ import annotations
 
+import math
 import os
 import platform
 from pathlib import Path
@@ -87,7 +88,8 @@ def material_record(material) -> dict:
         ``name``, ``distribution``, ``version``, ``entry_point`` of the material plugin (None for
         a material composed in Python and not registered), ``definition_digest`` (changes when any
         term's source, parameters or the code generator changes; None for interactively defined
-        terms), ``parameters`` (every value, SI), ``moduli``, ``elastic``.
+        terms), ``parameters`` (every value, SI), ``overrides`` (:func:`parameter_overrides`),
+        ``moduli``, ``elastic``.
     """
     spec = material.spec
     try:
@@ -96,7 +98,29 @@ def material_record(material) -> dict:
         where = {"distribution": None, "version": None, "value": None}
     return {"name": spec.name, "distribution": where["distribution"], "version": where["version"],
             "entry_point": where["value"], "definition_digest": spec_fingerprint(spec),
-            "parameters": dict(material.values), "moduli": material.moduli, "elastic": bool(material.elastic)}
+            "parameters": dict(material.values), "overrides": parameter_overrides(material),
+            "moduli": material.moduli, "elastic": bool(material.elastic)}
+
+
+def parameter_overrides(material) -> dict:
+    """The material parameters whose value differs from the material's default.
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+
+    Returns
+    -------
+    dict
+        ``name -> {"value": v, "default": d}`` (SI units), in the material's parameter order.
+    """
+    out = {}
+    for p in material.spec.parameters:
+        v = material.values.get(p.name)
+        if v is not None and v != p.default:
+            out[p.name] = {"value": v, "default": p.default}
+    return out
 
 
 def input_files(paths) -> dict:
@@ -223,6 +247,70 @@ def describe_differences(records: dict) -> list[str]:
     for k in keys:
         values = [f.get(k) for f in flats]
         if any(v != values[0] for v in values[1:]):
-            phrases.append(f"{k}: " + " | ".join("-" if v is None else (f"{v:g}" if isinstance(v, float) else str(v))
-                                                 for v in values))
+            phrases.append(f"{k}: " + " | ".join(_fmt(v) for v in values))
     return phrases
+
+
+def json_ready(value):
+    """``value`` with infinite floats written as the text ``"inf"`` / ``"-inf"`` (JSON has no
+    infinity; an option such as ``dt_max = inf`` means "no limit"). NaN is left as it is, so that
+    the writers still refuse it.
+
+    Parameters
+    ----------
+    value : JSON-like
+        Nested dicts, lists and plain values.
+
+    Returns
+    -------
+    JSON-like
+        A copy with infinities as text.
+    """
+    if isinstance(value, float) and math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    return value
+
+
+#: Backend options that change what is stored, not the result: left out of titles.
+OUTPUT_ONLY = ("frame_interval", "warm_up")
+
+
+def _fmt(v) -> str:
+    return "-" if v is None else (f"{v:g}" if isinstance(v, float) else str(v))
+
+
+def describe_run(record: dict) -> list[str]:
+    """How one run differs from the defaults, one short phrase each, for plot titles.
+
+    Parameters
+    ----------
+    record : dict
+        A provenance record (:func:`provenance`), e.g. ``summary["provenance"]``.
+
+    Returns
+    -------
+    list of str
+        The backend with its dtype (``"numba float64"``, ``"torch float32 cuda"``), then each
+        backend option that differs from the backend's default (``"hourglass 0.05"``), then each
+        material parameter that differs from the material's default (``"k2 = 3 (default 1.66)"``).
+    """
+    b, m = record.get("backend") or {}, record.get("material") or {}
+    out = []
+    if b.get("name"):
+        device = b.get("device")
+        out.append(" ".join(str(x) for x in (b["name"], b.get("dtype"), device if device not in (None, "cpu") else None)
+                            if x))
+        try:
+            defaults = json_ready(resolved_options(b["name"], {}))
+        except ValueError:  # a backend not installed here: its defaults are unknown
+            defaults = {}
+        for k, v in (b.get("options") or {}).items():
+            if k in defaults and k not in ("dtype", "device", *OUTPUT_ONLY) and defaults[k] != v:
+                out.append(f"{k} {_fmt(v)}")
+    for k, d in (m.get("overrides") or {}).items():
+        out.append(f"{k} = {_fmt(d.get('value'))} (default {_fmt(d.get('default'))})")
+    return out

@@ -8,8 +8,11 @@ type or an unknown key raises :class:`cfm_core.errors.InputError` naming the sec
 the value, the unit and what is allowed. The built-in scene files (``cfm_core/scene/scenes/*.toml``)
 document every key with its unit.
 
+Any scene may hold a [run] section (:mod:`cfm_core.scene.run_section`): how the run that wrote
+it was made (backend, dtype, device, options, input-file digests), so that it can be repeated.
+
 Public API: :func:`load_scene`, :func:`scene_from_dict`, :func:`builtin_scene`,
-:meth:`Scene.with_overrides`, :func:`scene_to_dict`, :func:`scene_to_toml`.
+:meth:`Scene.with_overrides`, :meth:`Scene.with_run`, :func:`scene_to_dict`, :func:`scene_to_toml`.
 """
 
 from __future__ import annotations
@@ -17,14 +20,15 @@ from __future__ import annotations
 import json
 import re
 import tomllib
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Mapping
 
 from ..errors import InputError, did_you_mean
+from .run_section import RunSettings, run_toml
 from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
 
-__all__ = ["Scene", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
+__all__ = ["Scene", "RunSettings", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
            "ElementTest", "RelaxationTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
            "builtin_scenes", "scene_to_dict", "scene_to_toml"]
 
@@ -71,6 +75,10 @@ class Scene:
         Single element only: size (m), stretch (-), rate (1/s), hold (s), density (kg/m^3).
     relaxation : RelaxationTest, optional
         Relaxation only: size (m), stretch (-), load_time (s), hold (s), lateral.
+    run : RunSettings, optional
+        The [run] section (any scene type): backend, dtype, device, options and input-file
+        digests of the run that wrote the scene (:mod:`cfm_core.scene.run_section`); None: the
+        defaults.
 
     Raises
     ------
@@ -86,10 +94,13 @@ class Scene:
     contact: Contact | None = None
     element: ElementTest | None = None
     relaxation: RelaxationTest | None = None
+    run: RunSettings | None = None
 
     def __post_init__(self):
         if not isinstance(self.settings, SceneSettings):
             raise InputError(f"Scene.settings must be a SceneSettings, got {self.settings!r}.")
+        if self.run is not None and not isinstance(self.run, RunSettings):
+            raise InputError(f"Scene.run must be a RunSettings, got {self.run!r}.")
         layout = _LAYOUT[self.type]
         for key, cls in (("specimen", Specimen), ("impactor", Impactor), ("contact", Contact),
                          ("element", ElementTest), ("relaxation", RelaxationTest),
@@ -179,6 +190,22 @@ class Scene:
                     d["specimen"].pop(key, None)
         return scene_from_dict(d)
 
+    def with_run(self, run: RunSettings | None) -> "Scene":
+        """The same scene with another [run] section (how it is run, not what is simulated).
+
+        Parameters
+        ----------
+        run : RunSettings or None
+            Backend, dtype, device, options and input-file digests; None removes the section
+            (the scene then runs with the default backend and options).
+
+        Returns
+        -------
+        Scene
+            A new scene; this one is unchanged.
+        """
+        return replace(self, run=run)
+
 
 def _close(word: str, names) -> str:
     """``" (did you mean 'x'?)"`` for a mistyped name, or ``""`` (:func:`cfm_core.errors.did_you_mean`)."""
@@ -217,9 +244,9 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
     stype = _choice("scene", "type", head["type"], SCENE_TYPES)
     layout = _LAYOUT[stype]
     for key in d:
-        if key not in layout:
-            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, layout)}; allowed "
-                             f"sections: {', '.join(layout)}.")
+        if key not in layout and key != "run":
+            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, [*layout, 'run'])}; "
+                             f"allowed sections: {', '.join(layout)}, run.")
     sections = {}
     for key, cls in layout.items():
         table = d.get(key, {})
@@ -236,7 +263,21 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
             if not mesh.is_absolute() and base_dir is not None:
                 table["mesh"] = str(Path(base_dir) / mesh)
         sections["settings" if key == "scene" else key] = cls(**table)
+    if d.get("run") is not None:
+        sections["run"] = _run_section(d["run"], base_dir)
     return Scene(**sections)
+
+
+def _run_section(table, base_dir) -> RunSettings:
+    """The [run] section; its relative input-file paths taken from ``base_dir`` as the mesh's are."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"[run] must be a table (section), got {table!r}.")
+    allowed = ("backend", "dtype", "device", "options", "input_files")
+    for k in table:
+        if k not in allowed:
+            raise InputError(f"unknown key '{k}' in [run]{_close(k, allowed)}; allowed keys: {', '.join(allowed)}.")
+    run = RunSettings(**table)
+    return run if base_dir is None else run.based_at(base_dir)
 
 
 def load_scene(path) -> Scene:
@@ -355,6 +396,8 @@ def scene_to_dict(scene: Scene) -> dict:
                 continue
             table[f.name] = val
         out[key] = table
+    if scene.run is not None:
+        out["run"] = scene.run.as_dict()
     return out
 
 
@@ -387,7 +430,9 @@ def scene_to_toml(scene: Scene) -> str:
         and material parameter overrides as ``[material.parameters]``.
     """
     lines = [f"# {scene.type} scene written by cfm_core.scene.scene_to_toml (SI units)"]
-    for section, table in scene_to_dict(scene).items():
+    d = scene_to_dict(scene)
+    d.pop("run", None)
+    for section, table in d.items():
         params = table.pop("parameters", None)
         lines += ["", f"[{section}]"]
         for k, v in table.items():
@@ -396,4 +441,6 @@ def scene_to_toml(scene: Scene) -> str:
         if params:
             lines += ["", f"[{section}.parameters]  # SI units"]
             lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in params.items()]
+    if scene.run is not None:
+        lines += ["", *run_toml(scene.run)]
     return "\n".join(lines) + "\n"

@@ -1,0 +1,207 @@
+"""The ``[run]`` section of a scene: how a run was made, so that its ``scene.toml`` repeats it.
+
+Every ``scene.toml`` a run writes holds ``[run]``: the backend, its dtype and device, every
+backend option as the run resolved it (defaults included) and the content digest of each input
+file (the mesh). ``cfm run --scene DIR/scene.toml`` (and ``cfm.drop_test(cfm.load_scene(...))``)
+then uses the same backend, options and dtype; a value given on the command line (or as an
+argument in Python) overrides the file's, and the run says so. Scenes without ``[run]`` run
+as before (the default backend and options).
+
+The scene layer checks only the form of the section (names are text, options are a table of
+plain values); whether the backend exists and declares the options is checked when the scene runs
+(:func:`cfm_core.runs.settings.run_settings`), which names the section, the key and the value.
+
+Example::
+
+    [run]
+    backend = "torch"
+    dtype = "float32"
+    device = "cpu"
+
+    [run.options]              # every backend option as resolved, SI units
+    hourglass = 0.05
+    safety = 0.9
+
+    [run.input_files]          # content digests of the files the scene reads
+    "/data/specimen.vtu" = "sha256:8f1c..."
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+from ..errors import InputError
+
+__all__ = ["RunSettings"]
+
+
+def _pairs(section: str, value, check) -> tuple:
+    """A table as sorted (name, value) pairs, each value through ``check(name, value)``."""
+    if not isinstance(value, Mapping):
+        try:
+            value = dict(value)
+        except (TypeError, ValueError):
+            raise InputError(f"[{section}] = {value!r} must be a table of name = value.") from None
+    out = {}
+    for k, v in value.items():
+        if not isinstance(k, str) or not k.strip():
+            raise InputError(f"[{section}] has a key {k!r}; keys must be non-empty names.")
+        out[k] = check(k, v)
+    return tuple(sorted(out.items()))
+
+
+def _plain(section: str):
+    def check(name, v):
+        if isinstance(v, bool) or isinstance(v, str):
+            return v
+        if isinstance(v, (int, float)):
+            if isinstance(v, float) and math.isnan(v):
+                raise InputError(f"[{section}] {name} = nan is not allowed; give a number.")
+            return v
+        raise InputError(f"[{section}] {name} = {v!r} must be a number, true/false or text (SI units); "
+                         f"tables and arrays are not options.")
+    return check
+
+
+def _digest(section: str):
+    def check(name, v):
+        if not isinstance(v, str) or not v.startswith("sha256:"):
+            raise InputError(f"[{section}] {name!r} = {v!r} must be a content digest \"sha256:<hex>\".")
+        return v
+    return check
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """``[run]``: how a scene is run (all optional; None: the default).
+
+    Parameters
+    ----------
+    backend : str, optional
+        Registered backend name (``cfm backends``).
+    dtype : str, optional
+        Floating-point type, ``"float64"`` or ``"float32"`` (only backends with a choice accept
+        float32).
+    device : str, optional
+        Device (``"cpu"``, ``"cuda"``, ``"cuda:N"``; only backends with a choice accept another
+        than cpu).
+    options : mapping or tuple of pairs
+        Backend options by name, SI units (stored as sorted ``(name, value)`` pairs).
+    input_files : mapping or tuple of pairs
+        ``path -> "sha256:<hex>"``: content digests of the files the run read (its mesh).
+
+    Raises
+    ------
+    InputError
+        A name that is not text, an option value that is not a number, bool or text, or a
+        digest not of the form ``sha256:<hex>``.
+    """
+
+    backend: str | None = None
+    dtype: str | None = None
+    device: str | None = None
+    options: tuple = ()
+    input_files: tuple = ()
+
+    def __post_init__(self):
+        for key in ("backend", "dtype", "device"):
+            v = getattr(self, key)
+            if v is not None and (not isinstance(v, str) or not v.strip()):
+                raise InputError(f"[run] {key} = {v!r} must be a non-empty name (e.g. backend = \"numba\").")
+        if self.dtype is not None and self.dtype not in ("float64", "float32"):
+            raise InputError(f"[run] dtype = {self.dtype!r} is not allowed; use 'float64' or 'float32'.")
+        object.__setattr__(self, "options", _pairs("run.options", self.options, _plain("run.options")))
+        object.__setattr__(self, "input_files", _pairs("run.input_files", self.input_files, _digest("run.input_files")))
+
+    @property
+    def option_dict(self) -> dict:
+        """The options as a new dict ``{name: value (SI)}``."""
+        return dict(self.options)
+
+    @property
+    def file_dict(self) -> dict:
+        """The input-file digests as a new dict ``{path: "sha256:<hex>"}``."""
+        return dict(self.input_files)
+
+    def based_at(self, base_dir) -> "RunSettings":
+        """These settings with relative input-file paths taken from ``base_dir`` (as a scene file's
+        relative mesh path is).
+
+        Parameters
+        ----------
+        base_dir : str or path-like
+            The scene file's folder.
+
+        Returns
+        -------
+        RunSettings
+            A new object; absolute paths are unchanged.
+        """
+        files = {(p if Path(p).expanduser().is_absolute() else str(Path(base_dir) / Path(p).expanduser())): d
+                 for p, d in self.input_files}
+        return RunSettings(self.backend, self.dtype, self.device, self.options, files)
+
+    def as_dict(self) -> dict:
+        """The section as TOML-ready nested dict (None entries and empty tables left out).
+
+        Returns
+        -------
+        dict
+            ``backend``, ``dtype``, ``device`` (when set), ``options`` and ``input_files``
+            (sub-tables, when not empty).
+        """
+        out = {k: getattr(self, k) for k in ("backend", "dtype", "device") if getattr(self, k) is not None}
+        if self.options:
+            out["options"] = dict(self.options)
+        if self.input_files:
+            out["input_files"] = dict(self.input_files)
+        return out
+
+
+def _value(v) -> str:
+    import json
+
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")
+    return json.dumps(str(v))  # a JSON string is a valid TOML basic string
+
+
+def _key(k: str) -> str:
+    import json
+    import re
+
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+
+
+def run_toml(run: RunSettings) -> list[str]:
+    """The TOML lines of a ``[run]`` section (with its ``options`` and ``input_files`` tables).
+
+    Parameters
+    ----------
+    run : RunSettings
+        The section.
+
+    Returns
+    -------
+    list of str
+        Lines, starting with a comment saying what the section is for.
+    """
+    d = run.as_dict()
+    lines = ["# How this run was made: 'cfm run --scene THIS_FILE' repeats it (same backend, options and",
+             "# dtype); a value on the command line overrides the one here. Options not listed: the backend's",
+             "# default (an automatic choice).", "[run]"]
+    lines += [f"{k} = {_value(d[k])}" for k in ("backend", "dtype", "device") if k in d]
+    if "options" in d:
+        lines += ["", "[run.options]  # backend options as resolved, SI units ('cfm backends --options')"]
+        lines += [f"{_key(k)} = {_value(v)}" for k, v in d["options"].items()]
+    if "input_files" in d:
+        lines += ["", "[run.input_files]  # content digests of the files the run read"]
+        lines += [f"{_key(k)} = {_value(v)}" for k, v in d["input_files"].items()]
+    return lines
