@@ -6,8 +6,10 @@ import numpy as np
 
 from ..post.compare import SIGNALS, Run, compare_runs, read_run
 from ..post.histories import G0
-from ..post.plots import _COLOURS, _figure, _save
+from ..post.plots import _COLOURS, _figure, _save, subtitled
+from ..post.staging import check_file_target
 from ..post.writers import write_json
+from ..runs.provenance import describe_differences
 
 
 def add_parser(sub) -> None:
@@ -22,9 +24,13 @@ def add_parser(sub) -> None:
 
 
 def cmd_compare(args) -> int:
+    for flag in ("plot", "json"):  # checked before the runs are read: a directory or an unwritable place
+        if getattr(args, flag):
+            check_file_target(getattr(args, flag), f"--{flag}")
     ref = read_run(args.reference)
     runs = [read_run(p) for p in args.runs]
     rows = compare_runs(ref, runs)
+    differences = describe_differences({r.label: r.record for r in [ref, *runs]})
     unit = SIGNALS[ref.kind][1]
     scale, shown = (G0, "g") if unit == "m/s^2" else (1.0, unit)
     p0 = float(ref.y[np.argmax(np.abs(ref.y))])
@@ -35,16 +41,23 @@ def cmd_compare(args) -> int:
         print(f"{r['run']}: peak {r['peak'] / scale:.4g} {shown} (|peak| {100 * magnitude:+.2f} % of the reference's), "
               f"t_peak {1e3 * r['t_peak_diff']:+.3f} ms, rel L2 {100 * r['rel_l2']:.2f} %, "
               f"wall {r['wall_time'] if r['wall_time'] is not None else float('nan'):.3g} s{ratio}")
+    print("differences: " + ("; ".join(differences) if differences else "none recorded (same backend, options, "
+                                                                         "dtype, material, scene and input files)"))
+    written = []
     if args.json:
         write_json(args.json, {"reference": str(ref.path), "signal": SIGNALS[ref.kind][0], "unit": unit,
-                               "rows": rows})
+                               "differences": differences, "rows": rows})
+        written.append(str(args.json))
     if args.plot:
-        _plot(args.plot, [ref] + runs, scale, shown)
+        _plot(args.plot, [ref] + runs, scale, shown, differences)
+        written.append(str(args.plot))
+    if written:
+        print(f"wrote {', '.join(written)}")
     return 0
 
 
-def _plot(path, runs: list[Run], scale: float, shown: str) -> None:
-    fig, ax = _figure("Run comparison")
+def _plot(path, runs: list[Run], scale: float, shown: str, differences: list[str]) -> None:
+    fig, ax = _figure(subtitled("Run comparison", differences or ["no recorded difference"]))
     ax.set_ylabel(f"{'Impactor acceleration' if shown == 'g' else 'Reaction force'} ({shown})")
     for i, r in enumerate(runs):
         ax.plot(1e3 * r.t, r.y / scale, color=_COLOURS[i % len(_COLOURS)], linewidth=2.0 if i == 0 else 1.2,

@@ -10,6 +10,7 @@ from .. import plugins
 from ..errors import InputError
 from ..material.registry import make_material
 from ..post.plots import plot_uniaxial
+from ..post.staging import check_file_target
 from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
@@ -53,6 +54,7 @@ def _cmd_backends(args) -> int:
 
 def _cmd_point(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
+    check_file_target(args.out, "--out")  # before the work: a directory, a file as parent, unwritable
     if args.uniaxial:
         if args.history:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")
@@ -67,10 +69,12 @@ def _cmd_point(args) -> int:
         if args.backend not in (None, "numpy"):
             P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
             source = f"backend {args.backend} along the reference's path (lateral stress {residual:.1e} of the axial)"
+        png = Path(args.out).with_suffix(".png")
+        if not args.no_plot:
+            check_file_target(png, "--out (its plot)")
         write_csv(args.out, unit_header(point.UNIAXIAL_UNITS), [t, lam, P, lat])
         written = [str(args.out)]
         if not args.no_plot:
-            png = Path(args.out).with_suffix(".png")
             plot_uniaxial(png, lam, P, f"{material.name} ({'elastic' if material.elastic else material.moduli}), "
                                        f"uniaxial stress at {args.rate:g} /s, {source.split(' along')[0]}")
             written.append(str(png))

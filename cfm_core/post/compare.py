@@ -36,7 +36,28 @@ class Run:
 
     @property
     def label(self) -> str:
+        """The directory name and the backend, e.g. ``out_t32 (torch)``."""
         return f"{self.path.name} ({self.summary.get('backend', '?')})"
+
+    @property
+    def record(self) -> dict:
+        """The run's provenance record (``summary["provenance"]``; for runs written before
+        provenance existed, one made of the summary's backend, material and parameters) with
+        the scene's values under ``scene_values`` (``"specimen.thickness"``, ...; material and
+        [run] left out: the record has them), for
+        :func:`cfm_core.runs.provenance.describe_differences`."""
+        s = self.summary
+        record = dict(s.get("provenance") or {
+            "backend": {"name": s.get("backend"), "dtype": s.get("dtype"), "device": s.get("device")},
+            "material": {"name": s.get("material"), "moduli": s.get("moduli"), "elastic": s.get("elastic"),
+                         "parameters": s.get("parameters") or {}}})
+        values = {}
+        for section, table in (s.get("scene") or {}).items():
+            if section in ("material", "run") or not isinstance(table, dict):
+                continue
+            values.update({f"{section}.{k}": v for k, v in table.items() if not isinstance(v, dict)})
+        record["scene_values"] = values
+        return record
 
 
 def read_run(path) -> Run:

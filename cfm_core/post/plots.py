@@ -60,6 +60,36 @@ def display_text(name: str, value: float, unit: str) -> str:
     return f"{name} = {value * factor:g}{' ' + shown if shown else ''}"
 
 
+def subtitled(title: str, phrases, width: int = 80, lines: int = 3) -> str:
+    """A figure title with a subtitle of short phrases (what differs between the runs shown, or
+    how one run differs from the defaults), wrapped to ``width`` characters and cut after
+    ``lines`` lines (the cut ends with "...").
+
+    Parameters
+    ----------
+    title : str
+        The first line.
+    phrases : sequence of str
+        Joined with "; ".
+    width : int
+        Characters per subtitle line.
+    lines : int
+        Most subtitle lines.
+
+    Returns
+    -------
+    str
+        ``title`` alone when ``phrases`` is empty, else the title and the subtitle lines.
+    """
+    import textwrap
+
+    text = "; ".join(str(p) for p in phrases)
+    if not text:
+        return title
+    wrapped = textwrap.wrap(text, width=width, max_lines=lines, placeholder=" ...")
+    return "\n".join([title, *wrapped])
+
+
 def _figure(title: str):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -67,7 +97,10 @@ def _figure(title: str):
     fig = Figure(figsize=(6.4, 4.2), dpi=150, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    ax.set_title(title)
+    if title.count("\n") < 2:
+        ax.set_title(title)
+    else:  # a title with a subtitle of several lines: smaller, so that the axes keep their room
+        ax.set_title(title, fontsize=8)
     ax.set_xlabel("Time (ms)")
     ax.set_ylabel("Impactor acceleration (g)")
     ax.grid(True, color="0.88", linewidth=0.6)

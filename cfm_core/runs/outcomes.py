@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..post import G0, compare_histories
-from ..post.plots import plot_acceleration, plot_reaction
+from ..post.plots import plot_acceleration, plot_reaction, subtitled
 from ..post.staging import staged_folder
 from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
 from ..scene.scene import scene_to_toml
@@ -34,13 +34,12 @@ def _material_text(summary: dict) -> str:
     return f"{summary['material']} ({'elastic' if summary.get('elastic') else summary['moduli']})"
 
 
-def _run_text(summary: dict) -> str:
-    """``cfm (long-term), numba float64, hourglass 0.05, k2 = 3 (default 1.66)``: the material,
-    the backend with its dtype, and what differs from the defaults
+def _run_phrases(summary: dict) -> list[str]:
+    """``["cfm (long-term)", "numba float64", "hourglass 0.05", "k2 = 3 (default 1.66)"]``: the
+    material, the backend with its dtype, and what differs from the defaults
     (:func:`cfm_core.runs.provenance.describe_run`)."""
     record = summary.get("provenance")
-    phrases = describe_run(record) if record else [summary.get("backend", "?")]
-    return ", ".join([_material_text(summary), *phrases])
+    return [_material_text(summary), *(describe_run(record) if record else [summary.get("backend", "?")])]
 
 
 def _staged_save(out, overwrite: bool, write) -> Path:
@@ -113,9 +112,9 @@ class DropTestOutcome:
         name = f"{sc.settings.name}: " if sc.settings.name not in (None, "", sc.type) else ""
         friction = f", friction {sc.contact.friction:g}" if sc.contact.friction else ""
         mesh = f", mesh {Path(sc.specimen.mesh).name}" if sc.specimen.mesh else ""
-        return (f"{name}drop test {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, "
-                f"{1e3 * sc.impactor.mass:g} g R{1e3 * sc.impactor.radius:g} mm{friction}, "
-                f"{1e3 * s['element_size']:g} mm elements{mesh}\n{_run_text(s)}")
+        return subtitled(f"{name}drop test {1e3 * s['thickness']:.1f} mm, {s['velocity']:g} m/s, "
+                         f"{1e3 * sc.impactor.mass:g} g R{1e3 * sc.impactor.radius:g} mm{friction}, "
+                         f"{1e3 * s['element_size']:g} mm elements{mesh}", _run_phrases(s), width=75)
 
     def save(self, out, plot: bool = True, vtu: bool = False, overwrite: bool = True) -> Path:
         """Write the run's files, the same the command line writes.
@@ -258,7 +257,7 @@ class ReactionOutcome:
         """
         s = self.summary
         name = f"{self.scene.settings.name}: " if self.scene.settings.name not in (None, "", self.scene.type) else ""
-        return f"{name}{self.scene.type}, stretch {s['stretch']:g}\n{_run_text(s)}"
+        return subtitled(f"{name}{self.scene.type}, stretch {s['stretch']:g}", _run_phrases(s), width=75)
 
     def save(self, out, plot: bool = True, overwrite: bool = True) -> Path:
         """Write the run's files, the same the command line writes.

@@ -246,6 +246,8 @@ def describe_differences(records: dict) -> list[str]:
     phrases = []
     for k in keys:
         values = [f.get(k) for f in flats]
+        if k.startswith("option ") and any(k not in f for f in flats):
+            continue  # an option of one backend only: the backend difference says it
         if any(v != values[0] for v in values[1:]):
             phrases.append(f"{k}: " + " | ".join(_fmt(v) for v in values))
     return phrases
