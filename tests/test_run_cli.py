@@ -154,13 +154,17 @@ def test_point_backend_refuses_scenes_with_exit_2(tmp_path, capsys):
     assert "material points only" in capsys.readouterr().err
 
 
-def test_a_failed_run_removes_the_summary_of_an_earlier_one(tmp_path):
+def test_a_failed_run_leaves_the_earlier_output_whole(tmp_path):
+    """A failed run into a used folder publishes nothing: the earlier run's files stay as they
+    were (all of one run, none of the failed one), and no stage is left beside the folder."""
     out = tmp_path / "run"
     assert main(["drop-test", *COARSE, "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
     # 60 kg (a 60 g impactor typed in grams?) is only warned about before running; the run then
     # stops with the penetration check
     assert main(["drop-test", *COARSE, "--mass", "60", "--out", str(out)]) == 3
-    assert not (out / "summary.json").exists()
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
 def test_written_scene_holds_every_parameter_and_repeats_the_run(tmp_path):

@@ -128,9 +128,14 @@ def _plan(args, scene):
     """The backend and options of the run: the scene's [run] section, overridden by the command line."""
     run = scene.run
     name = args.backend or (run.backend if run is not None else None) or pipeline.default_backend(scene)
+    where = f"{Path(args.scene).name} [run]" if getattr(args, "scene", None) else "the scene's [run]"
+    if not args.backend and run is not None and run.backend:
+        try:
+            backend_for(name)
+        except InputError as exc:
+            raise InputError(f"{where} backend = {name!r}: {exc}") from None
     options, given_as = _backend_options(args, name)
     given_as["backend"] = f"--backend {args.backend}"
-    where = f"{Path(args.scene).name} [run]" if getattr(args, "scene", None) else "the scene's [run]"
     return plan_run(scene, args.backend, options, default=pipeline.default_backend(scene), given_as=given_as,
                     where=where)
 
@@ -144,7 +149,11 @@ def _run_and_write(args, scene) -> tuple:
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite) as stage:
         outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)
-        names = outcome.write(stage, plot=plot, vtu=vtu) if scene.type == "drop-test" else outcome.write(stage, plot=plot)
+        try:
+            names = outcome.write(stage, plot=plot, vtu=vtu) if scene.type == "drop-test" else outcome.write(stage, plot=plot)
+        except OSError as exc:  # a disk that filled up during the run, a folder removed meanwhile
+            raise InputError(f"--out {args.out}: the run finished but its files could not be written "
+                             f"({exc.strerror or exc}); nothing was published, --out is as it was.") from None
     return outcome, Path(args.out), names
 
 

@@ -170,14 +170,14 @@ def _value(v) -> str:
         return str(v)
     if isinstance(v, float):
         return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")
-    return json.dumps(str(v))  # a JSON string is a valid TOML basic string
+    return json.dumps(str(v), ensure_ascii=False)  # a JSON string is a valid TOML basic string
 
 
 def _key(k: str) -> str:
     import json
     import re
 
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k, ensure_ascii=False)
 
 
 def run_toml(run: RunSettings) -> list[str]:

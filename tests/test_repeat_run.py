@@ -1,0 +1,111 @@
+"""A run repeated from the scene.toml it wrote is the same run: backend, options, dtype (issue 20).
+
+Each repeat is compared byte for byte with the first run; a run without the option (or on the
+default backend) is compared too, so that a repeat that lost the option cannot pass.
+"""
+
+import json
+import re
+
+import meshio
+import pytest
+
+import cfm_core as cfm
+from cfm_core.cli import main
+from cfm_core.scene.mesh import structured_hex_mesh
+
+# a small quarter specimen (5 x 5 x 2 elements of 2 mm): a run takes about a second
+SMALL = ["--element-size", "0.002", "--width", "0.02", "--thickness", "0.004", "--quiet", "--no-plot"]
+
+
+def _csv(folder):
+    return (folder / "acceleration.csv").read_bytes()
+
+
+def _summary(folder):
+    return json.loads((folder / "summary.json").read_text())
+
+
+def test_numba_option_is_repeated_byte_for_byte_and_overridden_with_a_note(tmp_path, capsys):
+    hg, again, default, over = (tmp_path / n for n in ("hg", "again", "default", "over"))
+    assert main(["drop-test", *SMALL, "--option", "hourglass=0.05", "--out", str(hg)]) == 0
+    assert main(["drop-test", *SMALL, "--out", str(default)]) == 0
+    assert _csv(hg) != _csv(default)  # the option changes the history, so a lost option shows
+    capsys.readouterr()
+    assert main(["run", "--scene", str(hg / "scene.toml"), "--quiet", "--no-plot", "--out", str(again)]) == 0
+    assert _csv(again) == _csv(hg)
+    assert "overrides" not in capsys.readouterr().err
+    # a command-line value overrides the file's, and the run says so
+    assert main(["run", "--scene", str(hg / "scene.toml"), "--option", "hourglass=0.1", "--quiet", "--no-plot",
+                 "--out", str(over)]) == 0
+    assert "--option hourglass=0.1 overrides scene.toml [run] hourglass = 0.05" in capsys.readouterr().err
+    assert _csv(over) == _csv(default)
+    prov = _summary(hg)["provenance"]
+    assert prov["backend"]["options"]["hourglass"] == 0.05 and prov["backend"]["name"] == "numba"
+    assert prov["code"]["version"] == cfm.__version__ and "commit" in prov["code"] and "dirty" in prov["code"]
+    assert re.fullmatch(r"[0-9a-f]{8,}", prov["material"]["definition_digest"])
+
+
+def test_torch_float32_is_repeated_as_torch_float32(tmp_path):
+    pytest.importorskip("torch")
+    t32, again, numba = (tmp_path / n for n in ("t32", "again", "numba"))
+    assert main(["drop-test", *SMALL, "--backend", "torch", "--dtype", "float32", "--out", str(t32)]) == 0
+    assert main(["run", "--scene", str(t32 / "scene.toml"), "--quiet", "--no-plot", "--out", str(again)]) == 0
+    assert main(["drop-test", *SMALL, "--out", str(numba)]) == 0
+    assert _csv(again) == _csv(t32) != _csv(numba)
+    for s in (_summary(t32), _summary(again)):
+        assert (s["backend"], s["dtype"], s["device"]) == ("torch", "float32", "cpu")
+        assert s["provenance"]["backend"]["dtype"] == "float32"
+
+
+def test_python_api_keeps_the_run_settings_of_a_loaded_scene(tmp_path, capsys):
+    hg = tmp_path / "hg"
+    assert main(["drop-test", *SMALL, "--option", "hourglass=0.05", "--out", str(hg)]) == 0
+    scene = cfm.load_scene(hg / "scene.toml")
+    assert scene.run.backend == "numba" and scene.run.option_dict["hourglass"] == 0.05
+    capsys.readouterr()
+    outcome = cfm.drop_test(scene)
+    outcome.save(tmp_path / "py", plot=False)
+    assert _csv(tmp_path / "py") == _csv(hg)
+    cfm.drop_test(scene, hourglass=0.1)
+    assert "hourglass=0.1 overrides the scene's [run] hourglass = 0.05" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("run, match", [
+    ('backend = "nubma"', r"scene.toml \[run\] backend = 'nubma'"),
+    ('backend = "numba"\n[run.options]\nhourglas = 0.1', r"scene.toml \[run\] options.hourglas = 0.1: backend 'numba' "
+                                                          r"has no option of that name"),
+    ('backend = "numba"\ndtype = "float32"', r"scene.toml \[run\] dtype = 'float32': backend 'numba' has no choice"),
+    ('backend = "numba"\n[run.options]\nhourglass = -1.0', r"option hourglass = -1.0 is not allowed"),
+])
+def test_a_bad_run_section_is_an_input_error_naming_it(tmp_path, capsys, run, match):
+    (tmp_path / "scene.toml").write_text(f'[scene]\ntype = "drop-test"\n[run]\n{run}\n')
+    out = tmp_path / "out"
+    assert main(["run", "--scene", str(tmp_path / "scene.toml"), "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(match, err) and "Traceback" not in err and not out.exists()
+
+
+def _write_mesh(path, thickness):
+    nodes, hexes = structured_hex_mesh(0.01, 0.01, thickness, 5, 5, 2)
+    meshio.write(path, meshio.Mesh(nodes, [("hexahedron", hexes)]))
+
+
+def test_a_changed_mesh_is_named_with_both_digests_when_repeating(tmp_path, capsys):
+    mesh = tmp_path / "specimen.vtu"
+    _write_mesh(mesh, 0.004)
+    first = tmp_path / "first"
+    assert main(["drop-test", "--mesh", str(mesh), "--quiet", "--no-plot", "--out", str(first)]) == 0
+    recorded = "sha256:" + cfm.fingerprint.file_digest(mesh)
+    assert _summary(first)["provenance"]["input_files"] == {str(mesh): recorded}
+    assert f'"{mesh}" = "{recorded}"' in (first / "scene.toml").read_text()
+    assert main(["run", "--scene", str(first / "scene.toml"), "--quiet", "--no-plot",
+                 "--out", str(tmp_path / "same")]) == 0
+    assert "changed since" not in capsys.readouterr().err
+    _write_mesh(mesh, 0.005)
+    now = "sha256:" + cfm.fingerprint.file_digest(mesh)
+    assert main(["run", "--scene", str(first / "scene.toml"), "--quiet", "--no-plot",
+                 "--out", str(tmp_path / "again")]) == 0
+    err = capsys.readouterr().err
+    assert f"mesh file {mesh} changed since the run" in err and recorded in err and now in err
+    assert any("changed since" in w for w in _summary(tmp_path / "again")["warnings"])
