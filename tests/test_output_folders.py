@@ -1,0 +1,108 @@
+"""Outputs that never mislead (issue 20 item 4): the run-level commands and outcome.save stage their
+files, check the target before the solve, replace an earlier run's files (stale VTU frames
+included), keep foreign files, and refuse wrong kinds of target with exit 2, no traceback."""
+
+import json
+import time
+
+import pytest
+
+import cfm_core as cfm
+from cfm_core.cli import main
+from cfm_core.post import staging
+from cfm_core.runs.outcomes import output_bytes
+
+SMALL = ["--element-size", "0.002", "--width", "0.02", "--thickness", "0.004", "--quiet", "--no-plot"]
+
+
+def _earlier_vtu_run(folder, frames=55):
+    """A folder as an earlier --vtu run of cfm (version 0.2.0, no manifest) left it, plus a user's file."""
+    folder.mkdir()
+    for k in range(frames):
+        (folder / f"specimen_{k:04d}.vtu").write_text("old frame")
+    for name in ("specimen.pvd", "acceleration.png", "acceleration.csv", "summary.json", "scene.toml"):
+        (folder / name).write_text("old")
+    (folder / "my notes.txt").write_text("mine")
+
+
+def test_a_run_into_a_used_folder_leaves_only_its_own_files_and_foreign_ones(tmp_path, capsys):
+    out = tmp_path / "out"
+    _earlier_vtu_run(out)
+    assert main(["drop-test", *SMALL, "--out", str(out)]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [".cfm-output.json", "acceleration.csv", "my notes.txt", "scene.toml", "summary.json"]
+    assert (out / "my notes.txt").read_text() == "mine"
+    assert json.loads((out / ".cfm-output.json").read_text())["files"] == ["acceleration.csv", "scene.toml",
+                                                                           "summary.json"]
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote {out}/: acceleration.csv, scene.toml, summary.json"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no stage left beside it
+
+
+def test_no_overwrite_refuses_an_earlier_run_before_solving(tmp_path, capsys):
+    out = tmp_path / "out"
+    _earlier_vtu_run(out, frames=2)
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["drop-test", *SMALL, "--no-overwrite", "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert "holds the files of an earlier run" in captured.err and "peak" not in captured.out
+    assert sorted(p.name for p in out.iterdir()) == before
+    assert main(["drop-test", *SMALL, "--no-overwrite", "--out", str(tmp_path / "new")]) == 0
+
+
+@pytest.mark.parametrize("command", [["drop-test", *SMALL], ["run", "--scene", "single-element", "--quiet"]])
+def test_a_target_that_cannot_be_an_output_folder_is_refused_before_the_run(tmp_path, capsys, command):
+    (tmp_path / "file").write_text("x")
+    for out, words in ((tmp_path / "file", "exists and is not a directory"),
+                       (tmp_path / "file" / "sub", "is a file, so no folder can be made there")):
+        start = time.perf_counter()
+        assert main([*command, "--out", str(out)]) == 2
+        captured = capsys.readouterr()
+        assert words in captured.err and "Traceback" not in captured.err
+        assert "peak" not in captured.out and "largest" not in captured.out  # refused before solving
+        assert time.perf_counter() - start < 20
+
+
+def test_a_full_disk_is_refused_before_the_run_with_the_estimated_size(tmp_path, capsys, monkeypatch):
+    class Usage:
+        free = 1_000_000
+
+    monkeypatch.setattr(staging.shutil, "disk_usage", lambda path: Usage)
+    assert main(["drop-test", *SMALL, "--vtu", "--out", str(tmp_path / "out")]) == 2
+    captured = capsys.readouterr()
+    assert "the output needs about" in captured.err and "MiB are free" in captured.err and "peak" not in captured.out
+    assert not (tmp_path / "out").exists()
+
+
+def test_output_size_estimate_covers_what_a_vtu_run_writes(tmp_path):
+    scene = cfm.builtin_scene("drop-test").with_overrides(element_size=0.002, width=0.02, thickness=0.004)
+    out = tmp_path / "out"
+    assert main(["drop-test", *SMALL[:-2], "--vtu", "--out", str(out)]) == 0
+    written = sum(p.stat().st_size for p in out.iterdir())
+    estimate = output_bytes(scene, {"frame_interval": 2e-4}, plot=True, vtu=True)
+    assert written <= estimate < 60 * written, (written, estimate)
+
+
+def test_point_and_compare_refuse_a_directory_where_a_file_is_written(tmp_path, capsys):
+    d = tmp_path / "dir"
+    d.mkdir()
+    assert main(["point", "--uniaxial", "--rate", "100", "--stretch", "0.7", "--out", str(d)]) == 2
+    err = capsys.readouterr().err
+    assert "is an existing directory, but a file is written there" in err and "Traceback" not in err
+    run = tmp_path / "run"
+    assert main(["drop-test", *SMALL, "--out", str(run)]) == 0
+    for flag in ("--plot", "--json"):
+        assert main(["compare", str(run), str(run), flag, str(d)]) == 2
+        err = capsys.readouterr().err
+        assert f"{flag} {d} is an existing directory" in err and "Traceback" not in err
+
+
+def test_outcome_save_from_python_is_staged(tmp_path):
+    out = tmp_path / "out"
+    _earlier_vtu_run(out)
+    scene = cfm.builtin_scene("drop-test").with_overrides(element_size=0.002, width=0.02, thickness=0.004)
+    outcome = cfm.drop_test(scene)
+    assert outcome.save(out, plot=False) == out
+    assert sorted(p.name for p in out.iterdir()) == [".cfm-output.json", "acceleration.csv", "my notes.txt",
+                                                     "scene.toml", "summary.json"]
+    with pytest.raises(cfm.InputError, match="holds the files of an earlier run"):
+        outcome.save(out, overwrite=False)
