@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 
 __all__ = ["RunSettings"]
 
@@ -115,6 +115,40 @@ class RunSettings:
             raise InputError(f"[run] dtype = {self.dtype!r} is not allowed; use 'float64' or 'float32'.")
         object.__setattr__(self, "options", _pairs("run.options", self.options, _plain("run.options")))
         object.__setattr__(self, "input_files", _pairs("run.input_files", self.input_files, _digest("run.input_files")))
+
+    @classmethod
+    def from_table(cls, table, base_dir=None) -> "RunSettings":
+        """The section from a TOML table; relative input-file paths taken from ``base_dir`` as a
+        scene file's relative mesh path is.
+
+        Parameters
+        ----------
+        table : mapping
+            ``[run]`` as read from TOML.
+        base_dir : str or path-like, optional
+            The scene file's folder (None: paths as given).
+
+        Returns
+        -------
+        RunSettings
+            The validated section.
+
+        Raises
+        ------
+        InputError
+            Not a table, an unknown key (with a suggestion), or a value :class:`RunSettings` refuses.
+        """
+
+        if not isinstance(table, Mapping):
+            raise InputError(f"[run] must be a table (section), got {table!r}.")
+        allowed = ("backend", "dtype", "device", "options", "input_files")
+        for k in table:
+            if k not in allowed:
+                hint = did_you_mean(k, allowed)
+                hint = f" ({hint[0].lower()}{hint[1:]})" if hint else ""
+                raise InputError(f"unknown key '{k}' in [run]{hint}; allowed keys: {', '.join(allowed)}.")
+        run = cls(**table)
+        return run if base_dir is None else run.based_at(base_dir)
 
     @property
     def option_dict(self) -> dict:

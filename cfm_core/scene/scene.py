@@ -264,20 +264,8 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
                 table["mesh"] = str(Path(base_dir) / mesh)
         sections["settings" if key == "scene" else key] = cls(**table)
     if d.get("run") is not None:
-        sections["run"] = _run_section(d["run"], base_dir)
+        sections["run"] = RunSettings.from_table(d["run"], base_dir)
     return Scene(**sections)
-
-
-def _run_section(table, base_dir) -> RunSettings:
-    """The [run] section; its relative input-file paths taken from ``base_dir`` as the mesh's are."""
-    if not isinstance(table, Mapping):
-        raise InputError(f"[run] must be a table (section), got {table!r}.")
-    allowed = ("backend", "dtype", "device", "options", "input_files")
-    for k in table:
-        if k not in allowed:
-            raise InputError(f"unknown key '{k}' in [run]{_close(k, allowed)}; allowed keys: {', '.join(allowed)}.")
-    run = RunSettings(**table)
-    return run if base_dir is None else run.based_at(base_dir)
 
 
 def load_scene(path) -> Scene:
