@@ -138,7 +138,6 @@ class RunSettings:
         InputError
             Not a table, an unknown key (with a suggestion), or a value :class:`RunSettings` refuses.
         """
-
         if not isinstance(table, Mapping):
             raise InputError(f"[run] must be a table (section), got {table!r}.")
         allowed = ("backend", "dtype", "device", "options", "input_files")
