@@ -109,3 +109,17 @@ def test_a_changed_mesh_is_named_with_both_digests_when_repeating(tmp_path, caps
     err = capsys.readouterr().err
     assert f"mesh file {mesh} changed since the run" in err and recorded in err and now in err
     assert any("changed since" in w for w in _summary(tmp_path / "again")["warnings"])
+
+
+def test_another_backend_on_the_command_line_drops_the_files_backend_options():
+    from cfm_core.runs.settings import plan_run
+    from cfm_core.scene.run_section import RunSettings
+
+    scene = cfm.builtin_scene("drop-test").with_run(RunSettings("torch", "float32", "cpu", {"hourglass": 0.05}))
+    plan = plan_run(scene, "numba", {}, given_as={"backend": "--backend numba"}, where="scene.toml [run]")
+    assert (plan.backend, plan.options) == ("numba", {})
+    assert plan.notes == ["--backend numba overrides scene.toml [run] backend = torch (its options are not used)"]
+    same = plan_run(scene, None, {"dtype": "float64"})
+    assert same.backend == "torch" and same.options == {"hourglass": 0.05, "dtype": "float64", "device": "cpu"}
+    assert same.notes == ["dtype=float64 overrides the scene's [run] dtype = float32"]
+    assert plan_run(cfm.builtin_scene("drop-test")).options == {}  # no [run]: the defaults, as before
