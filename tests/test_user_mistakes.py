@@ -133,3 +133,39 @@ def test_a_mesh_in_millimetres_is_refused_with_a_hint_to_scale_it(tmp_path):
     text = str(err.value)
     assert "width = 50.0 m is out of range" in text and "did you mean 0.05 m (50 mm)?" in text
     assert "Scale the mesh's coordinates to m" in text and "Write width" not in text
+
+
+@pytest.mark.parametrize("args", [
+    ["point", "--uniaxial", "--rate", "100", "--stretch", "0.7"],
+    ["drop-test", "--element-size", "0.002", "--no-plot", "--quiet"],
+    ["run", "--scene", "single-element", "--no-plot", "--quiet"],
+])
+@pytest.mark.parametrize("g1", ["0.471", "0.47099999999999986"])
+def test_prony_coefficients_summing_to_one_within_rounding_are_refused(tmp_path, args, g1):
+    """Shared case prony-sum-rounding: g1 = 0.471 with Table 1's g2, g3 sums to 1 exactly (naive float sum
+    0.9999999999999999): was a ZeroDivisionError traceback (exit 1); g_inf = 1.1e-16 ran to 4.8 GPa."""
+    out = tmp_path / ("o.csv" if args[0] == "point" else "o")
+    code, _, err, _ = cfm(*args, "--param", f"g1={g1}", "--out", str(out))
+    assert code == 2 and "gamma_inf = 1 - (g1 + g2 + g3) =" in err and "at least 1e-06" in err
+    _one_paragraph(err)
+    assert not out.exists()
+
+
+def test_a_modulus_in_kpa_is_warned_about_before_the_drop_test_runs(tmp_path):
+    """--param k1=1.32 (kPa typed for Pa) ran to a plausible, wrong peak with no warning."""
+    code, out, err, _ = cfm("drop-test", "--element-size", "0.002", "--param", "k1=1.32", "--quiet", "--no-plot",
+                            "--out", str(tmp_path / "o"))
+    first = err.strip().splitlines()[0]
+    assert code == 0 and first.startswith("warning: [material] k1 = 1.32 Pa is 1,000x below the typical 1320 Pa")
+    assert "Was it kPa? Write k1 = 1320 (--param k1=1320)" in first
+
+
+def test_an_output_rate_writing_a_huge_csv_is_refused_before_running(tmp_path):
+    """output_rate = 1e9 Hz ran and wrote a 568 MB CSV."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[scene]\ntype = "drop-test"\noutput_rate = 1e9\n[specimen]\nelement_size = 0.002\n')
+    out = tmp_path / "o"
+    code, _, err, elapsed = cfm("run", "--scene", str(scene), "--out", str(out), "--quiet")
+    assert code == 2 and "[scene] output_rate = 1e+09 Hz" in err and "MB" in err and "output_rate <= " in err
+    _one_paragraph(err)
+    assert not out.exists()

@@ -74,7 +74,7 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     par[K.P_SYM] = float(model.symmetry_factor)
     par[K.P_TEND] = float(model.end_time)
     par[K.P_SEPTIME] = o.separation_time
-    par[K.P_GINF] = 1.0 - math.fsum(gam.tolist())
+    par[K.P_GINF] = model.material.gamma_inf  # the one exact sum (cfm_core.material.prony.gamma_inf)
     ipar[K.I_HGWAVE] = 0 if o.hourglass_wave == "shear" else 1
     ipar[K.I_STOPSEP] = int(bool(model.stop_after_separation))
     sph = model.sphere

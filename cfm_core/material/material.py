@@ -14,11 +14,12 @@ relaxed values, so the instantaneous isochoric energy is the written one divided
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from . import prony
 
 if TYPE_CHECKING:  # the spec module imports this one
     from .spec import MaterialSpec
@@ -47,7 +48,9 @@ class Material:
     Raises
     ------
     InputError
-        When not elastic and the Prony coefficients sum to 1 or more (checked at construction).
+        When not elastic and the Prony coefficients leave gamma_inf = 1 - sum below
+        :data:`cfm_core.material.prony.GAMMA_INF_MIN` (checked at construction, with the same
+        exact sum that :attr:`gamma_inf` and :attr:`iso_scale` use).
     """
 
     spec: MaterialSpec
@@ -57,7 +60,7 @@ class Material:
 
     def __post_init__(self):
         if not self.elastic:
-            self.spec.prony.arrays(self.values)  # validates sum of gammas < 1
+            self.spec.prony.arrays(self.values)  # validates gamma_inf >= prony.GAMMA_INF_MIN
 
     @property
     def name(self) -> str:
@@ -80,13 +83,18 @@ class Material:
         return self.spec.prony.arrays(self.values)
 
     @property
+    def gamma_inf(self) -> float:
+        """Long-term Prony coefficient gamma_inf = 1 - sum g_i (-), 1 when elastic; computed by
+        :func:`cfm_core.material.prony.gamma_inf` (exact sum), as every backend must use it."""
+        return prony.gamma_inf(self.prony_arrays()[0])
+
+    @property
     def iso_scale(self) -> float:
         """Factor on the written isochoric energy giving the instantaneous one (-): 1 / gamma_inf
         for long-term moduli with a Prony series, else 1 (docs/conventions.md section 2)."""
         if self.elastic or self.moduli == "instantaneous":
             return 1.0
-        gammas, _ = self.prony_arrays()
-        return 1.0 / (1.0 - math.fsum(gammas))
+        return 1.0 / self.gamma_inf
 
     def param_array(self) -> np.ndarray:
         """The parameter vector ``p`` of the generated functions.

@@ -8,7 +8,7 @@ allowed range.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..errors import InputError
 
@@ -33,6 +33,11 @@ class Parameter:
         One line for ``cfm materials`` and error messages.
     nonzero : bool
         Exclude 0 (e.g. an Ogden exponent).
+    typical : float, optional
+        Order of magnitude of physical values, in ``unit`` (default: ``default``). A modulus
+        (unit Pa) more than 100 times away from it is warned about as a likely unit slip
+        (:func:`cfm_core.material.plausible.check_material`); advisory only: it does not enter
+        the generated code, its cache key or equality.
 
     Raises
     ------
@@ -49,11 +54,17 @@ class Parameter:
     high_open: bool = False
     description: str = ""
     nonzero: bool = False
+    typical: float | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if not self.name.isidentifier():
             raise InputError(f"parameter name {self.name!r} is not a Python identifier; use letters, digits and _")
         self.check(self.default, context="default of")
+
+    @property
+    def scale(self) -> float:
+        """The typical value (:attr:`typical`, else the default), in ``unit``."""
+        return float(self.default if self.typical is None else self.typical)
 
     def range_text(self) -> str:
         """The valid range in interval notation, without the unit.

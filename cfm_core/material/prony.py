@@ -10,6 +10,19 @@ S0 = 2 d psi_iso / d C, with the exact exponential recurrence per step dt (s):
 
 stable for any dt/tau_i. The paper's Eq. 8 prints a product instead of a sum; with it g(0) != 1,
 so the standard sum is used.
+
+gamma_inf is computed in one place, :func:`gamma_inf` (``math.fsum``, exactly rounded), and every
+check, the material's moduli factor 1 / gamma_inf, the backends and the reference use it, so that
+what is checked is what is computed. Limits (:data:`GAMMA_INF_MIN`, :data:`GAMMA_INF_WARN`):
+
+- gamma_inf < 1e-6 is refused (InputError): with long-term moduli the instantaneous isochoric
+  moduli are 1 / gamma_inf times the written ones, so 1e6 times Table 1 (GPa stresses, an
+  explicit step 1000 times shorter); with instantaneous moduli the tissue relaxes to a
+  liquid. No tissue is either; the floor also keeps 1 / gamma_inf far from float rounding
+  (a sum that is 1 in decimal arithmetic, 0.471 + 0.435 + 0.094, leaves 0 or 1e-16).
+- 1e-6 <= gamma_inf < 1e-3 is warned about (:func:`cfm_core.material.plausible.check_material`):
+  pyvisco keeps E_inf / E_0 >= 1e-3 "so numerical difficulties are avoided in structural FEM
+  simulations" (NatLabRockies/pyvisco#2); Table 1 has gamma_inf = 0.021.
 """
 
 from __future__ import annotations
@@ -22,13 +35,19 @@ import numpy as np
 from ..errors import InputError
 from .parameters import Parameter
 
+#: gamma_inf (-) below this is refused: instantaneous / long-term moduli above 1e6 (see the module text).
+GAMMA_INF_MIN = 1e-6
+#: gamma_inf (-) below this is warned about (pyvisco's E_inf / E_0 floor; Table 1: 0.021).
+GAMMA_INF_WARN = 1e-3
+
 
 @dataclass(frozen=True)
 class PronySeries:
     """Declaration of an n-term Prony series with default (gamma_i, tau_i) pairs.
 
     Parameters ``g1, tau1, g2, tau2, ...`` are added to the material: g_i dimensionless in
-    [0, 1), tau_i in s, > 0. Their sum must stay below 1 (gamma_inf > 0). Normalised series of
+    [0, 1), tau_i in s, > 0. Their sum must leave gamma_inf = 1 - sum >= :data:`GAMMA_INF_MIN`
+    (computed by :func:`gamma_inf`). Normalised series of
     docs/conventions.md section 2 (the paper's Eq. 8 prints a product; Simo 1987, Holzapfel 2000).
 
     Parameters
@@ -52,7 +71,7 @@ class PronySeries:
         return tuple(out)
 
     def arrays(self, values: dict) -> tuple[np.ndarray, np.ndarray]:
-        """(gammas, taus) from bound parameter values; checks sum(gammas) < 1.
+        """(gammas, taus) from bound parameter values; checks gamma_inf >= :data:`GAMMA_INF_MIN`.
 
         Parameters
         ----------
@@ -69,19 +88,45 @@ class PronySeries:
         Raises
         ------
         InputError
-            sum(g_i) >= 1, which would make gamma_inf = 1 - sum(g_i) zero or negative.
+            gamma_inf = 1 - sum(g_i) (:func:`gamma_inf`) below :data:`GAMMA_INF_MIN`: a sum of 1 or
+            more, or one so close to 1 that the moduli factor 1 / gamma_inf is absurd.
         """
         n = len(self.defaults)
         gammas = np.array([values[f"g{i}"] for i in range(1, n + 1)], dtype=float)
         taus = np.array([values[f"tau{i}"] for i in range(1, n + 1)], dtype=float)
-        total = float(gammas.sum())
-        if not total < 1.0:
-            names = " + ".join(f"g{i}" for i in range(1, n + 1))
-            raise InputError(
-                f"Prony series: {names} = {total:g} (-) must be below 1 so that the long-term "
-                f"coefficient gamma_inf = 1 - sum is positive; lower one of the g_i."
-            )
+        check_gamma_inf(gammas)
         return gammas, taus
+
+
+def check_gamma_inf(gammas) -> float:
+    """gamma_inf (:func:`gamma_inf`) if it is at least :data:`GAMMA_INF_MIN`, else InputError.
+
+    Parameters
+    ----------
+    gammas : array_like, shape (k,)
+        g_i (-), named g1 .. gk in the message.
+
+    Returns
+    -------
+    float
+        gamma_inf (-).
+
+    Raises
+    ------
+    InputError
+        gamma_inf < :data:`GAMMA_INF_MIN` (sum of the g_i at or too close to 1); the message
+        names the g_i, their sum, gamma_inf and the limit.
+    """
+    g_inf = gamma_inf(gammas)
+    if not g_inf >= GAMMA_INF_MIN:
+        names = " + ".join(f"g{i}" for i in range(1, len(gammas) + 1))
+        given = ", ".join(f"g{i} = {float(g)!r}" for i, g in enumerate(gammas, start=1))
+        raise InputError(
+            f"Prony series: {given} leave the long-term coefficient gamma_inf = 1 - ({names}) = {g_inf:.3g} (-), "
+            f"summed exactly; it must be at least {GAMMA_INF_MIN:g}: the instantaneous isochoric moduli are "
+            f"1 / gamma_inf times the long-term ones (Table 1: gamma_inf = 0.021, a factor 48). Lower one of "
+            f"the g_i so that their sum is at most 1 - {GAMMA_INF_MIN:g} (Table 1's sum is 0.979).")
+    return g_inf
 
 
 def relaxation_function(t, gammas, taus):
@@ -102,7 +147,7 @@ def relaxation_function(t, gammas, taus):
         g(t) (-), the shape of ``t``; g(0) = 1 (docs/conventions.md section 2).
     """
     t = np.asarray(t, dtype=float)
-    g = (1.0 - float(np.sum(gammas))) * np.ones_like(t)
+    g = gamma_inf(gammas) * np.ones_like(t)
     for gam, tau in zip(gammas, taus):
         g = g + gam * np.exp(-t / tau)
     return g
@@ -162,7 +207,7 @@ def effective_factor(dt: float, gammas, taus) -> float:
     if len(gammas) == 0:
         return 1.0
     _, gain = step_factors(dt, gammas, taus)
-    return float(1.0 - np.sum(gammas) + np.sum(gain))
+    return float(gamma_inf(gammas) + np.sum(gain))
 
 
 def update(H, S0_old, S0_new, dt, gammas, taus):
@@ -193,12 +238,16 @@ def update(H, S0_old, S0_new, dt, gammas, taus):
     decay, gain = step_factors(dt, gammas, taus)
     shape = (-1,) + (1,) * (H.ndim - 1)
     H_new = decay.reshape(shape) * H + gain.reshape(shape) * (S0_new - S0_old)[None]
-    S_iso = (1.0 - float(np.sum(gammas))) * S0_new + H_new.sum(axis=0)
+    S_iso = gamma_inf(gammas) * S0_new + H_new.sum(axis=0)
     return H_new, S_iso
 
 
 def gamma_inf(gammas) -> float:
     """Long-term coefficient gamma_inf = 1 - sum(gamma_i) (-), summed with ``math.fsum``.
+
+    The one place it is computed: the range check (:func:`check_gamma_inf`), the moduli factor
+    (:attr:`cfm_core.material.Material.iso_scale`), the reference and the backends use it, so
+    a sum that rounds to 1 is refused instead of dividing by zero later.
 
     Parameters
     ----------

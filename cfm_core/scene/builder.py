@@ -4,17 +4,30 @@ Only what the scene needs is built (docs/conventions.md section 4): the drop tes
 a rigid plane instead of meshed metal, and a quarter model with symmetry planes by default; the
 single element gets a prescribed top-face motion and no contact; the relaxation scene is the
 single element without inertia (quasi-static). SI units: m, s, kg, Pa.
+
+Before anything is allocated, the builder refuses (InputError) a scene whose histories would have
+more than :data:`MAX_HISTORY_ROWS` rows (output_rate x end time: a solver records at most once per
+step, so a rate above its step rate is interpolation, and 1e9 Hz wrote a 568 MB CSV) and a model
+whose arrays need more memory than the system has (:func:`cfm_core.scene.model.check_memory`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from .mesh import nodes_on_plane, structured_hex_mesh
-from .model import Model, Prescribed, RigidPlane, RigidSphere
+from .model import Model, Prescribed, RigidPlane, RigidSphere, check_memory, too_big
 from .scene import Scene
 from .sections import read_specimen_mesh
 from ..material.registry import make_material
+
+#: Most rows a history may have (output_rate x end time): about 50 MB of CSV at about 50 bytes a
+#: row (the drop-test CSV: t, a_raw, a_cfc600). The explicit solvers' steps are 1e-6 .. 1e-5 s for
+#: 1 .. 2 mm elements, so a 85 ms drop test reaches this only above 1e7 Hz, far above its step rate.
+MAX_HISTORY_ROWS = 1_000_000
+#: Bytes of CSV per history row, for the size named in messages (measured: 51 for a drop test).
+ROW_BYTES = 50
 
 
 def build_model(scene: Scene, material=None) -> Model:
@@ -46,17 +59,68 @@ def build_model(scene: Scene, material=None) -> Model:
     Raises
     ------
     InputError
-        The scene's material is unknown or its parameters are invalid, or its specimen mesh
-        file cannot be read.
+        The scene's material is unknown or its parameters are invalid, its specimen mesh file
+        cannot be read, its histories would have more than :data:`MAX_HISTORY_ROWS` rows
+        (:func:`check_history_size`), or the model needs more memory than is available (names
+        the element count and the GiB needed and available).
     """
+    check_history_size(scene)
     if material is None:
-
         m = scene.material
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
     build = {"drop-test": _drop_test, "relaxation": _relaxation}.get(scene.type, _single_element)
-    model = build(scene, material)
+    if scene.type == "drop-test":
+        n_el, n_nodes, what = _specimen_size(scene.specimen)
+        check_memory(n_el, n_nodes, what)
+    try:
+        model = build(scene, material)
+    except MemoryError:
+        if scene.type != "drop-test":
+            raise
+        raise InputError(too_big(n_el, n_nodes, what)) from None
     model.meta["checks"] = scene.settings.checks()  # limits of cfm_core.simulation.checks
     return model
+
+
+def check_history_size(scene: Scene) -> int:
+    """Refuse a scene whose histories would have more than :data:`MAX_HISTORY_ROWS` rows.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene ([scene] output_rate in Hz, end time in s).
+
+    Returns
+    -------
+    int
+        The most rows its histories can have: floor(output_rate x end time) + 1.
+
+    Raises
+    ------
+    InputError
+        More than :data:`MAX_HISTORY_ROWS` rows; names output_rate, the end time, the rows, the
+        CSV size they would take and the largest rate allowed for this end time.
+    """
+    rate, end = float(scene.settings.output_rate), float(scene.end_time)
+    rows = int(rate * end) + 1
+    if rows > MAX_HISTORY_ROWS:
+        limit = (MAX_HISTORY_ROWS - 1) / end
+        raise InputError(
+            f"[scene] output_rate = {rate:g} Hz over the end time {end:g} s would record up to {rows:,} history "
+            f"rows, a CSV of about {rows * ROW_BYTES / 1e6:,.0f} MB (at most {MAX_HISTORY_ROWS:,} rows are "
+            f"allowed). An explicit solver steps every 1e-6 .. 1e-5 s (1 .. 2 mm elements), so rows above its step "
+            f"rate only interpolate; an implicit one steps at least once per output interval. Use output_rate <= {limit:.4g} Hz "
+            f"(the paper's 50 000 Hz for drop tests, 100 Hz for relaxation) or a shorter end_time (s).")
+    return rows
+
+
+def _specimen_size(sp) -> tuple[int, int, str]:
+    """(elements, nodes, what sets them) of a drop-test specimen, before its arrays are built."""
+    if sp.mesh is not None:
+        nodes, hexes, _ = read_specimen_mesh(sp.mesh, bool(sp.merge_nodes))
+        return int(hexes.shape[0]), int(nodes.shape[0]), f"[specimen] mesh '{sp.mesh}'"
+    nx, ny, nz = sp.grid
+    return nx * ny * nz, (nx + 1) * (ny + 1) * (nz + 1), f"[specimen] element_size = {sp.element_size:g} m"
 
 
 def _fixed(nodes_dofs: list[tuple[np.ndarray, int]]) -> np.ndarray:

@@ -21,6 +21,9 @@ from .mesh import mean_edge_length, read_hex_mesh
 from .plausible import unit_hint
 
 SCENE_TYPES = ("drop-test", "single-element", "relaxation")
+#: [scene] output_rate (Hz) when a scene gives none: the paper's 50 kHz, 100 Hz for the long
+#: quasi-static relaxation hold (the built-in scene files document the same values).
+DEFAULT_OUTPUT_RATE = {"drop-test": 50_000.0, "single-element": 50_000.0, "relaxation": 100.0}
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
 
 
@@ -64,7 +67,9 @@ def _set(obj, **kw):
 class SceneSettings:
     """[scene]: type ("drop-test" | "single-element" | "relaxation"); name (text, default: the type);
     end_time (s, upper bound; None: automatic, see :attr:`Scene.end_time`);
-    output_rate (Hz, histories are recorded at least this often, default 50 kHz as the paper).
+    output_rate (Hz, histories are recorded at least this often; default by type,
+    :data:`DEFAULT_OUTPUT_RATE`: 50 kHz as the paper, 100 Hz for relaxation; a history of more
+    than :data:`cfm_core.scene.builder.MAX_HISTORY_ROWS` rows is refused when the model is built).
 
     Run checks (:mod:`cfm_core.simulation.checks`): penetration_tolerance (m, allowed penetration
     behind a rigid surface or across a symmetry plane; None: 5 % of the smallest element edge);
@@ -75,7 +80,7 @@ class SceneSettings:
     type: str
     name: str | None = None
     end_time: float | None = None
-    output_rate: float = 50_000.0
+    output_rate: float | None = None
     penetration_tolerance: float | None = None
     hourglass_limit: float | None = None
     energy_limit: float | None = None
@@ -85,8 +90,8 @@ class SceneSettings:
         _set(self, name=self.type if self.name is None else _text("scene", "name", self.name))
         if self.end_time is not None:
             _set(self, end_time=_num("scene", "end_time", self.end_time, "s", 0, 1e4, lo_open=True))
-        _set(self, output_rate=_num("scene", "output_rate", self.output_rate, "Hz", 0, 1e9,
-                                    lo_open=True))
+        rate = DEFAULT_OUTPUT_RATE[self.type] if self.output_rate is None else self.output_rate
+        _set(self, output_rate=_num("scene", "output_rate", rate, "Hz", 0, 1e9, lo_open=True))
         if self.penetration_tolerance is not None:
             _set(self, penetration_tolerance=_num("scene", "penetration_tolerance", self.penetration_tolerance,
                                                   "m", 0, 0.1))

@@ -1,0 +1,170 @@
+"""Plausibility of a bound material's values: unit slips (kPa for Pa) and near-liquid Prony series.
+
+:meth:`MaterialSpec.bind <cfm_core.material.MaterialSpec.bind>` accepts every value inside a
+parameter's range; some legal values are almost surely a unit written wrongly: ``k1 = 1.32``
+typed in kPa is read as 1.32 Pa and gives a plausible, wrong drop test. :func:`check_material`
+says so before anything runs, one paragraph per finding, and the run goes ahead as given (a
+legal value is never refused on a guess). Works for any registered material, from its parameter
+declarations (:attr:`Parameter.scale <cfm_core.material.parameters.Parameter.scale>`):
+
+- a modulus (unit Pa) more than :data:`SCALE_FACTOR` = 100 times below (or above) its typical
+  value (the declaration's ``typical``, else its default: Table 1 for ``cfm``), with the unit
+  (kPa, MPa) that brings it back to that scale;
+- a small-strain Poisson ratio nu = (3K - 2G) / (2 (3K + G)) below :data:`NU_WARN` = 0.45 and
+  more than :data:`NU_MARGIN` below the material's own with its defaults (K, G: instantaneous
+  bulk and shear moduli of the tangent at F = I): soft tissue is nearly incompressible
+  (Table 1: nu = 0.476), so a bulk modulus in kPa (666.1 for 666.1e3 Pa) gives nu < 0;
+  a built-in whose defaults are compressible (cfm-septa: 0.33) is not warned about as given;
+- a Prony long-term coefficient gamma_inf in [1e-6, 1e-3) (below 1e-6 it is refused, see
+  :mod:`cfm_core.material.prony`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .prony import GAMMA_INF_MIN, GAMMA_INF_WARN
+
+#: A modulus this many times below (or above) its typical value is warned about.
+SCALE_FACTOR = 100.0
+#: Units a modulus is often typed in instead of Pa, with their factor to Pa.
+MODULUS_SLIPS = (("kPa", 1e3), ("MPa", 1e6))
+#: Small-strain Poisson ratios below this are warned about (when also below the defaults' by NU_MARGIN).
+NU_WARN = 0.45
+#: How far below the material's own default Poisson ratio a value must be to be warned about (-).
+NU_MARGIN = 0.05
+
+
+def small_strain_moduli(material) -> tuple[float, float]:
+    """Instantaneous small-strain bulk and shear moduli (K, G) of a material, from its tangent at F = I.
+
+    Parameters
+    ----------
+    material : Material
+        A bound (isotropic) material.
+
+    Returns
+    -------
+    K : float
+        Bulk modulus (Pa): (CC_1111 + 2 CC_1122) / 3.
+    G : float
+        Shear modulus (Pa): CC_1212, the instantaneous one (long-term moduli times 1 / gamma_inf).
+    """
+    from .reference import tangent  # deferred: imports the generated kernels
+
+    C = tangent(material, np.eye(3))[0]
+    return float(C[0, 0, 0, 0] + 2.0 * C[0, 0, 1, 1]) / 3.0, float(C[0, 1, 0, 1])
+
+
+def poisson_ratio(K: float, G: float) -> float:
+    """Small-strain Poisson ratio nu = (3K - 2G) / (2 (3K + G)) (-).
+
+    Parameters
+    ----------
+    K, G : float
+        Bulk and shear moduli (Pa).
+
+    Returns
+    -------
+    float
+        nu (-); 0.5 for an incompressible material, nan when 3K + G = 0.
+    """
+    den = 2.0 * (3.0 * K + G)
+    return (3.0 * K - 2.0 * G) / den if den else math.nan
+
+
+def check_material(material) -> list[str]:
+    """Warnings about a bound material's values that are probably unit slips or near-liquid.
+
+    Parameters
+    ----------
+    material : Material
+        A bound material (any registered spec).
+
+    Returns
+    -------
+    list of str
+        One paragraph per finding (see the module text), naming the parameter, its value, the
+        unit, the typical value and the likely slip, e.g. "[material] k1 = 1.32 Pa is 1000x below
+        the typical 1320 Pa of material 'cfm' (Table 1): was it kPa? Write k1 = 1320 ...". Empty
+        when nothing looks wrong. The run goes ahead as given.
+    """
+    warnings = {}
+    for p in material.spec.energy_parameters:
+        if p.unit == "Pa":
+            text = _scale_warning(material, p)
+            if text:
+                warnings[p.name] = text
+    poisson = _poisson_warning(material)
+    if poisson:
+        name, text, short = poisson
+        warnings[name] = f"{warnings[name]} {short}" if name in warnings else f"[material] {text}"
+    out = list(warnings.values())
+    if not material.elastic and material.spec.prony is not None:
+        g_inf = material.gamma_inf
+        if GAMMA_INF_MIN <= g_inf < GAMMA_INF_WARN:
+            out.append(f"[material] the Prony coefficients leave gamma_inf = 1 - sum g_i = {g_inf:.3g} (-), below "
+                       f"{GAMMA_INF_WARN:g}: the tissue relaxes to almost a liquid and, with long-term moduli, the "
+                       f"instantaneous moduli are {1.0 / g_inf:.3g} times the written ones (Table 1: gamma_inf = "
+                       f"0.021). It runs as given; values below {GAMMA_INF_MIN:g} are refused.")
+    return out
+
+
+def _scale_warning(material, p) -> str:
+    """The warning for a modulus more than SCALE_FACTOR times away from its typical value, or ""."""
+    value, scale = float(material.values[p.name]), p.scale
+    if not (value > 0.0 and scale > 0.0):
+        return ""
+    ratio = scale / value
+    src = " (Table 1)" if "Table 1" in p.description else ""
+    where = f"the typical {scale:g} Pa of material '{material.name}'{src}"
+    if ratio > SCALE_FACTOR:
+        unit, factor = min(MODULUS_SLIPS, key=lambda s: abs(math.log10(value * s[1] / scale)))
+        hint = ""
+        if abs(math.log10(value * factor / scale)) <= 1.0:
+            hint = (f" Was it {unit}? Write {p.name} = {value * factor:g} (--param {p.name}={value * factor:g}); "
+                    f"every value is in SI units.")
+        return f"[material] {p.name} = {value:g} Pa is {_times(ratio)}x below {where}.{hint} It runs as given."
+    if ratio < 1.0 / SCALE_FACTOR:
+        unit, factor = min(MODULUS_SLIPS, key=lambda s: abs(math.log10(value / s[1] / scale)))
+        hint = ""
+        if abs(math.log10(value / factor / scale)) <= 1.0:
+            hint = (f" Was it converted from {unit} to Pa twice? Then write {p.name} = {value / factor:g}; every "
+                    f"value is in SI units.")
+        return f"[material] {p.name} = {value:g} Pa is {_times(1.0 / ratio)}x above {where}.{hint} It runs as given."
+    return ""
+
+
+def _times(ratio: float) -> str:
+    """A ratio above 100 to 3 significant digits, without exponent: 1000.0000000000001 -> "1,000"."""
+    return f"{float(f'{ratio:.3g}'):,.0f}"
+
+
+def _poisson_warning(material):
+    """(volumetric parameter name, sentence, shorter sentence added to that parameter's scale
+    warning) when the small-strain Poisson ratio is far below 0.5, or None."""
+    vol = material.spec.volumetric
+    if vol is None or not vol.parameters:
+        return None
+    try:
+        K, G = small_strain_moduli(material)
+        K0, G0 = small_strain_moduli(material.spec.bind(None, material.moduli, material.elastic))
+    except (ValueError, ArithmeticError):  # InputError, NumericalError: the run reports them
+        return None
+    nu, nu0 = poisson_ratio(K, G), poisson_ratio(K0, G0)
+    if not (nu < NU_WARN and nu < nu0 - NU_MARGIN):
+        return None
+    name = vol.parameters[0].name
+    named = ", ".join(f"{n} = {material.values[n]:g} Pa" for n in (q.name for q in vol.parameters if q.unit == "Pa"))
+    iso = ", ".join(q.name for q in material.spec.energy_parameters
+                    if q.unit == "Pa" and q not in vol.parameters) or "the isochoric parameters"
+    scaled = " over gamma_inf" if material.iso_scale != 1.0 else ""
+    k_needed = 2.0 * G * (1.0 + NU_WARN) / (3.0 * (1.0 - 2.0 * NU_WARN))
+    moduli = (f"the small-strain Poisson ratio nu = {nu:.3g} (bulk modulus K = {K:.4g} Pa, shear modulus "
+              f"G = {G:.4g} Pa instantaneous, from {iso}{scaled}; material '{material.name}' with its defaults: "
+              f"nu = {nu0:.3g})")
+    text = (f"{named or name} gives {moduli}, far from 0.5: tissue is nearly incompressible. nu >= {NU_WARN:g} "
+            f"needs K >= {k_needed:.4g} Pa; check {name} (in Pa, not kPa) and {iso}. It runs as given.")
+    return name, text, f"It makes {moduli}."

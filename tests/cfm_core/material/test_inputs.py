@@ -1,0 +1,133 @@
+"""Inputs that passed a check and then failed or misled (issue 20 item 5): the Prony long-term
+coefficient computed one way (exact sum) for the check and the computation, with a floor; material
+values far from their physical range warned about with the likely unit slip, for any material."""
+
+import math
+
+import numpy as np
+import pytest
+
+from cfm_core import make_material
+from cfm_core.errors import InputError
+from cfm_core.material import prony
+from cfm_core.material.plausible import check_material, poisson_ratio, small_strain_moduli
+from cfm_core.material.registry import get_material
+
+
+def test_a_sum_of_one_in_decimal_arithmetic_is_refused_not_divided_by():
+    """g1 = 0.471 with Table 1's g2 = 0.435, g3 = 0.094: the naive float sum 0.9999999999999999 passed
+    the old check, then 1 / (1 - fsum) divided by zero; now one InputError naming gamma_inf."""
+    assert sum([0.471, 0.435, 0.094]) < 1.0 and math.fsum([0.471, 0.435, 0.094]) == 1.0
+    with pytest.raises(InputError, match=r"g1 = 0.471, g2 = 0.435, g3 = 0.094 leave .*gamma_inf .* = 0 \(-\).*at least 1e-06"):
+        make_material("cfm", {"g1": 0.471})
+
+
+def test_gamma_inf_one_ulp_above_zero_is_refused():
+    """g_inf = 1.1e-16 was accepted and gave a 4.8 GPa fat specimen (shared case prony-sum-rounding)."""
+    g = [0.47099999999999986, 0.435, 0.094]
+    assert 0.0 < prony.gamma_inf(g) < 1e-15
+    with pytest.raises(InputError, match=r"gamma_inf .* = 1.11e-16"):
+        make_material("cfm", {"g1": g[0]})
+
+
+@pytest.mark.parametrize("g1, refused", [(0.98 - 1e-7, True), (0.98 - 2e-6, False)])
+def test_the_floor_is_gamma_inf_1e_6_with_the_exact_sum(g1, refused):
+    params = {"g1": g1, "g2": 0.01, "g3": 0.01}
+    if refused:
+        with pytest.raises(InputError, match="at least 1e-06"):
+            make_material("cfm", params)
+    else:
+        m = make_material("cfm", params)
+        assert m.gamma_inf == 1.0 - math.fsum([g1, 0.01, 0.01]) and m.iso_scale == 1.0 / m.gamma_inf
+
+
+def test_every_use_of_gamma_inf_is_the_exact_sum():
+    """Gammas whose naive float sum differs from the exact one: the relaxation function's limit, the
+    one-step factor and the moduli factor all use 1 - fsum (the old relaxation function used np.sum)."""
+    g = np.array([0.1, 0.2, 0.3])
+    exact = 1.0 - math.fsum(g)
+    assert 1.0 - (g[0] + g[1] + g[2]) != exact  # the two summations differ here
+    m = make_material("cfm", {"g1": 0.1, "g2": 0.2, "g3": 0.3})
+    assert m.gamma_inf == exact == prony.gamma_inf(g) and m.iso_scale == 1.0 / exact
+    taus = np.array([1e-3, 0.1, 10.0])
+    assert prony.relaxation_function(np.array([1e6]), g, taus)[0] == exact
+    assert prony.effective_factor(1e13, g, taus) == pytest.approx(exact, abs=1e-12)
+    assert make_material("cfm", elastic=True).gamma_inf == 1.0
+
+
+def test_numba_solver_uses_the_material_gamma_inf():
+    pytest.importorskip("numba")
+    from cfm_backends.numba_explicit.kernels import layout as K
+    from cfm_backends.numba_explicit.options import NumbaOptions
+    from cfm_backends.numba_explicit.solver import prepare
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    model = build_model(builtin_scene("single-element"), material=make_material("cfm", {"g1": 0.1, "g2": 0.2, "g3": 0.3}))
+    assert prepare(model, NumbaOptions()).par[K.P_GINF] == model.material.gamma_inf
+
+
+@pytest.mark.parametrize("name", ["cfm", "cfm-septa", "neo-hookean", "mooney-rivlin", "ogden"])
+def test_the_defaults_of_every_builtin_material_get_no_warning(name):
+    for moduli in ("long-term", "instantaneous"):
+        assert check_material(make_material(name, moduli=moduli)) == []
+
+
+@pytest.mark.parametrize("name, value, factor, unit", [("k1", 1.32, 1000, "kPa"), ("c", 0.01, 1000, "kPa"),
+                                                       ("kappa", 0.6661, 1e6, "MPa")])
+def test_a_modulus_typed_in_kpa_is_warned_about_with_the_value_to_write(name, value, factor, unit):
+    notes = check_material(make_material("cfm", {name: value}))
+    assert len(notes) == 1
+    right = f"{value * factor:g}"
+    assert f"[material] {name} = {value:g} Pa is {factor:,.0f}x below the typical {right} Pa of material 'cfm' (Table 1)" \
+        in notes[0]
+    assert f"Was it {unit}? Write {name} = {right} (--param {name}={right})" in notes[0]
+
+
+@pytest.mark.parametrize("value, warned", [(1320 / 99, False), (1320 / 101, True), (1320 * 99, None),
+                                           (1320 * 101, True)])
+def test_the_scale_bound_is_100x_either_way(value, warned):
+    notes = [n for n in check_material(make_material("cfm", {"k1": value})) if "k1 = " in n and "typical" in n]
+    assert len(notes) == int(bool(warned))
+
+
+def test_small_strain_moduli_match_the_closed_form():
+    """neo-Hookean mu/2 (I1bar - 3) + Ogden volumetric: G = mu, K = kappa exactly (U''(1) = kappa)."""
+    K, G = small_strain_moduli(make_material("neo-hookean", {"mu": 2000.0, "kappa": 5e4}))
+    assert K == pytest.approx(5e4, rel=1e-12) and G == pytest.approx(2000.0, rel=1e-12)
+    assert poisson_ratio(5e4, 2000.0) == pytest.approx((3 * 5e4 - 4000.0) / (2 * (3 * 5e4 + 2000.0)), rel=1e-15)
+    # cfm, long-term moduli: the instantaneous G is the written one over gamma_inf
+    K_lt, G_lt = small_strain_moduli(make_material("cfm"))
+    K_in, G_in = small_strain_moduli(make_material("cfm", moduli="instantaneous"))
+    assert G_lt == pytest.approx(G_in / prony.gamma_inf([0.45, 0.435, 0.094]), rel=1e-12) and K_lt == K_in == 666.1e3
+
+
+def test_kappa_in_kpa_names_the_poisson_ratio_and_both_moduli():
+    """kappa = 666.1 (kPa typed as Pa): nu = (3K - 2G) / (2 (3K + G)) < 0 with G = 31 905 Pa (Table 1,
+    instantaneous); one warning on kappa with the ratio, the bulk and the shear modulus."""
+    (note,) = check_material(make_material("cfm", {"kappa": 666.1}))
+    G = 31904.761904761894  # (instantaneous Table 1)
+    nu = (3 * 666.1 - 2 * G) / (2 * (3 * 666.1 + G))
+    assert "kappa = 666.1 Pa is 1,000x below" in note and "Write kappa = 666100" in note
+    assert f"Poisson ratio nu = {nu:.3g}" in note and "K = 666.1 Pa" in note and "G = 3.19e+04 Pa" in note
+
+
+def test_a_bulk_modulus_too_low_for_the_shear_modulus_is_warned_about_with_the_k_needed():
+    (note,) = check_material(make_material("cfm", {"kappa": 5e4}))
+    assert note.startswith("[material] kappa = 50000 Pa gives the small-strain Poisson ratio nu = 0.237")
+    G = small_strain_moduli(make_material("cfm"))[1]
+    assert f"needs K >= {2 * G * 1.45 / (3 * 0.1):.4g} Pa" in note and "c, k1" in note
+
+
+def test_a_near_liquid_prony_series_is_warned_about():
+    (note,) = [n for n in check_material(make_material("cfm", {"g1": 0.4705})) if "Prony coefficients" in n]
+    assert "gamma_inf = 1 - sum g_i = 0.0005" in note and "below 0.001" in note
+
+
+def test_typical_scale_of_a_declaration_replaces_its_default():
+    from cfm_core.material.parameters import positive, Parameter
+
+    p = Parameter("mu", "Pa", 1.0, low=0.0, typical=1e4)
+    assert p.scale == 1e4 and positive("mu", "Pa", 5.0).scale == 5.0
+    assert p == Parameter("mu", "Pa", 1.0, low=0.0) and "typical" not in repr(p)  # advisory only
+    assert get_material("cfm").parameters[0].scale == 10.0
