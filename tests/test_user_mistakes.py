@@ -169,3 +169,24 @@ def test_an_output_rate_writing_a_huge_csv_is_refused_before_running(tmp_path):
     assert code == 2 and "[scene] output_rate = 1e+09 Hz" in err and "MB" in err and "output_rate <= " in err
     _one_paragraph(err)
     assert not out.exists()
+
+
+def test_material_unit_slip_warned_by_reaction_runs_and_cfm_point(tmp_path):
+    """A modulus typed in kPa is named with the likely slip before the run, by `cfm run` on a
+    reaction scene and by `cfm point`, and it lands in the summary's warnings."""
+    import json
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "cfm_core.cli", "run", "--scene", "single-element", "--param",
+                          "kappa=666.1", "--out", str(tmp_path / "se"), "--quiet", "--no-plot"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "kappa = 666.1 Pa" in run.stderr and "Was it kPa?" in run.stderr
+    summary = json.loads((tmp_path / "se" / "summary.json").read_text())
+    assert any("Was it kPa?" in w for w in summary["warnings"])
+    point = subprocess.run([sys.executable, "-m", "cfm_core.cli", "point", "--uniaxial", "--rate", "1", "--stretch",
+                            "0.9", "--param", "k1=1.32", "--no-plot", "--out", str(tmp_path / "p.csv")],
+                           capture_output=True, text=True)
+    assert point.returncode == 0, point.stderr
+    assert "k1 = 1.32 Pa" in point.stderr and "Was it kPa?" in point.stderr

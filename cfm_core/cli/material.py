@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import plugins
 from ..errors import InputError
+from ..material.plausible import check_material
 from ..material.registry import make_material
 from ..post.plots import plot_uniaxial
 from ..post.staging import check_file_target
@@ -54,6 +55,8 @@ def _cmd_backends(args) -> int:
 
 def _cmd_point(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
+    for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
+        print(f"warning: {text}", file=sys.stderr)
     check_file_target(args.out, "--out")  # before the work: a directory, a file as parent, unwritable
     if args.uniaxial:
         if args.history:

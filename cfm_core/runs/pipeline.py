@@ -17,6 +17,7 @@ from .. import post
 from ..errors import InputError
 from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
+from ..scene.model import too_big
 from ..scene.plausible import check_plausible
 from ..scene.scene import Scene, scene_to_dict
 from ..simulation import checks
@@ -67,7 +68,11 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         at the automatic end time, a stop limit): names where and when.
     """
     be = backend_for(backend)
-    return _checked(be, model, be.run(model, progress=progress, **options))
+    try:
+        result = be.run(model, progress=progress, **options)
+    except MemoryError:
+        raise InputError(too_big(model.n_elements, model.n_nodes, f"model '{model.name}' on backend '{backend}'")) from None
+    return _checked(be, model, result)
 
 
 def _checked(be, model, result):
@@ -459,7 +464,8 @@ def reaction_test(scene: Scene, backend: str | None = None, progress=None, **opt
 
 
 def _reaction_test(scene: Scene, plan: RunPlan, progress) -> ReactionOutcome:
-    report_warnings({"warnings": plan.warnings})
+    notes = [*plan.warnings, *check_plausible(scene)]  # unit slips of the material: warned before running
+    report_warnings({"warnings": notes})
     backend, options = plan.backend, plan.options
     model, result = _run(scene, backend, progress, f"{scene.type} ({backend})", options)
     scene = resolved(scene, model, result.backend, options)
@@ -472,7 +478,7 @@ def _reaction_test(scene: Scene, plan: RunPlan, progress) -> ReactionOutcome:
                 scene=json_ready(scene_to_dict(scene)))
     info.update(_provenance(scene, model, result.backend, options))
     info["units"] = {**info["units"], "parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
-    info["warnings"] = [*plan.warnings, *result.info.get("warnings", [])]
+    info["warnings"] = [*notes, *result.info.get("warnings", [])]
     summary = post.summarize_reaction(result, t, force, info)
     report_warnings({"warnings": result.info.get("warnings", [])})
     return ReactionOutcome(scene, model, result, t, stretch, force, nominal, summary)
