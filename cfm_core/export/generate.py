@@ -121,9 +121,8 @@ def generate(material, target: str) -> Export:
     states = layout.state_variables(spec)
     interface = {"abaqus-umat": abaqus.UMAT, "abaqus-vumat": abaqus.VUMAT, "lsdyna-umat": lsdyna.UMAT41}[target]
     body = [interface, kernel.core_source(p, n, tangent=target == "abaqus-umat"),
-            fortran.derivative_routine(spec, p, hessian=False), fortran.range_checks(spec, p)]
-    if target == "abaqus-umat":
-        body.append(fortran.derivative_routine(spec, p, hessian=True))
+            fortran.derivative_routine(spec, p, hessian=False), fortran.derivative_routine(spec, p, hessian=True),
+            fortran.range_checks(spec, p)]
     text = "\n".join(body)
     for key, value in {**n, "P": p, "NAME": re.sub(r"[^0-9A-Za-z_.-]", "_", spec.name)[:20], "N": "41"}.items():
         text = text.replace("{" + key + "}", str(value))
