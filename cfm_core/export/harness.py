@@ -217,7 +217,8 @@ def run_vumat(lib: Library, props, t, F, nstatev: int, density: float = 950.0, s
     nstatev : int
         ``nstatev``.
     density : float
-        Density passed to the routine (kg/m^3).
+        Reference density rho_0 (kg/m^3); the routine gets the current density rho_0 / J at the
+        midstep, as Explicit passes it.
     state : ndarray, shape (nblock, nstatev), optional
         State at t[0] (default zero).
 
@@ -259,7 +260,8 @@ def run_vumat(lib: Library, props, t, F, nstatev: int, density: float = 950.0, s
         stress_new, state_new = z(nb, 6), z(nb, nstatev)
         e_int_new, e_inel_new = z(nb), z(nb)
         args_a = [i(nb), i(3), i(3), i(nstatev), i(1), i(props.size), i(0), d(t[k]), d(t[k]), d(t[k] - t[k - 1])]
-        args_b = [z(nb, 3), np.full(nb, 1e-3), props, np.full(nb, density), strain_inc, z(nb, 3), z(nb),
+        rho = np.asfortranarray(density / np.linalg.det(Fm))
+        args_b = [z(nb, 3), np.full(nb, 1e-3), props, rho, strain_inc, z(nb, 3), z(nb),
                   stretch_old, grad_old, z(nb, 1), stress_old, state_old, np.asfortranarray(out["ener_intern"][k - 1]),
                   z(nb), z(nb), stretch_new, grad_new, z(nb, 1), stress_new, state_new, e_int_new, e_inel_new]
         fn(*[_p(a) for a in args_a], cmname, *[_p(a) for a in args_b], ctypes.c_size_t(80))

@@ -5,8 +5,8 @@ Calling convention of LS-DYNA's user-material package (dyn21umats.f, R10 and lat
 elsiz, idele, reject)``. With ``IHYPER = 1`` LS-DYNA stores the deformation gradient in
 ``hsv(NHV+1 .. NHV+9)`` column by column (F11, F21, F31, F12, ...); ``sig`` is the Cauchy stress,
 order xx, yy, zz, xy, yz, zx (docs/conventions.md section 7). ``hsv(1 .. NHV)`` hold the Prony
-history and the error code; ``NHV`` on the card must be exactly the number written in the header,
-or F is read from the wrong place (a wrong NHV usually shows as error 1, det F <= 0).
+history and the error code; ``NHV`` on the card must be exactly the number written in the header
+and in the manifest, or F is read from the wrong place (the routine cannot tell).
 
 An error keeps the stress of the previous step, writes the code into the last user history
 variable and a line to unit 6, and sets ``reject`` (an implicit step is then retried with a
