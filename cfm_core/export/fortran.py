@@ -11,6 +11,7 @@ serves Abaqus, LS-DYNA and CalculiX builds alike. Double precision throughout: e
 
 from __future__ import annotations
 
+import functools
 import textwrap
 
 import sympy as sp
@@ -125,6 +126,7 @@ def _declare(kind: str, names: list[str]) -> list[str]:
     return lines
 
 
+@functools.lru_cache(maxsize=32)
 def derivative_routine(spec, prefix: str, hessian: bool) -> str:
     """Fortran subroutine of the energy, gradient (and Hessian) of psi in the eigenvalues of C.
 
