@@ -8,7 +8,13 @@ from .options import parse_params
 
 
 def add_parser(sub) -> None:
-    """Add the ``export`` subcommand to ``sub`` (an argparse subparsers object)."""
+    """Add the ``export`` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse subparsers object
+        Where the ``export`` parser is added.
+    """
     p = sub.add_parser(
         "export", help="write a material as a Fortran user material (Abaqus UMAT/VUMAT, LS-DYNA umat41)",
         description="Generate a Fortran user material from the material's single definition (energy terms, "

@@ -111,7 +111,18 @@ def refold(text: str) -> str:
 
 
 def comment(text: str) -> str:
-    """Fixed-form comment lines (``!`` in column 1, at most 72 columns) for free text."""
+    """Fixed-form comment lines (``!`` in column 1, at most 72 columns) for free text.
+
+    Parameters
+    ----------
+    text : str
+        Lines of text; long lines are wrapped with the indentation they start with.
+
+    Returns
+    -------
+    str
+        The comment block.
+    """
     out = []
     for para in text.split("\n"):
         indent = " " * (len(para) - len(para.lstrip()) + 3)

@@ -85,7 +85,19 @@ def prefix(spec) -> str:
 
 
 def sizes(spec) -> dict:
-    """Array sizes the Fortran templates need (see :func:`cfm_core.export.kernel.core_source`)."""
+    """Array sizes the Fortran templates need (see :func:`cfm_core.export.kernel.core_source`).
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The material definition.
+
+    Returns
+    -------
+    dict
+        ``NC``, ``NK``, ``NP``, ``NPD``, ``NH``, ``NHD``, ``NS`` (number of state variables) and
+        ``DP`` (the kind declaration line).
+    """
     k = layout.n_prony(spec)
     nh = 6 * (k + 1) if k else 0
     return {"NC": len(spec.parameters) + 1, "NK": len(spec.energy_parameters) + 1, "NP": k, "NPD": max(k, 1),

@@ -48,12 +48,29 @@ class Library:
     warnings: str
 
     def function(self, name: str):
-        """The Fortran routine ``name`` (lower case, gfortran's trailing underscore added)."""
+        """The Fortran routine ``name`` of the library, for ctypes.
+
+        Parameters
+        ----------
+        name : str
+            Fortran name (``"umat"``); lower-cased and given gfortran's trailing underscore.
+
+        Returns
+        -------
+        ctypes function
+            Arguments by reference (pointers), hidden character lengths appended by value.
+        """
         return getattr(ctypes.CDLL(str(self.path)), name.lower() + "_")
 
 
 def gfortran() -> str | None:
-    """Path of the gfortran compiler, or None when it is not installed."""
+    """The gfortran compiler (``$CFM_GFORTRAN`` or ``gfortran`` on the PATH).
+
+    Returns
+    -------
+    str or None
+        Its path, or None when it is not installed.
+    """
     return shutil.which(os.environ.get("CFM_GFORTRAN", "gfortran"))
 
 

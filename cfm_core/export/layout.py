@@ -51,7 +51,18 @@ class Entry:
 
 
 def n_prony(spec) -> int:
-    """Number of Prony terms of ``spec`` (0 without a series)."""
+    """Number of Prony terms of a material definition.
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The material definition.
+
+    Returns
+    -------
+    int
+        The number of (g_i, tau_i) pairs; 0 without a Prony series.
+    """
     return len(spec.prony.defaults) if spec.prony is not None else 0
 
 

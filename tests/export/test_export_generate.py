@@ -71,3 +71,10 @@ def test_other_materials(compiled, name):
     out = run_umat(lib, layout.props(material), t, F, len(layout.state_variables(material.spec)))
     ref = expected.to_order(sigma, ABAQUS_STANDARD)
     assert (np.abs(out["stress"] - ref).max(axis=1) <= 1e-10 * np.abs(ref).max(axis=1) + 1e-8).all()
+
+
+def test_umat_cost_is_measured_in_fortran(libs, cfm):
+    from cfm_core.export.cost import umat_cost
+
+    seconds = umat_cost(cfm, calls=2000)
+    assert 1e-8 < seconds < 1e-3
