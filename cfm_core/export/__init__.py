@@ -14,9 +14,9 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..post.staging import staged_folder
-from .generate import TARGETS, Export, generate
+from .targets import TARGETS
 
-__all__ = ["TARGETS", "Export", "generate", "export"]
+__all__ = ["TARGETS", "export"]
 
 
 def export(material, target: str, out) -> list[Path]:
@@ -47,6 +47,8 @@ def export(material, target: str, out) -> list[Path]:
     """
     if target not in TARGETS:
         raise InputError(f"--to {target!r} is not a known target; use one of {', '.join(TARGETS)}.")
+    from .generate import generate  # deferred: imports sympy, which the command line does not need to start
+
     with staged_folder(out, "--out", need_bytes=200_000) as stage:
         result = generate(material, target)
         for name, text in result.files.items():

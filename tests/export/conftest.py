@@ -10,8 +10,7 @@ import os
 import numpy as np
 import pytest
 
-from cfm_core.export import generate
-from cfm_core.export.generate import sizes
+from cfm_core.export.generate import generate, sizes
 from cfm_core.export.harness import compile_library, gfortran
 from cfm_core.material import make_material
 
