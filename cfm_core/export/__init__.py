@@ -1,0 +1,56 @@
+"""Generated user materials for other solvers (Abaqus UMAT and VUMAT, LS-DYNA umat41).
+
+One material definition (the sympy energy every backend compiles) becomes a fixed-form Fortran
+source with the Prony series, the moduli convention and the solver's calling convention
+(docs/conventions.md section 7), a ready material card and a ``manifest.json``
+(:mod:`cfm_core.export.generate`). :mod:`cfm_core.export.harness` compiles a generated source
+with gfortran and calls it through its solver's argument list; :mod:`cfm_core.export.expected`
+gives what it must return, from the numpy reference.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import InputError
+from ..post.staging import staged_folder
+from .targets import TARGETS
+
+__all__ = ["TARGETS", "export"]
+
+
+def export(material, target: str, out) -> list[Path]:
+    """Write the generated source, card and manifest of ``material`` for ``target`` into ``out``.
+
+    The folder is checked before the work and written whole or not at all
+    (:func:`cfm_core.post.staging.staged_folder`).
+
+    Parameters
+    ----------
+    material : Material
+        A bound material: its spec gives the code, its values the card's example constants.
+    target : {"abaqus-umat", "abaqus-vumat", "lsdyna-umat"}
+        Solver interface.
+    out : str or path-like
+        Output folder (new, or one holding an earlier cfm output).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, in ``out``.
+
+    Raises
+    ------
+    InputError
+        ``target`` is not one of :data:`TARGETS`, ``out`` cannot hold the output, or an energy
+        cannot be traced symbolically.
+    """
+    if target not in TARGETS:
+        raise InputError(f"--to {target!r} is not a known target; use one of {', '.join(TARGETS)}.")
+    from .generate import generate  # deferred: imports sympy, which the command line does not need to start
+
+    with staged_folder(out, "--out", need_bytes=200_000) as stage:
+        result = generate(material, target)
+        for name, text in result.files.items():
+            (stage / name).write_text(text)
+    return [Path(out) / name for name in result.files]

@@ -1,0 +1,126 @@
+"""LS-DYNA interface: ``umat4N`` (N = 41..50) with ``IHYPER = 1`` for solid elements.
+
+Calling convention of LS-DYNA's user-material package (dyn21umats.f, R10 and later):
+``umat4N(cm, eps, sig, epsp, hsv, dt1, capa, etype, tt, temper, failel, crv, nnpcrv, cma, qmat,
+elsiz, idele, reject)``. With ``IHYPER = 1`` LS-DYNA stores the deformation gradient in
+``hsv(NHV+1 .. NHV+9)`` column by column (F11, F21, F31, F12, ...); ``sig`` is the Cauchy stress,
+order xx, yy, zz, xy, yz, zx (docs/conventions.md section 7). ``hsv(1 .. NHV)`` hold the Prony
+history and the error code; ``NHV`` on the card must be exactly the number written in the header
+and in the manifest, or F is read from the wrong place (the routine cannot tell).
+
+An error keeps the stress of the previous step, writes the code into the last user history
+variable and a line to unit 6, and sets ``reject`` (an implicit step is then retried with a
+smaller step; an explicit run has no rejection: watch the error variable). ``failel`` (element
+deletion) is never touched. The implicit tangent routine ``utan4N`` is not generated.
+"""
+
+from __future__ import annotations
+
+UMAT41 = """\
+      subroutine umat{N}(cm, eps, sig, epsp, hsv, dt1, capa, etype, tt,
+     &  temper, failel, crv, nnpcrv, cma, qmat, elsiz, idele, reject)
+      implicit none
+{DP}
+      real(dp), intent(in) :: cm(*), eps(6), dt1, capa, tt, temper
+      real(dp), intent(inout) :: sig(6), epsp, hsv(*)
+      character(len=5), intent(in) :: etype
+      logical, intent(inout) :: failel, reject
+      real(dp), intent(in) :: crv(*), cma(*), qmat(3,3), elsiz
+      integer, intent(in) :: nnpcrv(*), idele
+      real(dp), external :: {P}det3
+      real(dp) :: pv({NK}), gam({NPD}), tau({NPD}), hnew({NHD})
+      real(dp) :: f(3,3), s(3,3), w(3,3), em(3), q(3,3), gt(3), ht(6)
+      real(dp) :: xj, sse
+      integer :: ierr, j, k
+      integer, parameter :: nhv = {NS}
+      integer, parameter :: ia(6) = [1, 2, 3, 1, 2, 3]
+      integer, parameter :: ja(6) = [1, 2, 3, 2, 3, 1]
+      ierr = 0
+!     arguments this material does not use, referenced once so that
+!     compilers do not warn about them
+      if (.false.) then
+        epsp = eps(1) + capa + temper + crv(1) + cma(1) + qmat(1,1)
+     &    + elsiz + dble(nnpcrv(1) + idele)
+        failel = .false.
+      end if
+      if (etype .ne. 'solid' .and. etype .ne. 'sph') then
+        ierr = 4
+      else
+        call {P}params(cm(1:{NC}), pv, gam, tau, ierr)
+      end if
+      do j = 1, 3
+        do k = 1, 3
+          f(k,j) = hsv(nhv + k + 3 * (j - 1))
+        end do
+      end do
+      xj = {P}det3(f)
+      if (ierr .eq. 0 .and. .not. xj .gt. 0.0d0) ierr = 1
+      if (ierr .eq. 0) then
+        call {P}point(matmul(transpose(f), f), dt1, hsv(1:{NHD}), pv,
+     &    gam, tau, .false., s, hnew, sse, em, q, gt, ht, ierr)
+      end if
+      if (ierr .ne. 0) then
+        hsv(nhv) = dble(ierr)
+        reject = .true.
+        write (6, '(a,a,i2,a,es12.4,a)') ' umat{N} {NAME}: ', 'error ',
+     &    ierr, ' at time ', tt,
+     &    ' (see the error codes in the file header; is NHV = {NS}?)'
+        return
+      end if
+      w = matmul(matmul(f, s), transpose(f)) / xj
+      do k = 1, 6
+        sig(k) = w(ia(k),ja(k))
+      end do
+      hsv(1:{NH}) = hnew(1:{NH})
+      hsv(nhv) = 0.0d0
+      end subroutine umat{N}
+"""
+
+
+def card(name: str, entries, nstate: int, density: float, number: int) -> str:
+    """``*MAT_USER_DEFINED_MATERIAL_MODELS`` keyword block (LS-DYNA, SI units).
+
+    Parameters
+    ----------
+    name : str
+        Material name (title line).
+    entries : list of Entry
+        The constants with example values, the last two the bulk and shear modulus (``IBULK``,
+        ``IG`` point at them).
+    nstate : int
+        ``NHV``: user history variables (the deformation gradient follows them).
+    density : float
+        ``RO`` (kg/m^3).
+    number : int
+        ``MT``, the user material number 41..50.
+
+    Returns
+    -------
+    str
+        Keyword text: title, card 1 (MID, RO, MT, LMC, NHV, IORTHO, IBULK, IG), card 2 (IVECT,
+        IFAIL, ITHERM, IHYPER = 1, IEOS), then the constants 8 per line in fields of 10.
+    """
+    n = len(entries)
+    lines = [f"$ material '{name}' for the generated umat{number} (SI units: m, s, kg, Pa); double-precision LS-DYNA"]
+    lines += [f"$   cm({i:>2}) {e.name:<8} [{e.unit}] {e.meaning}" for i, e in enumerate(entries, 1)]
+    lines += ["*MAT_USER_DEFINED_MATERIAL_MODELS_TITLE", name,
+              "$      MID        RO        MT       LMC       NHV    IORTHO     IBULK        IG",
+              "".join(f"{v:>10}" for v in (1, f"{density:.4g}", number, n, nstate, 0, n - 1, n)),
+              "$    IVECT     IFAIL    ITHERM    IHYPER      IEOS",
+              "".join(f"{v:>10}" for v in (0, 0, 0, 1, 0)),
+              "$ constants P1 .. P%d" % n]
+    values = [_field(e.default) for e in entries]
+    lines += ["".join(values[i:i + 8]) for i in range(0, n, 8)]
+    return "\n".join(lines) + "\n"
+
+
+def _field(value: float) -> str:
+    """A value in a 10-character field (at most 9 characters, so fields stay apart), as exact as it allows."""
+    text = repr(float(value))
+    if len(text) <= 9:
+        return f"{text:>10}"
+    for digits in range(9, 0, -1):
+        text = f"{value:.{digits}g}"
+        if len(text) <= 9:
+            return f"{text:>10}"
+    return f"{value:>10.3e}"
