@@ -88,7 +88,7 @@ def _linear_problem(monkeypatch, seed: int, tmp_path=None, names=NAMES, true_x=T
         path = "-"
         if tmp_path is not None:
             path = tmp_path / f"curve{j}.csv"
-            path.write_text("t,a\n" + "".join(f"{ti!r},{ai!r}\n" for ti, ai in zip(t, a)))
+            path.write_text("t,a\n" + "".join(f"{float(ti)!r},{float(ai)!r}\n" for ti, ai in zip(t, a)))
         curves.append(Curve(f"curve{j}", str(path), 0.005 + 0.003 * j, t, a))
 
     def simulate(self, points):
