@@ -20,6 +20,9 @@ from .options import parse_params
 
 def _runner_options(p) -> None:
     p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE",
+                   help="a backend option of every drop test, SI units, repeatable (e.g. hourglass=0.05; "
+                        "'cfm backends --options' lists them); part of the run ids")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="Dask scheduler to run on, e.g. tcp://host:8786 ('none': serial); "
@@ -83,6 +86,13 @@ def _progress(args):
     return lambda line: print(line, file=sys.stderr, flush=True)
 
 
+def _options(args) -> dict:
+    """The ``--option NAME=VALUE`` backend options (typed and checked as ``cfm drop-test`` does)."""
+    from .scene import _backend_options
+
+    return _backend_options(args, args.backend)
+
+
 def _open(args):
     return open_runner("none" if args.serial else args.scheduler, args.workers, args.worker_timeout)
 
@@ -115,17 +125,20 @@ def _cmd_sweep(args) -> int:
     scene = _scene(args.scene)
     axes = sweep.parse_vary(args.vary, scene)
     sweep.check_cases(scene, axes)  # every value, before any run (exit 2 naming it)
+    sweep.run_key(scene, args.backend, _options(args))  # backend and options checked too
     out = check_folder_target(args.out)  # before any run: an unwritable --out is an input error
     n = len(sweep.cases(axes))
     seconds = sweep.estimate_seconds(scene, axes)
-    print(f"sweep of {n} drop tests, about {_duration(seconds)} of serial numba runs "
-          f"(an estimate from the mesh sizes; complete runs in {out}/runs are reused)", file=sys.stderr, flush=True)
+    if not args.quiet or n > sweep.CONFIRM_RUNS:
+        print(f"sweep of {n} drop tests, about {_duration(seconds)} of serial numba runs (a rough estimate from "
+              f"the mesh sizes; complete runs in {out}/runs are reused)", file=sys.stderr, flush=True)
     _confirm(n, seconds, args.yes)
     with _open(args) as runner:
         say = _progress(args)
         if say:
             say(f"running on {runner.label}")
-        result = run(scene, {a.name: list(a.values) for a in axes}, args.backend, runner, out, say or False)
+        result = run(scene, {a.name: list(a.values) for a in axes}, args.backend, runner, out, say or False,
+                     _options(args))
     print(f"{n} runs: {n - result.failed} complete ({result.skipped} from an earlier invocation), "
           f"{result.failed} failed; {result.wall:.1f} s")
     print("wrote " + ", ".join(str(f) for f in result.files) + f" and {out}/runs/")
@@ -156,7 +169,7 @@ def _cmd_calibrate(args) -> int:
         if say:
             say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")
         outcome = run(scene, curves, names, start, args.backend, runner, args.out, say or False, args.rel_step,
-                      args.max_evaluations)
+                      args.max_evaluations, _options(args))
     result = outcome.result
     conf = result.confidence["parameters"]
     for n, u in zip(result.problem.coords.names, result.problem.coords.units):

@@ -206,3 +206,19 @@ def test_unwritable_out_is_refused_before_any_run(scene, tmp_path, monkeypatch):
     with pytest.raises(InputError, match="is not a directory|is a file"):
         cfm.sweep(scene, vary={"k2": [1.6]}, out=blocker, progress=False)
     assert ran == []
+
+
+def test_cli_backend_option_reaches_the_runs_and_sweep_json(scene, tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(scene_to_toml(scene))
+    out = tmp_path / "o"
+    args = ["sweep", "--serial", "--quiet", "--scene", str(path), "--vary", "k2=1.6", "--out", str(out)]
+    assert main(args + ["--option", "hourglass=0.05"]) == 0
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["provenance"]["backend"]["options"]["hourglass"] == 0.05
+    (rid,) = record["run_ids"]
+    peak = json.loads((out / "runs" / rid / "summary.json").read_text())["peak_g"]
+    stiff = scene.with_overrides(parameters={"k2": 1.6})
+    assert peak == cfm.drop_test(stiff, hourglass=0.05).peak_g != cfm.drop_test(stiff).peak_g  # the option ran
+    assert main(args) == 0  # the default hourglass: another run, not the cached one
+    assert json.loads((out / "sweep.json").read_text())["run_ids"] != [rid]
