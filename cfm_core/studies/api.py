@@ -1,6 +1,6 @@
 """The Python API of studies: ``cfm.sweep``, ``cfm.calibrate``, ``cfm.fit`` and ``cfm.uniaxial``.
 
-Each returns an outcome (:mod:`cfm_core.studies.outcomes`) with ``to_dataframe()`` (units in the
+Each returns an outcome (:mod:`cfm_core.studies.outcomes`, :mod:`cfm_core.studies.fit_outcomes`) with ``to_dataframe()`` (units in the
 column names) and ``save(...)`` (the files of the command line); ``cfm sweep``, ``cfm calibrate``,
 ``cfm fit`` are thin layers over them. With ``out`` given, the folder is checked before any work
 and the files are written when the study ends. Progress: ``progress=True`` shows a bar
@@ -15,7 +15,8 @@ import warnings as _warnings
 from pathlib import Path
 
 from ..errors import InputError
-from .outcomes import CalibrationOutcome, LabFitOutcome, SweepOutcome, UniaxialOutcome, clear_earlier_output
+from .fit_outcomes import CalibrationOutcome, LabFitOutcome
+from .outcomes import SweepOutcome, UniaxialOutcome, clear_earlier_output
 
 
 def _scene(scene):

@@ -23,7 +23,7 @@ from cfm_core.studies import calibrate
 from cfm_core.studies.fit import fit_lab
 from cfm_core.studies.lab_tests import LabTest
 from cfm_core.studies.measured import Curve
-from cfm_core.studies.outcomes import CalibrationOutcome
+from cfm_core.studies.fit_outcomes import CalibrationOutcome
 
 
 # ----------------------------------------------------------------------------- identifiability, log coordinates
