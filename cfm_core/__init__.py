@@ -8,7 +8,8 @@
 - :mod:`cfm_core.simulation`: backends, their registry, results, the material-point driver;
 - :mod:`cfm_core.post`: histories, the SAE J211 filter, metrics, summaries, files and plots;
 - :mod:`cfm_core.runs`: a scene run end to end (drop test, reaction test);
-- :mod:`cfm_core.studies`: sweeps and calibrations;
+- :mod:`cfm_core.studies`: sweeps, calibrations, lab fits (``cfm.sweep``, ``cfm.calibrate``,
+  ``cfm.fit``, ``cfm.uniaxial`` return outcomes with ``to_dataframe()`` and ``save(dir)``);
 - :mod:`cfm_core.cli`: the ``cfm`` command.
 
 SI units everywhere: m, s, kg, Pa.
@@ -22,6 +23,7 @@ from .plugins import refresh
 from .runs import DropTestOutcome, ReactionOutcome, drop_test, reaction_test, run_model
 from .scene import Model, Scene, build_model, builtin_scene, builtin_scenes, load_scene
 from .simulation import Backend, Result, get_backend, register_backend
+from .studies.api import calibrate, fit, sweep, uniaxial
 
 __version__ = "0.2.0"
 
@@ -39,5 +41,5 @@ __all__ = [
     "get_material", "get_term", "isochoric", "make_material", "nonnegative", "positive", "register_material",
     "register_term", "sym", "volumetric", "refresh", "DropTestOutcome", "ReactionOutcome", "drop_test",
     "reaction_test", "run_model", "Model", "Scene", "build_model", "builtin_scene", "builtin_scenes", "load_scene",
-    "Backend", "Result", "get_backend", "register_backend",
+    "Backend", "Result", "get_backend", "register_backend", "sweep", "calibrate", "fit", "uniaxial",
 ]

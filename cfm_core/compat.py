@@ -43,6 +43,16 @@ class _Alias(types.ModuleType):
         super().__init__(name, f"Deprecated alias of {', '.join('cfm_core.' + t for t in targets)}.")
         self._targets = targets
 
+    def __call__(self, *args, **kwargs):
+        """``cfm.sweep(...)`` and ``cfm.calibrate(...)`` after an old ``import cfm_core.sweep``: the import
+        system set the package attribute to this alias, so calls go on to the API function."""
+        from .studies import api
+
+        name = self.__name__.rpartition(".")[2]
+        if not hasattr(api, name):
+            raise TypeError(f"module {self.__name__!r} is not callable")
+        return getattr(api, name)(*args, **kwargs)
+
     def __getattr__(self, attr: str):
         if attr.startswith("__"):
             raise AttributeError(attr)

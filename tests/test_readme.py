@@ -52,3 +52,18 @@ def test_readme_material_example_runs(capsys):
         assert sigma[0, 0] < 0 and np.isfinite(sigma).all()
     finally:
         plugins.unregister("materials", "my-mr")
+
+
+def test_readme_study_api_block_runs(tmp_path, monkeypatch):
+    """The studies block: cfm.sweep(...).to_dataframe() with units, the saved files, cfm.uniaxial."""
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(_python_block("cfm.sweep("), "README.md", "exec"), namespace)
+    df, curve = namespace["df"], namespace["curve"]
+    assert list(df.columns[:5]) == ["run_id", "thickness [m]", "k2 [-]", "status", "error"]
+    assert list(df["status"]) == ["ok"] * 4 and list(df["k2 [-]"]) == [1.6, 1.8] * 2
+    peaks = df.set_index(["thickness [m]", "k2 [-]"])["peak_g [g]"]
+    assert peaks[(0.005, 1.8)] > peaks[(0.005, 1.6)] > peaks[(0.008, 1.6)]  # stiffer, thinner: harder
+    saved = tmp_path / "out" / "k2-sweep"
+    assert {"sweep.csv", "sweep.json", "peaks.png", "runs"} <= {p.name for p in saved.iterdir()}
+    assert list(curve.columns) == ["t [s]", "stretch [-]", "nominal_stress [Pa]", "lateral_stretch [-]"]

@@ -9,13 +9,12 @@ Method and file formats: :mod:`cfm_core.studies.fit`, :mod:`cfm_core.studies.lab
 from __future__ import annotations
 
 import sys
-import time
 
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
-from ..studies import fit_output
 from ..studies.lab_tests import KINDS
-from .options import add_material_options, out_dir, parse_params
+from ..post.staging import check_folder_target
+from .options import add_material_options, parse_params
 
 
 def add_parser(sub) -> None:
@@ -44,7 +43,9 @@ def add_parser(sub) -> None:
 
 
 def _cmd_fit(args) -> int:
-    out = out_dir(args)
+    from ..studies.api import fit as run
+
+    check_folder_target(args.out)
     names = lab_fit.fit_names(args.fit, args.material)
     given = parse_params(args.param)
     start = {k: v for k, v in given.items() if k in names}
@@ -54,21 +55,20 @@ def _cmd_fit(args) -> int:
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     if say:
         say(f"fitting {', '.join(names)} of '{args.material}' to {len(tests)} test(s)")
-    t0 = time.perf_counter()
-    result = lab_fit.fit_lab(args.material, tests, names, start, fixed, args.moduli, args.elastic,
-                             args.max_evaluations, say, args.starts)
-    files = fit_output.write_lab_fit(out, result, scene, {"total_time": time.perf_counter() - t0})
+    outcome = run(args.material, tests, names, start, fixed, args.moduli, args.elastic, args.max_evaluations,
+                  args.starts, scene, args.out, say or False)
+    result = outcome.result
     conf = result.confidence["parameters"]
     for n, u in zip(result.coords.names, result.coords.units):
         ci = conf[n]["ci"]
-        ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "withheld (not identifiable)"
+        ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "withheld (see the warnings)"
         print(f"{n:<6} = {result.fitted[n]:<12.6g} {u:<3} start {result.start[n]:<10.5g} 95 % CI {ci_text}")
     for t, e in zip(result.tests, result.rel_rms()):
         print(f"{t.name}: {t.kind} at {t.rate:g} 1/s, rel. RMS {100 * e:.2f} %")
     for w in result.warnings:
         print(f"WARNING: {w}")
     print(f"{result.evaluations} evaluations, {result.wall:.1f} s; {result.status}")
-    print("wrote " + ", ".join(str(f) for f in files))
+    print(f"wrote {args.out}: fit.json, fit_<test>.png, fitted-scene.toml")
     return 0
 
 

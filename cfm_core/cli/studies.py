@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 from ..errors import InputError
+from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
@@ -20,6 +20,9 @@ from .options import parse_params
 
 def _runner_options(p) -> None:
     p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE",
+                   help="a backend option of every drop test, SI units, repeatable (e.g. hourglass=0.05; "
+                        "'cfm backends --options' lists them); part of the run ids")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="Dask scheduler to run on, e.g. tcp://host:8786 ('none': serial); "
@@ -46,7 +49,11 @@ def add_parser(sub) -> None:
                         "friction) or material parameter (c, k1, k2, kappa, g1, tau1, ...) and its values, "
                         "SI units; repeatable")
     _runner_options(p)
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--yes", action="store_true",
+                   help=f"start without asking when the sweep has more than {sweep.CONFIRM_RUNS} runs (asked only "
+                        f"when run from a terminal; scripts proceed)")
+    p.add_argument("--out", required=True, help="output directory (an earlier sweep's table and plot there are "
+                                                "removed at the start; its runs/ cache is reused)")
     c = sub.add_parser("calibrate", help="fit material parameters to measured acceleration histories (Dask)",
                        description="Least-squares fit of material parameters to measured drop-test curves "
                                    "(CSV t,a in s and m/s^2, t = 0 at first contact), both filtered with CFC 600. "
@@ -79,20 +86,59 @@ def _progress(args):
     return lambda line: print(line, file=sys.stderr, flush=True)
 
 
+def _options(args) -> dict:
+    """The ``--option NAME=VALUE`` backend options (typed and checked as ``cfm drop-test`` does)."""
+    from .scene import _backend_options
+
+    return _backend_options(args, args.backend)
+
+
 def _open(args):
     return open_runner("none" if args.serial else args.scheduler, args.workers, args.worker_timeout)
 
 
+def _confirm(n: int, seconds: float, yes: bool) -> None:
+    """Above :data:`sweep.CONFIRM_RUNS` runs from a terminal, ask before starting unless --yes.
+
+    Not from a terminal (a script, a batch job), the sweep proceeds: it was written on purpose, and
+    its log holds the count and the estimate printed before the first run."""
+    if yes or n <= sweep.CONFIRM_RUNS or not sys.stdin.isatty():
+        return
+    try:
+        answer = input(f"start {n} drop tests (about {_duration(seconds)})? [y/N] ")
+    except EOFError:
+        answer = ""
+    if answer.strip().lower() not in ("y", "yes"):
+        raise InputError(f"sweep of {n} runs not started (more than {sweep.CONFIRM_RUNS}); answer y, or add --yes "
+                         f"to start without asking.")
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
+
+
 def _cmd_sweep(args) -> int:
+    from ..studies.api import sweep as run
+
     scene = _scene(args.scene)
     axes = sweep.parse_vary(args.vary, scene)
-    out = Path(args.out)
+    sweep.check_cases(scene, axes)  # every value, before any run (exit 2 naming it)
+    sweep.run_key(scene, args.backend, _options(args))  # backend and options checked too
+    out = check_folder_target(args.out)  # before any run: an unwritable --out is an input error
+    n = len(sweep.cases(axes))
+    seconds = sweep.estimate_seconds(scene, axes)
+    if not args.quiet or n > sweep.CONFIRM_RUNS:
+        print(f"sweep of {n} drop tests, about {_duration(seconds)} of serial numba runs (a rough estimate from "
+              f"the mesh sizes; complete runs in {out}/runs are reused)", file=sys.stderr, flush=True)
+    _confirm(n, seconds, args.yes)
     with _open(args) as runner:
         say = _progress(args)
         if say:
-            say(f"sweep of {len(sweep.cases(axes))} drop tests on {runner.label}")
-        result = sweep.run_sweep(scene, axes, out, args.backend, runner, say)
-    n = len(result.rows)
+            say(f"running on {runner.label}")
+        result = run(scene, {a.name: list(a.values) for a in axes}, args.backend, runner, out, say or False,
+                     _options(args))
     print(f"{n} runs: {n - result.failed} complete ({result.skipped} from an earlier invocation), "
           f"{result.failed} failed; {result.wall:.1f} s")
     print("wrote " + ", ".join(str(f) for f in result.files) + f" and {out}/runs/")
@@ -104,6 +150,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
+    from ..studies.api import calibrate as run
 
     scene = _scene(args.scene)
     names = calibrate.fit_names(args.fit, scene)
@@ -113,25 +160,23 @@ def _cmd_calibrate(args) -> int:
         raise InputError(f"--param {', '.join(extra)}: only fitted parameters take a starting value here "
                          f"(fitted: {', '.join(names)}); set fixed values in the --scene file.")
     curves = measured.read_curves(args.data, scene, scene_given=args.scene is not None)
-    rel_step = calibrate.REL_STEP if args.rel_step is None else float(args.rel_step)
     if args.max_evaluations < 1:
         raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
+    check_folder_target(args.out)
     t0 = time.perf_counter()
     with _open(args) as runner:
         say = _progress(args)
         if say:
             say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")
-        result = calibrate.fit(scene, curves, names, start, args.backend, runner, rel_step,
-                               args.max_evaluations, say)
-        label = runner.label
-    files = calibrate.write_fit(args.out, scene, result, {"runner": label,
-                                                          "total_time": time.perf_counter() - t0})
+        outcome = run(scene, curves, names, start, args.backend, runner, args.out, say or False, args.rel_step,
+                      args.max_evaluations, _options(args))
+    result = outcome.result
     conf = result.confidence["parameters"]
     for n, u in zip(result.problem.coords.names, result.problem.coords.units):
         ci = conf[n]["ci"]
         ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "not identifiable (J^T J singular)"
         if conf[n].get("withheld"):
-            ci_text += f" ({conf[n]['withheld']})"
+            ci_text = ("withheld" if not ci else ci_text) + f" ({conf[n]['withheld']})"
         print(f"{n:<6} = {result.final.params[n]:<12.6g} {u:<3} start {result.start.params[n]:<10.5g} "
               f"95 % CI {ci_text}")
     for combo in result.confidence.get("identifiability", {}).get("combinations", []):
@@ -143,7 +188,7 @@ def _cmd_calibrate(args) -> int:
         print(f"{c.name}: rel. L2 {100 * e:.2f} % ({1e3 * c.thickness:g} mm)")
     print(f"{result.problem.runs} drop tests, {len(result.problem.history)} evaluations, "
           f"{time.perf_counter() - t0:.1f} s; {result.status}")
-    print("wrote " + ", ".join(str(f) for f in files))
+    print(f"wrote {args.out}: fit.json, fit_<curve>.png, objective.png, fitted-scene.toml")
     return 0
 
 

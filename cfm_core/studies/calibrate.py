@@ -39,7 +39,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -51,10 +50,6 @@ from .differences import forward_jacobian, forward_steps
 from .sweep import run_all
 from ..material.registry import get_material
 from ..material.registry import make_material
-from ..post.plots import _figure, _save, plot_overlay
-from ..post import G0
-from ..scene.scene import scene_to_toml
-from ..post.writers import output_folder, write_json, write_text
 from ..post.filters import cfc_filter
 from ..post import relative_l2
 
@@ -189,6 +184,7 @@ class Problem:
     runner: object = field(default_factory=SerialRunner)
     rel_step: float = REL_STEP
     progress: object = None
+    options: dict = field(default_factory=dict)
     runs: int = 0
     history: list = field(default_factory=list)
     _cache: dict = field(default_factory=dict)
@@ -198,7 +194,7 @@ class Problem:
         """Filtered simulated histories on each curve's grid, for each parameter dict in points."""
 
         scenes = [self.scene.with_overrides(thickness=c.thickness) for c in self.curves]
-        tasks = [(s, params, self.backend) for params in points for s in scenes]
+        tasks = [(s, params, self.backend, self.options) for params in points for s in scenes]
 
         def failure(i: int, error: str) -> NumericalError:
             params, curve = points[i // len(scenes)], self.curves[i % len(scenes)]
@@ -285,9 +281,13 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
             continue
         sd = math.sqrt(cov[i, i])
         if coords.log[i]:
-            ci, std = [math.exp(x[i] - q * sd), math.exp(x[i] + q * sd)], values[n] * sd
+            ci, std = [_exp(x[i] - q * sd), _exp(x[i] + q * sd)], values[n] * sd
         else:
             ci, std = [x[i] - q * sd, x[i] + q * sd], sd
+        if not all(math.isfinite(v) for v in (*ci, std)):  # a flat direction: beyond the float range
+            out[n] = {"value": values[n], "std": None, "ci": None,
+                      "withheld": "the linearised interval exceeds the float range: the data hardly depend on it"}
+            continue
         out[n] = {"value": values[n], "std": std, "ci": ci}
     corr = None
     if cov is not None:
@@ -298,11 +298,32 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds, residual)
     for n in ident["unidentified"]:  # one point of a valley: its own interval would claim too much
         valley = ident["valley"].get(n)
+        valley = valley if valley and all(math.isfinite(v) for v in valley) else None
         out[n].update(std=None, ci=valley, withheld="not separately identifiable: " + (
             "the interval is the valley's extent within the bounds" if valley else "no interval"))
     return {"parameters": out, "correlation": corr, "dof": dof, "s2": s2, "t_quantile": q, "level": level,
             "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
             "warnings": list(ident["warnings"])}
+
+
+def _exp(v: float) -> float:
+    """exp(v), inf instead of OverflowError (a near-flat log coordinate gives a huge half-width)."""
+    return math.exp(v) if v < 709.0 else math.inf
+
+
+def mark_bounds(conf: dict, x, coords: Coordinates, what: str = "bound") -> dict:
+    """Record in ``conf`` the fitted parameters that ended on a bound, with their intervals withheld.
+
+    Adds ``at_bound`` ({name: {side, bound (SI), unit}}, :func:`identifiability.at_bounds`) and a
+    warning per such parameter naming the bound; returns the ``at_bound`` dict.
+    """
+    bounds = identifiability.at_bounds(x, coords)
+    for n, entry in bounds.items():
+        text = identifiability.bound_warning(n, entry, what)
+        conf["parameters"][n].update(ci=None, std=None, withheld=f"ended on the {entry['side']} {what}")
+        conf.setdefault("warnings", []).append(text)
+    conf["at_bound"] = bounds
+    return bounds
 
 
 @dataclass
@@ -318,11 +339,14 @@ class FitResult:
 
 
 def fit(scene, curves: list, names: list, start: dict | None = None, backend: str = "numba",
-        runner=None, rel_step: float = REL_STEP, max_evaluations: int = 60, progress=None) -> FitResult:
+        runner=None, rel_step: float = REL_STEP, max_evaluations: int = 60, progress=None,
+        options: dict | None = None) -> FitResult:
     """Fit ``names`` of the scene's material to the measured curves by least squares.
 
     start: starting values (default: the scene's material values); every other parameter keeps
-    the scene's value. Returns a :class:`FitResult`; see the module docstring for the method.
+    the scene's value; options: backend options of every drop test. Returns a :class:`FitResult`
+    (a parameter that ends on a bound is named in ``confidence["at_bound"]`` and the warnings,
+    its interval withheld); see the module docstring for the method.
     """
     from scipy.optimize import least_squares
 
@@ -338,75 +362,17 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
         raise InputError(f"rel_step = {rel_step!r} is not allowed: give a relative step in (1e-8, 0.1).")
     coords = coordinates(names, scene, values)
     x0 = np.clip(coords.to_x(start), coords.lower, coords.upper)
-    problem = Problem(scene, curves, coords, backend, runner or SerialRunner(), rel_step, progress)
+    problem = Problem(scene, curves, coords, backend, runner or SerialRunner(), rel_step, progress,
+                      dict(options or {}))
     t0 = time.perf_counter()
     res = least_squares(problem.residuals, x0, jac=problem.jacobian, bounds=(coords.lower, coords.upper),
                         method="trf", x_scale=1.0, xtol=1e-6, ftol=1e-10, gtol=1e-10, max_nfev=max_evaluations)
     final = problem.evaluate(res.x)
     decl = {p.name: p for p in get_material(scene.material.name).parameters}
     conf = confidence(res.x, res.jac, final.residual, coords, ranges={n: (decl[n].low, decl[n].high) for n in names})
-    return FitResult(problem, problem.evaluate(x0), final, conf, str(res.message), time.perf_counter() - t0)
+    bounds = mark_bounds(conf, res.x, coords, "bound of its valid range")
+    status = str(res.message) + ("; ended on a bound: " + ", ".join(bounds) if bounds else "")
+    return FitResult(problem, problem.evaluate(x0), final, conf, status, time.perf_counter() - t0)
 
 
-# ----------------------------------------------------------------------------- outputs
-def _safe(name: str) -> str:
-    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
-
-
-def fitted_scene(scene, result: FitResult):
-    """The scene with the fitted parameter values (SI units)."""
-    return scene.with_overrides(parameters=result.final.params)
-
-
-def write_fit(out, scene, result: FitResult, settings: dict | None = None) -> list[Path]:
-    """Write the fit's outputs into folder ``out``; fit.json last (its presence means complete).
-
-    fit_<curve>.png (measured, start and fitted filtered histories), objective.png (cost per
-    evaluation), fitted-scene.toml (the scene with the fitted material, for ``cfm drop-test
-    --scene``), fit.json (parameters with start, fitted value, unit, standard error and 95 %
-    interval; correlation; per-curve rel. L2 at start and end; objective history; drop-test count).
-    """
-
-    out = output_folder(out, marker="fit.json")
-    pb, files = result.problem, []
-    for j, c in enumerate(pb.curves):
-        path = out / f"fit_{_safe(c.name)}.png"
-        plot_overlay(path, [("measured (CFC 600)", c.t, c.a), ("start", c.t, result.start.histories[j]),
-                            ("fitted", c.t, result.final.histories[j])],
-                     f"{c.name}, {1e3 * c.thickness:g} mm: rel. L2 {100 * result.final.rel_l2[j]:.2f} %")
-        files.append(path)
-    fig, ax = _figure("Objective history")
-    for line in list(ax.lines):  # the figure's zero line has no place on a log axis
-        line.remove()
-    ax.relim()
-    ax.set_xlabel("evaluation")
-    ax.set_ylabel("cost 1/2 sum r^2 (-)")
-    ax.semilogy([h["evaluation"] for h in pb.history], [max(h["cost"], 1e-300) for h in pb.history], "o-")
-    _save(fig, out / "objective.png")
-    files.append(out / "objective.png")
-    text = scene_to_toml(fitted_scene(scene, result))
-    head = "".join(f"# fitted to {c.path} ({c.thickness:g} m)\n" for c in pb.curves)
-
-    files.append(write_text(out / "fitted-scene.toml", head + text))
-    conf = result.confidence
-    params = {n: {"start": result.start.params[n], "fitted": result.final.params[n], "unit": u,
-                  "std": conf["parameters"][n]["std"], "ci95": conf["parameters"][n]["ci"],
-                  **({"withheld": conf["parameters"][n]["withheld"]} if "withheld" in conf["parameters"][n] else {}),
-                  "coordinate": "log" if lg else "linear"}
-              for n, u, lg in zip(pb.coords.names, pb.coords.units, pb.coords.log)}
-    curves = [{"name": c.name, "file": str(c.path), "thickness": c.thickness, "samples": int(c.t.size),
-               "peak_measured_g": c.peak / G0, "peak_fitted_g": float(np.max(h)) / G0,
-               "rel_l2_start": s, "rel_l2": e}
-              for c, h, s, e in zip(pb.curves, result.final.histories, result.start.rel_l2, result.final.rel_l2)]
-    data = {"parameters": params, "correlation": conf["correlation"], "names": list(pb.coords.names),
-            "cost_start": result.start.cost, "cost": result.final.cost, "curves": curves,
-            "status": result.status, "drop_tests": pb.runs, "evaluations": len(pb.history),
-            "wall_time": result.wall, "rel_step": pb.rel_step, "backend": pb.backend,
-            "dof": conf["dof"], "t_quantile": conf["t_quantile"], "cond_JTJ": conf["cond_JTJ"],
-            "warnings": conf.get("warnings", []), "identifiability": conf.get("identifiability"),
-            "history": pb.history, **(settings or {}),
-            "units": {"thickness": "m", "peak_measured_g": "g (9.80665 m/s^2)", "peak_fitted_g": "g",
-                      "rel_l2": "-", "cost": "-", "wall_time": "s", "elapsed": "s",
-                      "parameters": "SI (see each parameter's unit)"}}
-    files.append(write_json(out / "fit.json", data))
-    return files
+from .calibrate_output import fitted_scene, write_fit  # noqa: E402,F401  (the outputs, kept importable here)

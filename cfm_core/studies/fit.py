@@ -35,6 +35,7 @@ from ..errors import InputError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
 from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
+from .identifiability import at_bounds, bound_warning
 from .lab_tests import KINDS, LabTest, read_lab_test, simulate
 
 #: |correlation| at or above which two parameters are reported as not separately identifiable.
@@ -151,15 +152,17 @@ def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
         From :func:`cfm_core.studies.calibrate.confidence` (``parameters``, ``correlation``).
     names : list of str
         Fitted parameter names, in the order of the correlation matrix.
-    at_bound : sequence of str
-        Names whose fitted value ended on the search box or the valid range.
+    at_bound : dict or sequence of str
+        Names whose fitted value ended on the search box or the valid range (a dict of
+        :func:`cfm_core.studies.identifiability.at_bounds`: the warning names the bound).
 
     Returns
     -------
     tuple
         (list of warning texts, set of names whose intervals are withheld).
     """
-    pre = [f"{n} ended on the edge of its search range ({conf['parameters'][n]['value']:.6g}): the data do not "
+    pre = [bound_warning(n, at_bound[n], "end of its search range") if isinstance(at_bound, dict) else
+           f"{n} ended on the edge of its search range ({conf['parameters'][n]['value']:.6g}): the data do not "
            f"determine it (or the range excludes the best value); its interval is withheld." for n in at_bound]
     pre += [f"{n} is poorly determined: relative standard error {conf['parameters'][n]['std'] / abs(conf['parameters'][n]['value']):.3g}; "
             f"more data (another rate, another kind of test) would pin it down."
@@ -391,10 +394,13 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     res = best
     wall = time.perf_counter() - t0
     conf = confidence(res.x, res.jac, res.fun, coords)
-    edge = (res.x <= coords.lower + 1e-6) | (res.x >= coords.upper - 1e-6)
-    warnings, withheld = identifiability(conf, list(coords.names), [n for n, e in zip(coords.names, edge) if e])
+    bounds = at_bounds(res.x, coords)
+    conf["at_bound"] = bounds
+    warnings, withheld = identifiability(conf, list(coords.names), bounds)
     for n in withheld:
         conf["parameters"][n]["ci"] = None
+    if bounds:
+        res.message = f"{res.message}; ended on a bound: {', '.join(bounds)}"
     fitted = dict(bind(res.x).values)
     return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, stresses(x0),
                         stresses(res.x), 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,

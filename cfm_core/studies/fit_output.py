@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..material.registry import get_material
 from ..post.plots import _figure, _save
-from ..post.writers import output_folder, write_json, write_text
+from ..post.writers import write_json, write_text
 from ..scene.scene import builtin_scene, scene_to_toml
 from .fit import LabFitResult
 from .lab_tests import KINDS, LabTest
@@ -84,14 +84,11 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     Returns
     -------
     list of Path
-        The written files. A stale fit.json is removed first, so an interrupted run leaves none.
-
-    Raises
-    ------
-    InputError
-        ``out`` exists and is not a directory.
+        The written files (:meth:`cfm_core.studies.outcomes.LabFitOutcome.save` writes them into
+        the stage of a staged folder, published whole).
     """
-    out = output_folder(out, marker="fit.json")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     files = []
     for t, s, f in zip(result.tests, result.P_start, result.P_fit):
         path = out / f"fit_{_safe(t.name)}.png"
@@ -106,7 +103,7 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     for n, u, lg in zip(result.coords.names, result.coords.units, result.coords.log):
         params[n] = {"start": result.start[n], "fitted": result.fitted[n], "unit": u, "std": conf[n]["std"],
                      "ci95": conf[n]["ci"], "coordinate": "log" if lg else "linear",
-                     "interval": "withheld: not identifiable (see warnings)" if n in result.withheld else "ok"}
+                     "interval": "withheld (see the warnings)" if n in result.withheld else "ok"}
     decl = {p.name: p.unit for p in get_material(result.material).parameters}
     fixed = {n: {"value": v, "unit": decl[n]} for n, v in result.fitted.items() if n not in params}
     tests = [{"name": t.name, "file": t.path, "kind": t.kind, "rate": t.rate, "weight": t.weight, "rows": int(t.t.size),
@@ -115,7 +112,8 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     data = {"material": result.material, "moduli": result.moduli, "elastic": result.elastic,
             "parameters": params, "fixed": fixed, "names": list(result.coords.names),
             "correlation": result.confidence["correlation"], "cond_JTJ": result.confidence["cond_JTJ"],
-            "identifiability_warnings": result.warnings, "tests": tests, "cost_start": result.cost_start,
+            "identifiability_warnings": result.warnings, "at_bound": result.confidence.get("at_bound", {}),
+            "tests": tests, "cost_start": result.cost_start,
             "cost": result.cost, "status": result.status, "evaluations": result.evaluations,
             "wall_time": result.wall, "dof": result.confidence["dof"], "starts": result.tried,
             **(settings or {}),

@@ -189,3 +189,37 @@ def _valley(valley: dict, a: str, b: str, c: float, low: float, high: float, bou
 
 def _ranges(valley: dict, *names) -> str:
     return ", ".join(f"{n} in [{valley[n][0]:.4g}, {valley[n][1]:.4g}]" for n in names if n in valley)
+
+
+def at_bounds(x, coords, tol: float = 1e-6) -> dict:
+    """The fitted parameters that ended on a bound of the optimiser's box.
+
+    Parameters
+    ----------
+    x : ndarray, shape (p,)
+        Fitted coordinates (ln p for log coordinates, else p).
+    coords : Coordinates
+        Names, units, log flags and bounds (``lower``, ``upper``) in the fitted coordinates.
+    tol : float
+        Distance (in x, relative to max(1, |bound|)) within which x counts as on the bound.
+
+    Returns
+    -------
+    dict
+        ``name -> {"side": "lower" | "upper", "bound": value (SI units), "unit": str}``; empty when
+        no parameter is on a bound. A parameter on a bound is not at a minimum of the objective:
+        the best value may lie beyond, and the linearised interval means nothing there.
+    """
+    out = {}
+    for i, n in enumerate(coords.names):
+        for side, b in (("lower", coords.lower[i]), ("upper", coords.upper[i])):
+            if math.isfinite(b) and abs(x[i] - b) <= tol * max(1.0, abs(b)):
+                out[n] = {"side": side, "bound": float(math.exp(b) if coords.log[i] else b), "unit": coords.units[i]}
+    return out
+
+
+def bound_warning(name: str, entry: dict, what: str = "bound") -> str:
+    """The warning text for a parameter that ended on a bound (:func:`at_bounds`)."""
+    return (f"{name} ended on the {entry['side']} {what} {entry['bound']:.6g} {entry['unit']}: the fit did not find a "
+            f"minimum inside the range (the best value may lie beyond it, or the data do not determine {name}); "
+            f"its interval is withheld. Start nearer, widen the range or fix {name}.")

@@ -3,56 +3,54 @@
 A sweep varies names of the drop-test scene (:data:`SCENE_KEYS`: thickness, velocity, ... in SI
 units) and parameters of its material (``cfm``: c, k1, k2, kappa, g1, tau1, g2, tau2, g3, tau3) over
 given values, runs the cartesian product (the last ``--vary`` changes fastest) on a runner of
-:mod:`cfm_core.studies.dask_runner`, and writes into ``out``:
+:mod:`cfm_core.studies.dask_runner`. Every value is checked before any run: each case's scene is
+built and its material bound (:func:`check_cases`), so a value out of range (or NaN, inf) stops
+the sweep with an InputError naming it, not one run after others were computed.
 
-- ``runs/<id>/acceleration.csv`` and ``summary.json`` per run (:func:`writers.write_drop_test`;
-  the summary, written last, also holds the run's values under ``sweep``), or
-  ``runs/<id>/failed.json`` (values and error text) for a run that failed;
-- ``sweep.csv`` (and ``sweep.parquet`` when pyarrow is installed): one row per run, in product
-  order, with the varied values, ``status`` ("ok" | "failed"), ``error`` and the summary figures.
-  Headers carry the units: ``thickness [m]``, ``k1 [Pa]``, ``peak_g [g]``; ``run_time [s]`` is
-  the whole run (model build, solver, post-processing), ``wall_time [s]`` the solver only;
-- ``peaks.png``: peak acceleration against the first varied name, one line per combination of
-  the others.
+Run ids are content keys (:func:`run_key`, :func:`run_id`): a hash of the scene (with the mesh
+file's content digest in place of its path), the material definition's digest, the backend with
+every option resolved, the code's source digest, and the run's values. With a cache folder
+(``runs/`` of the output), a run whose ``runs/<id>/summary.json`` exists is read back instead of
+computed; a changed mesh file, option, material or code gives new ids, so nothing stale is
+reused. Failed runs are run again.
 
-The run id is a hash of the scene, the backend and the run's values, so rerunning the command
-skips every run whose ``summary.json`` exists (a changed scene or backend gives new ids); failed
-runs are run again. Every run is validated where it runs: a value out of range fails that run
-only, with the InputError's text in the table.
+Files: :mod:`cfm_core.studies.sweep_output` (table, plot, sweep.json) written by
+:class:`cfm_core.studies.outcomes.SweepOutcome`.
 """
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
-from typing import TYPE_CHECKING
-
-import numpy as np
-
-from .dask_runner import Done, SerialRunner, error_text
+from .. import fingerprint
 from ..errors import InputError
+from ..material.cache import spec_fingerprint
+from ..material.registry import get_material, make_material
+from ..post.writers import write_drop_test, write_json
+from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
+from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.scene import scene_to_dict
-from ..post.writers import atomic_write, output_folder, write_drop_test, write_json
-from ..material.registry import get_material
-from ..runs import pipeline as simulate
-from ..post import SUMMARY_UNITS
-from ..post.plots import _COLOURS, _figure, _save, display, display_text
-
-if TYPE_CHECKING:
-    import pandas as pd
+from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
+from .dask_runner import SerialRunner, error_text
+from .sweep_output import (SUMMARY_COLUMNS, TEXT_COLUMNS, columns, plot_peaks, read_table,  # noqa: F401
+                           table_frame, write_table)
 
 #: Scene keys a sweep can vary (SI units, see cfm_core/scene/scenes/drop-test.toml).
 SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius", "density", "friction")
-#: Summary figures copied into the table, in this order.
-SUMMARY_COLUMNS = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time", "unloading_time",
-                   "steps", "elements", "wall_time", "energy_error", "hourglass_ratio", "run_time")
+#: Above this many runs, ``cfm sweep`` run from a terminal asks before starting (``--yes`` skips it).
+CONFIRM_RUNS = 200
+#: Measured cost of a drop test on numba (2 threads): 1.9 s for the default 8 mm specimen with 1 mm
+#: hexahedra (README, Sweeps); the time scales with elements x steps, i.e. with volume / h^4.
+REFERENCE_RUN = {"seconds": 1.9, "volume": 0.05 * 0.05 * 0.008, "element_size": 0.001}
+#: Per-run overhead outside the solver (s): model build, post-processing, files.
+RUN_OVERHEAD = 0.03
 
 
 @dataclass(frozen=True)
@@ -62,22 +60,6 @@ class Axis:
     name: str
     unit: str
     values: tuple
-
-
-@dataclass
-class SweepResult:
-    """Rows of the table (dicts, product order) and counts of this invocation."""
-
-    rows: list
-    axes: list
-    executed: int = 0
-    skipped: int = 0
-    wall: float = 0.0
-    files: list = field(default_factory=list)
-
-    @property
-    def failed(self) -> int:
-        return sum(r["status"] != "ok" for r in self.rows)
 
 
 # ----------------------------------------------------------------------------- what to run
@@ -92,15 +74,37 @@ def variable_units(scene) -> dict:
     return units
 
 
+def _number(name: str, v, unit: str) -> float:
+    try:
+        x = float(v.strip() if isinstance(v, str) else v)
+    except (TypeError, ValueError):
+        raise InputError(f"--vary {name}: value {str(v).strip()!r} is not a number ({unit}); "
+                         f"give NAME=V1,V2,...") from None
+    if not math.isfinite(x):
+        raise InputError(f"--vary {name}: value {str(v).strip()} is not a finite number ({unit}); every value "
+                         f"of a sweep must be finite, in SI units.")
+    return x
+
+
 def parse_vary(items, scene) -> list[Axis]:
-    """``NAME=V1,V2,...`` strings -> axes; InputError naming the bad item and what is allowed."""
+    """The varied names and values -> axes; InputError naming the bad item and what is allowed.
+
+    ``items``: ``NAME=V1,V2,...`` strings (the command line), or a mapping {name: values}
+    (``cfm.sweep(vary={"k2": [1.6, 1.8]})``). Values must be finite numbers, each given once.
+    """
     units = variable_units(scene)
+    if isinstance(items, Mapping):
+        pairs = [(str(k), list(v) if isinstance(v, (list, tuple, range)) or hasattr(v, "tolist") else [v], str(k))
+                 for k, v in items.items()]
+    else:
+        pairs = []
+        for item in items or []:
+            name, sep, text = str(item).partition("=")
+            if not sep or not name.strip():
+                raise InputError(f"--vary expects NAME=V1,V2,... (SI units), got {item!r}.")
+            pairs.append((name.strip(), text.split(","), text))
     axes, seen = [], set()
-    for item in items or []:
-        name, sep, text = str(item).partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise InputError(f"--vary expects NAME=V1,V2,... (SI units), got {item!r}.")
+    for name, raw, text in pairs:
         if name not in units:
             raise InputError(f"--vary {name}: unknown name; a drop-test sweep can vary the scene values "
                              f"{', '.join(SCENE_KEYS)} and the parameters of material "
@@ -108,13 +112,9 @@ def parse_vary(items, scene) -> list[Axis]:
         if name in seen:
             raise InputError(f"--vary {name} is given twice; put all its values in one --vary.")
         seen.add(name)
-        values = []
-        for v in text.split(","):
-            try:
-                values.append(float(v))
-            except ValueError:
-                raise InputError(f"--vary {name}: value {v.strip()!r} is not a number "
-                                 f"({units[name]}); give NAME=V1,V2,...") from None
+        values = [_number(name, v, units[name]) for v in (raw.tolist() if hasattr(raw, "tolist") else raw)]
+        if not values:
+            raise InputError(f"--vary {name}: no values; give NAME=V1,V2,...")
         if len(set(values)) != len(values):
             raise InputError(f"--vary {name}: a value is repeated in {text!r}; give each value once.")
         axes.append(Axis(name, units[name], tuple(values)))
@@ -128,136 +128,92 @@ def cases(axes: list[Axis]) -> list[dict]:
     return [dict(zip((a.name for a in axes), combo)) for combo in itertools.product(*(a.values for a in axes))]
 
 
-def overrides(case: dict) -> dict:
-    """{name: value} -> keyword arguments of :meth:`Scene.with_overrides` (scene keys, parameters)."""
-    over = {k: v for k, v in case.items() if k in SCENE_KEYS}
-    params = {k: v for k, v in case.items() if k not in SCENE_KEYS}
-    if params:
-        over["parameters"] = params
-    return over
+def case_scene(scene, case: dict):
+    """The scene of one case with its material bound once (InputError for a value out of range)."""
+    sc = scene.with_overrides(**overrides(case))
+    m = sc.material
+    make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
+    return sc
 
 
-def run_id(scene, backend: str, case: dict) -> str:
-    """Stable id (12 hex digits) of one run: hash of the scene, the backend and the values."""
-    key = json.dumps({"scene": scene_to_dict(scene), "backend": backend,
-                      "case": {k: repr(float(v)) for k, v in sorted(case.items())}}, sort_keys=True)
-    return hashlib.sha256(key.encode()).hexdigest()[:12]
+def check_cases(scene, axes: list[Axis]) -> None:
+    """Validate every case before any run: each case's scene is built and its material bound.
 
-
-def run_case(task) -> dict:
-    """Run one drop test; task = (scene, {name: value}, backend). Runs on a Dask worker.
-
-    Returns t (s), a_raw and a_cfc (m/s^2) and the summary (with ``run_time``, s, end to end).
-    Errors (invalid values, numerical failures) propagate; the runner records them.
+    Each axis value is first checked alone (a scene or material value out of range is named with
+    its axis); then every combination, for ranges that depend on several values (e.g. the Prony
+    coefficients' sum). Raises InputError naming the first bad value(s) and the section's rule.
     """
+    for axis in axes:
+        for v in axis.values:
+            try:
+                case_scene(scene, {axis.name: v})
+            except (InputError, ValueError) as exc:
+                raise InputError(f"--vary {axis.name}: value {v:g} {axis.unit} is not allowed, so no run was "
+                                 f"started: {exc}") from None
+    if len(axes) > 1:
+        for case in cases(axes):
+            try:
+                case_scene(scene, case)
+            except (InputError, ValueError) as exc:
+                raise InputError(f"--vary: the combination {_describe(case, axes)} is not allowed, so no run "
+                                 f"was started: {exc}") from None
 
-    scene, case, backend = task
-    start = time.perf_counter()
-    outcome = simulate.drop_test(scene.with_overrides(**overrides(case)), backend)
-    return _case_result(outcome, time.perf_counter() - start)
 
+def estimate_seconds(scene, axes: list[Axis]) -> float:
+    """Rough serial time of the sweep's drop tests on numba (s), from :data:`REFERENCE_RUN`.
 
-def _case_result(outcome, run_time: float) -> dict:
-    """What a finished run of a case returns: t (s), a_raw and a_cfc (m/s^2) and the summary with
-    ``run_time`` (s) added to it and to its units."""
-    summary = dict(outcome.summary, run_time=run_time)
-    summary["units"] = dict(summary.get("units", {}), run_time="s")
-    return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}
-
-
-def run_cases(task) -> list:
-    """Run drop tests as a batch; task = ([scene, ...], backend, models). Runs on a worker.
-
-    The scenes share a mesh (grouped by :func:`map_cases`) and go through the backend's ``run_batch``
-    (:func:`cfm_core.runs.pipeline.drop_tests`); models: their models, built by :func:`map_cases`
-    (a runner in this process), or None (built here: models do not travel to other processes).
-    Returns, per run, (True, the dict of :func:`run_case`) or (False, error text); ``run_time`` is
-    the batch's time divided by its size.
+    Each case's cost scales with its specimen volume / element_size^4 (elements x explicit steps);
+    backends, machines and impact speeds differ, so read it as an order of magnitude.
     """
-    scenes, backend, models = task
-    start = time.perf_counter()
-    outcomes = simulate.drop_tests(scenes, backend, models=models)
-    share = (time.perf_counter() - start) / max(len(scenes), 1)
-    return [(False, error_text(outcome)) if isinstance(outcome, Exception) else (True, _case_result(outcome, share))
-            for outcome in outcomes]
+    ref = REFERENCE_RUN
+    total = 0.0
+    for case in cases(axes):
+        sp = {k: case.get(k, getattr(scene.specimen, k)) for k in ("width", "thickness", "element_size")}
+        volume = sp["width"] ** 2 * sp["thickness"]
+        scale = (volume / ref["volume"]) * (ref["element_size"] / sp["element_size"]) ** 4
+        total += RUN_OVERHEAD + ref["seconds"] * scale
+    return total
 
 
-def batches(backend: str) -> bool:
-    """Whether ``backend`` runs drop tests sharing a mesh as one batch (has ``run_batch``)."""
-    try:
-        return hasattr(simulate.backend_for(backend), "run_batch")
-    except InputError:
-        return False
-
-
-def map_cases(runner, tasks: list, batch_size: int = 64):
-    """Done objects of the drop tests ``tasks`` = [(scene, case, backend)], in completion order.
-
-    On a backend with ``run_batch`` (torch) the tasks whose models share a mesh
-    (:func:`cfm_core.runs.pipeline.batch_key`) are sent to the runner as batches of at most
-    ``batch_size`` (:func:`run_cases`), else one by one (:func:`run_case`); either way each task
-    gets its own Done with its index in ``tasks``. The models are built once, here; a runner in this
-    process (``runner.in_process``) runs them, others build them again where they run. A task whose
-    model cannot be built (an invalid value) is done at once, with its error.
-    """
-    if not tasks or not batches(tasks[0][2]):
-        yield from runner.map(run_case, tasks)
-        return
-    scenes, models = [], []
-    for scene, case, _ in tasks:
-        try:
-            scenes.append(scene.with_overrides(**overrides(case)))
-        except (ValueError, RuntimeError) as exc:  # an invalid value: that run fails alone
-            scenes.append(None)
-            models.append(exc)
-            continue
-        models += simulate.drop_test_models(scenes[-1:])
-    for i, model in enumerate(models):
-        if isinstance(model, Exception):
-            yield Done(i, error=error_text(model))
-    keys = [None if isinstance(m, Exception) else (t[2], simulate.batch_key(m)) for t, m in zip(tasks, models)]
-    parts = simulate.batch_groups(keys, batch_size)
-    local = getattr(runner, "in_process", False)
-    items = [([scenes[i] for i in members], tasks[members[0]][2], [models[i] for i in members] if local else None)
-             for members in parts]
-    for done in runner.map(run_cases, items):
-        members = parts[done.index]
-        if not done.ok:
-            for i in members:
-                yield Done(i, error=done.error)
-            continue
-        for i, (ok, value) in zip(members, done.value):
-            yield Done(i, value) if ok else Done(i, error=value)
-
-
-def run_all(runner, tasks: list, failure) -> list:
-    """The results of the drop tests ``tasks`` = [(scene, case, backend)] in task order, or an error.
+# ----------------------------------------------------------------------------- run ids
+def run_key(scene, backend: str, options: dict | None = None) -> dict:
+    """What every run id of a sweep (or calibration) of ``scene`` shares: all that changes a result.
 
     Parameters
     ----------
-    runner : SerialRunner or DaskRunner
-        Where the drop tests run (:func:`map_cases`: batches where the backend can).
-    tasks : list of tuple
-        (scene, {name: value} in SI units, backend name) per drop test.
-    failure : callable
-        ``failure(index, error text) -> Exception`` for a task that failed.
+    scene : Scene
+        The base scene (before a case's values).
+    backend : str
+        Backend name.
+    options : dict, optional
+        Backend options given.
 
     Returns
     -------
-    list of dict
-        Per task, the dict of :func:`run_case`: t (s), a_raw and a_cfc (m/s^2), summary.
+    dict
+        ``scene`` (its dict with the mesh path replaced by the file's content digest),
+        ``material`` (definition digest, :func:`cfm_core.material.cache.spec_fingerprint`),
+        ``backend`` and ``options`` (every option resolved,
+        :func:`cfm_core.runs.provenance.resolved_options`), ``code``
+        (:func:`cfm_core.fingerprint.source_digest`).
 
     Raises
     ------
-    Exception
-        ``failure(...)`` of the first task that fails (the tasks left are not waited for).
+    InputError
+        Unknown backend, bad options, or the mesh file cannot be read.
     """
-    out: list = [None] * len(tasks)
-    for done in map_cases(runner, tasks):
-        if not done.ok:
-            raise failure(done.index, done.error)
-        out[done.index] = done.value
-    return out
+    d = scene_to_dict(scene)
+    mesh = d.get("specimen", {}).get("mesh")
+    if mesh:
+        digests = scene_files(scene)
+        d["specimen"] = dict(d["specimen"], mesh=next(iter(digests.values()), None))
+    return {"scene": d, "material": spec_fingerprint(get_material(scene.material.name)), "backend": backend,
+            "options": resolved_options(backend, options), "code": fingerprint.source_digest()}
+
+
+def run_id(key: dict, case: dict) -> str:
+    """Id (12 hex digits) of one run: the content digest of the :func:`run_key` and its values."""
+    return fingerprint.digest({"key": key, "case": {k: repr(float(v)) for k, v in sorted(case.items())}}, 12)
 
 
 # ----------------------------------------------------------------------------- the sweep
@@ -272,131 +228,84 @@ def _describe(case: dict, axes) -> str:
     return " ".join(f"{a.name}={case[a.name]:g}" for a in axes)
 
 
-def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None, progress=None) -> SweepResult:
-    """Run (or resume) a sweep into folder ``out``; see the module docstring.
+def execute(scene, axes: list[Axis], backend: str = "numba", options: dict | None = None, runner=None,
+            cache=None, progress=None):
+    """Run (or resume) the sweep's drop tests; returns a :class:`~cfm_core.studies.outcomes.SweepOutcome`.
 
-    runner: from :func:`cfm_core.studies.dask_runner.open_runner` (default: serial in this process).
-    progress: callable receiving one line of text per finished run (e.g. printing to stderr).
+    cache: folder of the content-keyed run cache (``OUT/runs``; None: none, the histories are kept
+    in memory). progress: a callable receiving one line per finished run, or an object with
+    ``update(n)`` and ``close()`` (a tqdm bar), or None. Every case is validated first
+    (:func:`check_cases`).
     """
+    from .outcomes import SweepOutcome
+
+    check_cases(scene, axes)
     runner = runner or SerialRunner()
-    out = output_folder(out, create=False)
     start = time.perf_counter()
+    key = run_key(scene, backend, options)
     todo = cases(axes)
-    ids = [run_id(scene, backend, c) for c in todo]
+    ids = [run_id(key, c) for c in todo]
     rows: list = [None] * len(todo)
     pending = []
+    cache = Path(cache) if cache is not None else None
     for i, (rid, case) in enumerate(zip(ids, todo)):
-        done = out / "runs" / rid / "summary.json"
-        if done.is_file():
+        done = cache / rid / "summary.json" if cache is not None else None
+        if done is not None and done.is_file():
             rows[i] = _row(rid, case, json.loads(done.read_text(encoding="utf-8")), None)
         else:
             pending.append(i)
-    result = SweepResult(rows, axes, skipped=len(todo) - len(pending))
-    say = progress or (lambda line: None)
+    result = SweepOutcome(scene, axes, backend, resolved_options(backend, options), rows, key,
+                          skipped=len(todo) - len(pending), cache=cache)
+    say = progress if callable(progress) else (lambda line: None)
     if result.skipped:
-        say(f"{result.skipped} of {len(todo)} runs already complete in {out}/runs: skipped")
-    tasks = [(scene, todo[i], backend) for i in pending]
-    for n, done in enumerate(map_cases(runner, tasks), start=1):
-        i = pending[done.index]
-        rid, case = ids[i], todo[i]
-        folder = out / "runs" / rid
-        error = done.error
-        if error is None:
-            try:
+        say(f"{result.skipped} of {len(todo)} runs already complete in {cache}: skipped")
+    tasks = [(scene, todo[i], backend, dict(options or {})) for i in pending]
+    try:
+        for n, done in enumerate(map_cases(runner, tasks), start=1):
+            i = pending[done.index]
+            rid, case = ids[i], todo[i]
+            error = done.error
+            if error is None:
                 summary = dict(done.value["summary"], sweep=case, run_id=rid)
-                write_drop_test(folder, done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
-                (folder / "failed.json").unlink(missing_ok=True)
-            except (ValueError, RuntimeError) as exc:  # InputError, NumericalError: non-finite data
-                error = error_text(exc)
-        if error is not None:
-            folder.mkdir(parents=True, exist_ok=True)
-            write_json(folder / "failed.json", {"run_id": rid, "sweep": case, "error": error})
-        rows[i] = _row(rid, case, done.value["summary"] if error is None else None, error)
-        result.executed += 1
-        wall = time.perf_counter() - start
-        what = (f"peak {rows[i]['peak_g']:.1f} g, {rows[i]['run_time']:.2f} s" if error is None
-                else f"FAILED: {error}")
-        say(f"[{n + result.skipped}/{len(todo)}] {_describe(case, axes)}: {what} ({wall:.1f} s elapsed)")
-    result.files = write_table(out, rows, axes)
-    if any(r["status"] == "ok" for r in rows):
-        plot_peaks(out / "peaks.png", rows, axes, f"{scene.settings.name}, {backend}")
-        result.files.append(out / "peaks.png")
+                try:
+                    if cache is not None:
+                        write_drop_test(cache / rid, done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
+                        (cache / rid / "failed.json").unlink(missing_ok=True)
+                    else:
+                        result.histories[rid] = (done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
+                except (ValueError, RuntimeError) as exc:  # InputError, NumericalError: non-finite data
+                    error = error_text(exc)
+            if error is not None and cache is not None:
+                (cache / rid).mkdir(parents=True, exist_ok=True)
+                write_json(cache / rid / "failed.json", {"run_id": rid, "sweep": case, "error": error})
+            rows[i] = _row(rid, case, done.value["summary"] if error is None else None, error)
+            result.executed += 1
+            if hasattr(progress, "update"):
+                progress.update(1)
+            what = (f"peak {rows[i]['peak_g']:.1f} g, {rows[i]['run_time']:.2f} s" if error is None
+                    else f"FAILED: {error}")
+            say(f"[{n + result.skipped}/{len(todo)}] {_describe(case, axes)}: {what} "
+                f"({time.perf_counter() - start:.1f} s elapsed)")
+    finally:
+        if hasattr(progress, "close"):
+            progress.close()
     result.wall = time.perf_counter() - start
     return result
 
 
-# ----------------------------------------------------------------------------- the table
-def columns(axes: list[Axis]) -> list[tuple[str, str]]:
-    """(key, header) of the table: run_id, the varied names, status, error, summary figures."""
+def run_sweep(scene, axes: list[Axis], out, backend: str = "numba", runner=None, progress=None, options=None):
+    """Run (or resume) a sweep into folder ``out`` and write its files (``cfm sweep``).
 
-    units = {**{k: u.split(" ")[0] for k, u in SUMMARY_UNITS.items()}, "run_time": "s"}
-    return ([("run_id", "run_id")] + [(a.name, f"{a.name} [{a.unit}]") for a in axes]
-            + [("status", "status"), ("error", "error")]
-            + [(k, f"{k} [{units.get(k, '-')}]") for k in SUMMARY_COLUMNS])
+    The earlier files of a cfm output in ``out`` (an earlier sweep's table, plot, sweep.json) are
+    removed before the first run, the run cache ``out/runs`` is kept for resuming; the new files
+    are published when the sweep ends (:meth:`SweepOutcome.save`). runner: from
+    :func:`cfm_core.studies.dask_runner.open_runner` (default: serial in this process); progress:
+    callable receiving one line of text per finished run. Returns the SweepOutcome.
+    """
+    from .outcomes import clear_earlier_output
 
-
-TEXT_COLUMNS = ("run_id", "status", "error")
-
-
-def table_frame(rows: list, axes: list[Axis]) -> pd.DataFrame:
-    """The sweep table as a DataFrame: one row per run, columns ``name [unit]`` (SI units),
-    text columns run_id, status, error; numbers as float (NaN where a run has no value)."""
-    import pandas as pd  # deferred: ~0.3 s to import; the cfm command imports this module for every command
-
-    cols = columns(axes)
-    data = {h: [r[k] for r in rows] for k, h in cols}
-    frame = pd.DataFrame(data, columns=[h for _, h in cols])
-    for k, h in cols:
-        frame[h] = frame[h].astype("string") if k in TEXT_COLUMNS else pd.to_numeric(frame[h], errors="coerce")
-    return frame
-
-
-def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
-    """Write sweep.csv and, with pyarrow installed, sweep.parquet atomically; returns the paths.
-
-    Both hold the same table (:func:`table_frame`); ``pandas.read_csv(path)`` and
-    ``pandas.read_parquet(path)`` read it back. Floats are written with 17 significant digits
-    (exact round trip)."""
-    frame = table_frame(rows, axes)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [atomic_write(out / "sweep.csv", lambda tmp: frame.to_csv(tmp, index=False, float_format="%.17g",
-                                                                        lineterminator="\n"))]
-    try:  # parquet needs pyarrow (in the 'dask' and 'all' extras); the CSV is the complete record
-        files.append(atomic_write(out / "sweep.parquet", lambda tmp: frame.to_parquet(tmp, index=False)))
-    except ImportError:
-        pass
-    return files
-
-
-def read_table(path) -> list[dict]:
-    """Rows of a sweep.csv as dicts keyed by header; numbers as floats, empty cells as None."""
-    import pandas as pd  # deferred: ~0.3 s to import; the cfm command imports this module for every command
-
-    frame = pd.read_csv(path, dtype=str, keep_default_na=False)
-    rows = frame.to_dict("records")
-    for r in rows:
-        for k, v in r.items():
-            if k not in TEXT_COLUMNS:
-                r[k] = float(v) if v != "" else None
-    return rows
-
-
-def plot_peaks(path, rows: list, axes: list[Axis], title: str) -> None:
-    """PNG of peak acceleration (g) against the first varied name, one line per other combination."""
-
-    first, others = axes[0], axes[1:]
-    fig, ax = _figure(f"Peak acceleration, {title}")
-    xfactor, xunit = display(first.unit)
-    ax.set_xlabel(f"{first.name} ({xunit})" if xunit else first.name)
-    ax.set_ylabel("Peak impactor acceleration, CFC 600 (g)")
-    groups: dict = {}
-    for r in rows:
-        groups.setdefault(tuple(r[a.name] for a in others), []).append(r)
-    for j, (key, group) in enumerate(groups.items()):
-        x = xfactor * np.array([r[first.name] for r in group])
-        y = np.array([r["peak_g"] if r["status"] == "ok" else math.nan for r in group])
-        label = ", ".join(display_text(a.name, v, a.unit) for a, v in zip(others, key)) or None
-        ax.plot(x, y, "o-", color=_COLOURS[j % len(_COLOURS)], linewidth=1.5, markersize=4, label=label)
-    if others and len(groups) <= 16:
-        ax.legend(fontsize=7, frameon=False, ncols=1 + len(groups) // 9)
-    _save(fig, path)
+    check_cases(scene, axes)
+    out = clear_earlier_output(out, keep=("runs",))
+    result = execute(scene, axes, backend, options, runner, out / "runs", progress)
+    result.files = result.save(out)
+    return result

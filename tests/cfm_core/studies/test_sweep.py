@@ -19,7 +19,8 @@ distributed = pytest.importorskip("distributed")
 
 # ~0.05 s per run once the kernels are loaded: 2.5 mm hexahedra, 30 mm specimen
 COARSE = dict(element_size=0.0025, width=0.03)
-VARY = ["thickness=0.005,0.008", "k1=1000,-5,1320"]  # k1 = -5 Pa is out of range: those runs fail
+# velocity 30 m/s inverts an element within 0.1 ms: those runs fail numerically, the others complete
+VARY = ["thickness=0.005,0.008", "k1=1000,1320", "velocity=1,30"]
 TIMES = ("run_time", "wall_time")  # differ from run to run; everything else must be equal
 
 
@@ -57,25 +58,30 @@ def _values(path):
 def test_serial_sweep_records_failures_and_completes_the_rest(serial):
     out, result = serial
     rows = sweep.read_table(out / "sweep.csv")
-    assert [r["thickness [m]"] for r in rows] == [0.005] * 3 + [0.008] * 3  # the last --vary runs fastest
-    assert [r["k1 [Pa]"] for r in rows] == [1000.0, -5.0, 1320.0] * 2
-    assert [r["status"] for r in rows] == ["ok", "failed", "ok"] * 2
-    assert result.executed == 6 and result.skipped == 0 and result.failed == 2
+    assert [r["thickness [m]"] for r in rows] == [0.005] * 4 + [0.008] * 4  # the last --vary runs fastest
+    assert [r["k1 [Pa]"] for r in rows] == [1000.0, 1000.0, 1320.0, 1320.0] * 2
+    assert [r["velocity [m/s]"] for r in rows] == [1.0, 30.0] * 4
+    assert [r["status"] for r in rows] == ["ok", "failed"] * 4
+    assert result.executed == 8 and result.skipped == 0 and result.failed == 4
     for r in rows:
         folder = out / "runs" / r["run_id"]
         if r["status"] == "failed":
-            assert "InputError" in r["error"] and "'k1' = -5.0 Pa" in r["error"] and r["peak_g [g]"] is None
+            assert "NumericalError" in r["error"] and "inverted" in r["error"] and r["peak_g [g]"] is None
             assert json.loads((folder / "failed.json").read_text())["error"] == r["error"]
             assert not (folder / "summary.json").exists()
         else:
             assert r["error"] == "" and r["peak_g [g]"] > 0
             summary = json.loads((folder / "summary.json").read_text())
-            assert summary["sweep"] == {"thickness": r["thickness [m]"], "k1": r["k1 [Pa]"]}
+            assert summary["sweep"] == {"thickness": r["thickness [m]"], "k1": r["k1 [Pa]"], "velocity": 1.0}
             assert summary["peak_g"] == r["peak_g [g]"]
             assert (folder / "acceleration.csv").read_text().startswith("t [s],a_raw [m/s^2],a_cfc600 [m/s^2]\n")
     ok = {(r["thickness [m]"], r["k1 [Pa]"]): r["peak_g [g]"] for r in rows if r["status"] == "ok"}
     assert ok[(0.005, 1000.0)] > ok[(0.005, 1320.0)] > ok[(0.008, 1000.0)] > ok[(0.008, 1320.0)]
     assert (out / "peaks.png").stat().st_size > 0
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["runs"] == 8 and record["failed"] == 4 and record["run_ids"] == [r["run_id"] for r in rows]
+    assert record["provenance"]["backend"]["options"]["hourglass"] == result.options["hourglass"]
+    assert record["provenance"]["material"]["definition_digest"] == result.key["material"]
 
 
 def test_parquet_table_matches_the_csv(serial):
@@ -94,9 +100,9 @@ def test_rerun_skips_complete_runs_and_retries_failed_ones(scene, serial, tmp_pa
     shutil.copytree(serial[0], out)
     before = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")}
     again = sweep.run_sweep(scene, sweep.parse_vary(VARY, scene), out, "numba", SerialRunner())
-    assert again.skipped == 4 and again.executed == 2 and again.failed == 2  # only the failed ones ran
+    assert again.skipped == 4 and again.executed == 4 and again.failed == 4  # only the failed ones ran
     assert {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")} == before
-    done = sweep.parse_vary(["thickness=0.005,0.008", "k1=1000,1320"], scene)
+    done = sweep.parse_vary(["thickness=0.005,0.008", "k1=1000,1320", "velocity=1"], scene)
     assert sweep.run_sweep(scene, done, out, "numba", SerialRunner()).executed == 0
 
 
@@ -105,8 +111,8 @@ def test_two_dask_workers_by_address_give_the_serial_table(serial, scene_file, s
     args = ["sweep", "--scene", scene_file, "--out", str(tmp_path), "--scheduler", scheduler]
     assert main(args + [a for v in VARY for a in ("--vary", v)]) == 1  # 1: some runs failed
     err = capsys.readouterr().err
-    assert f"on Dask scheduler {scheduler} (2 worker thread(s))" in err and "[6/6]" in err
-    assert "2 run(s) failed" in err
+    assert f"on Dask scheduler {scheduler} (2 worker thread(s))" in err and "[8/8]" in err
+    assert "4 run(s) failed" in err
     assert _values(tmp_path / "sweep.csv") == _values(out / "sweep.csv")  # bitwise: same numbers as text
 
 

@@ -1,0 +1,292 @@
+"""Outcomes of studies: what ``cfm.sweep``, ``cfm.calibrate``, ``cfm.fit`` and ``cfm.uniaxial`` return.
+
+Like :class:`cfm_core.runs.DropTestOutcome`, each holds its results, gives them as a pandas
+DataFrame with the units in the column names (``to_dataframe()``), and writes the same files as
+the command line (``save(...)``): through :func:`cfm_core.post.staging.staged_folder`, so the
+files appear together only when all were written, and an earlier cfm output in the folder is
+replaced, never mixed with the new one.
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..post.staging import _remove, check_file_target, check_folder_target, earlier_files, staged_folder
+from ..post.writers import write_drop_test, write_json
+from ..runs.provenance import provenance, scene_files
+from .sweep_output import plot_peaks, table_frame, write_sweep_json, write_table
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+def clear_earlier_output(out, keep: tuple = ()) -> Path:
+    """Check ``out`` (before any work) and remove the files of an earlier cfm output in it now.
+
+    A study that writes its results at the end but keeps a cache in the folder while it runs
+    (a sweep's ``runs/``) must not leave an earlier invocation's table and plot looking current
+    if it is interrupted. Foreign files are never touched (:func:`cfm_core.post.staging.earlier_files`).
+
+    Parameters
+    ----------
+    out : str or path-like
+        The output folder (not created here: the study's files make it).
+    keep : tuple of str
+        Entries to keep (the run cache).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    InputError
+        ``out`` cannot be an output folder (:func:`cfm_core.post.staging.check_folder_target`).
+    """
+    out = check_folder_target(out)
+    if out.is_dir():
+        for path in earlier_files(out):
+            if path.name not in keep:
+                _remove(path)
+    return out
+
+
+def json_safe(value):
+    """``value`` with non-finite floats written as text (``"inf"``): provenance records hold option
+    values such as ``dt_max = inf`` (no limit), which strict JSON cannot hold."""
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return str(value)
+    return value
+
+
+def _parameter_frame(names, units, rows: dict):
+    """DataFrame with one column ``name [unit]`` per parameter and the given rows (index)."""
+    import pandas as pd  # deferred: ~0.3 s to import
+
+    cols = [f"{n} [{u or '-'}]" for n, u in zip(names, units)]
+    data = {label: [np.nan if v is None else float(v) for v in values] for label, values in rows.items()}
+    return pd.DataFrame.from_dict(data, orient="index", columns=cols)
+
+
+def _interval_rows(names, start: dict, fitted: dict, conf: dict) -> dict:
+    ci = [conf[n]["ci"] or (None, None) for n in names]
+    return {"start": [start[n] for n in names], "fitted": [fitted[n] for n in names],
+            "std": [conf[n]["std"] for n in names], "ci95_low": [c[0] for c in ci], "ci95_high": [c[1] for c in ci]}
+
+
+# ----------------------------------------------------------------------------- sweep
+@dataclass
+class SweepOutcome:
+    """A finished (or resumed) sweep.
+
+    Attributes
+    ----------
+    scene : Scene
+        The base scene.
+    axes : list of Axis
+        Varied names, units and values (SI).
+    backend : str
+        Backend name.
+    options : dict
+        The backend's options, all resolved.
+    rows : list of dict
+        One per run in product order: run_id, the values, status, error, summary figures.
+    key : dict
+        What every run id hashes (:func:`cfm_core.studies.sweep.run_key`).
+    executed, skipped : int
+        Runs computed by this call, and read back from the run cache.
+    wall : float
+        Wall time of the call (s).
+    cache : pathlib.Path or None
+        The content-keyed run cache (``OUT/runs``), or None (histories kept in memory).
+    histories : dict
+        run_id -> (t s, a_raw m/s^2, a_cfc m/s^2, summary) of runs computed without a cache.
+    files : list of pathlib.Path
+        The files written by the last :meth:`save`.
+    """
+
+    scene: object
+    axes: list
+    backend: str
+    options: dict
+    rows: list
+    key: dict
+    executed: int = 0
+    skipped: int = 0
+    wall: float = 0.0
+    cache: Path | None = None
+    histories: dict = field(default_factory=dict)
+    files: list = field(default_factory=list)
+
+    @property
+    def failed(self) -> int:
+        """Number of runs that failed (their errors are in the table's ``error`` column)."""
+        return sum(r["status"] != "ok" for r in self.rows)
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """The sweep table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per run (product order, the last varied name fastest); columns ``run_id``,
+            ``<name> [unit]`` per varied name (e.g. ``k2 [-]``, ``thickness [m]``), ``status``,
+            ``error``, and the summary figures with units (``peak_g [g]``, ``t_peak [s]``, ...).
+        """
+        return table_frame(self.rows, self.axes)
+
+    def provenance(self) -> dict:
+        """The sweep's provenance record (code, backend with options, material, mesh digest).
+
+        Returns
+        -------
+        dict
+            :func:`cfm_core.runs.provenance.provenance` with ``run_id_key`` (what the ids hash).
+        """
+        from ..material.registry import make_material
+
+        m = self.scene.material
+        material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
+        return json_safe(provenance(self.backend, self.options, material, scene_files(self.scene),
+                                     run_id_key=self.key))
+
+    def save(self, out) -> Path:
+        """Write the sweep's files, the same ``cfm sweep`` writes.
+
+        ``sweep.csv`` (and ``sweep.parquet`` with pyarrow), ``peaks.png``, ``runs/<id>/`` per run
+        (``acceleration.csv`` and ``summary.json``, or ``failed.json``) and ``sweep.json`` (values,
+        counts, provenance), published together; the run cache is kept in place when ``out`` is
+        the folder it lives in.
+
+        Parameters
+        ----------
+        out : str or path-like
+            Output directory (created; an earlier cfm output there is replaced).
+
+        Returns
+        -------
+        pathlib.Path
+            The output directory.
+
+        Raises
+        ------
+        InputError
+            ``out`` cannot be written (checked first).
+        """
+        out = Path(out)
+        same = self.cache is not None and out.exists() and out.resolve() == self.cache.parent.resolve()
+        with staged_folder(out, keep=("runs",) if same else ()) as stage:
+            if not same:
+                self._write_runs(stage / "runs")
+            files = write_table(stage, self.rows, self.axes)
+            if any(r["status"] == "ok" for r in self.rows):
+                plot_peaks(stage / "peaks.png", self.rows, self.axes, f"{self.scene.settings.name}, {self.backend}")
+                files.append(stage / "peaks.png")
+            files.append(write_sweep_json(stage, self.axes, self.rows, self.provenance(),
+                                          {"executed": self.executed, "skipped": self.skipped, "wall_time": self.wall,
+                                           "backend": self.backend, "units": {"wall_time": "s"}}))
+        self.files = [out / f.name for f in files]
+        return out
+
+    def _write_runs(self, folder: Path) -> None:
+        for r in self.rows:
+            rid = r["run_id"]
+            if rid in self.histories:
+                write_drop_test(folder / rid, *self.histories[rid])
+            elif self.cache is not None and (self.cache / rid).is_dir():
+                shutil.copytree(self.cache / rid, folder / rid)
+            elif r["status"] != "ok":
+                write_json(folder / rid / "failed.json", {"run_id": rid, "error": r["error"],
+                                                          "sweep": {a.name: r[a.name] for a in self.axes}})
+
+
+# ----------------------------------------------------------------------------- uniaxial
+@dataclass
+class UniaxialOutcome:
+    """Uniaxial stress response of a material point (:func:`cfm_core.simulation.point.uniaxial`).
+
+    Attributes
+    ----------
+    material : Material
+        The bound material.
+    rate : float
+        Engineering strain rate (1/s).
+    t, stretch, nominal, lateral : ndarray, shape (n,)
+        Time (s), axial stretch (-), nominal stress P11 (Pa), lateral stretch (-).
+    source : str
+        What computed the stress (the numpy reference, or a backend along its path).
+    warnings : list of str
+        Warnings of the solve (e.g. the volumetric energy no longer convex).
+    """
+
+    material: object
+    rate: float
+    t: np.ndarray
+    stretch: np.ndarray
+    nominal: np.ndarray
+    lateral: np.ndarray
+    source: str = "numpy reference"
+    warnings: list = field(default_factory=list)
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """The response as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t [s]``, ``stretch [-]``, ``nominal_stress [Pa]``, ``lateral_stretch [-]``.
+        """
+        import pandas as pd  # deferred: ~0.3 s to import
+
+        return pd.DataFrame({"t [s]": self.t, "stretch [-]": self.stretch, "nominal_stress [Pa]": self.nominal,
+                             "lateral_stretch [-]": self.lateral})
+
+    def title(self) -> str:
+        """Plot title: material, moduli convention (or elastic), rate, source."""
+        m = self.material
+        return (f"{m.name} ({'elastic' if m.elastic else m.moduli}), uniaxial stress at {self.rate:g} /s, "
+                f"{self.source.split(' along')[0]}")
+
+    def save(self, path, plot: bool = True) -> Path:
+        """Write the CSV ``cfm point --uniaxial --out PATH`` writes, and its plot beside it.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The CSV file (header ``t [s],stretch [-],nominal_stress [Pa],lateral_stretch [-]``);
+            the PNG gets the same name with suffix ``.png``.
+        plot : bool
+            Write the stress-stretch PNG.
+
+        Returns
+        -------
+        pathlib.Path
+            The CSV file.
+
+        Raises
+        ------
+        InputError
+            ``path`` is a directory or cannot be written (checked first).
+        """
+        from ..post.plots import plot_uniaxial
+        from ..post.writers import write_csv
+        from ..simulation.point import UNIAXIAL_UNITS
+        from ..tables import unit_header
+
+        path = check_file_target(path)
+        if plot:
+            check_file_target(path.with_suffix(".png"), "--out (its plot)")
+        write_csv(path, unit_header(UNIAXIAL_UNITS), [self.t, self.stretch, self.nominal, self.lateral])
+        if plot:
+            plot_uniaxial(path.with_suffix(".png"), self.stretch, self.nominal, self.title())
+        return path
