@@ -15,7 +15,7 @@ from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
-from .options import parse_params
+from .options import backend_options, parse_params
 
 
 def _runner_options(p) -> None:
@@ -88,9 +88,7 @@ def _progress(args):
 
 def _options(args) -> dict:
     """The ``--option NAME=VALUE`` backend options (typed and checked as ``cfm drop-test`` does)."""
-    from .scene import _backend_options
-
-    return _backend_options(args, args.backend)
+    return backend_options(args, args.backend)[0]
 
 
 def _open(args):

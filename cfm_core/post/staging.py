@@ -168,7 +168,14 @@ def earlier_files(out: Path) -> list[Path]:
     return sorted(p for p in found if p.exists() or p.is_symlink())
 
 
-def _remove(path: Path) -> None:
+def remove_entry(path: Path) -> None:
+    """Remove a file, link or folder (with its contents) of an output.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The entry; missing is fine.
+    """
     if path.is_dir() and not path.is_symlink():
         shutil.rmtree(path)
     else:
@@ -200,11 +207,11 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
         return names
     for old in earlier_files(out):
         if old.name not in keep or old.name in names:
-            _remove(old)
+            remove_entry(old)
     for name in sorted(names, key=lambda n: (n in MARKERS, n)):  # the completion marker last
         target = out / name
         if target.exists() or target.is_symlink():
-            _remove(target)  # a foreign file of a name cfm writes: replaced by the new output
+            remove_entry(target)  # a foreign file of a name cfm writes: replaced by the new output
         os.replace(stage / name, target)
     kept = [k for k in keep if (out / k).exists() and k not in names]
     _write_manifest(out, sorted({*names, *kept}))

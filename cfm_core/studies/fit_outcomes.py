@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..post.staging import staged_folder
-from ..runs.provenance import input_files, provenance, scene_files
-from .outcomes import _interval_rows, _parameter_frame, json_safe
+from ..runs.provenance import input_files, json_ready, provenance, scene_files
+from .outcomes import _interval_rows, _parameter_frame
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -82,7 +82,7 @@ class CalibrationOutcome:
 
         m = self.scene.material
         files = {**scene_files(self.scene), **input_files([c.path for c in self.result.problem.curves])}
-        return json_safe(provenance(self.backend, self.options,
+        return json_ready(provenance(self.backend, self.options,
                                     make_material(m.name, m.parameter_dict, m.moduli, m.elastic), files))
 
     def save(self, out) -> Path:
@@ -164,7 +164,7 @@ class LabFitOutcome:
 
         r = self.result
         material = make_material(r.material, r.start, r.moduli, r.elastic)
-        return json_safe(provenance(None, None, material, input_files([t.path for t in r.tests])))
+        return json_ready(provenance(None, None, material, input_files([t.path for t in r.tests])))
 
     def save(self, out) -> Path:
         """Write fit_<test>.png, fitted-scene.toml and fit.json (``cfm fit``).

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..post.staging import _remove, check_file_target, check_folder_target, earlier_files, staged_folder
+from ..post.staging import check_file_target, check_folder_target, earlier_files, remove_entry, staged_folder
 from ..post.writers import write_drop_test, write_json
-from ..runs.provenance import provenance, scene_files
+from ..runs.provenance import json_ready, provenance, scene_files
 from .sweep_output import plot_peaks, table_frame, write_sweep_json, write_table
 
 if TYPE_CHECKING:
@@ -53,20 +53,8 @@ def clear_earlier_output(out, keep: tuple = ()) -> Path:
     if out.is_dir():
         for path in earlier_files(out):
             if path.name not in keep:
-                _remove(path)
+                remove_entry(path)
     return out
-
-
-def json_safe(value):
-    """``value`` with non-finite floats written as text (``"inf"``): provenance records hold option
-    values such as ``dt_max = inf`` (no limit), which strict JSON cannot hold."""
-    if isinstance(value, dict):
-        return {k: json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if isinstance(value, float) and not np.isfinite(value):
-        return str(value)
-    return value
 
 
 def _parameter_frame(names, units, rows: dict):
@@ -157,7 +145,7 @@ class SweepOutcome:
 
         m = self.scene.material
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
-        return json_safe(provenance(self.backend, self.options, material, scene_files(self.scene),
+        return json_ready(provenance(self.backend, self.options, material, scene_files(self.scene),
                                      run_id_key=self.key))
 
     def save(self, out) -> Path:
