@@ -9,20 +9,39 @@ imports go one way.
 
 Discovery is lazy and cached; :func:`refresh` clears the cache (xarray's backend registry works
 the same way). A plugin that fails to load or is of the wrong type becomes a ``RuntimeWarning``
-naming it and the error, and is listed as broken; the others still load. Two plugins with one
-name: a warning, the first is kept. Objects registered at run time take precedence over entry
-points.
+naming it and the error, and is listed as broken; the others still load. Objects registered at
+run time take precedence over entry points.
+
+A name is never taken over silently: an entry point that reuses the name of a built-in (one of
+the ``cfm-materials`` distribution) or of another distribution's plugin makes that name
+*ambiguous*. Listing still works and shows the conflict; using the name raises an
+:class:`~cfm_core.errors.InputError` naming both distributions and entry points, unless the
+environment variable :data:`PREFER_ENV` names the distribution to use::
+
+    CFM_PLUGIN_PREFER="cfm=my-cfm-fork"                       # any kind named 'cfm'
+    CFM_PLUGIN_PREFER="materials:cfm=my-cfm-fork,backends:numba=cfm-materials"
+
+:func:`origin` names the distribution chosen (it enters every run's provenance).
 """
 
 from __future__ import annotations
 
 import functools
+import os
+import re
 import warnings
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import Callable
 
 from .errors import InputError
+
+#: Environment variable naming the distribution to use for an ambiguous plugin name: comma-separated
+#: ``[kind:]name=distribution`` items, e.g. ``materials:cfm=my-cfm-fork`` or ``cfm=my-cfm-fork``.
+PREFER_ENV = "CFM_PLUGIN_PREFER"
+
+#: The distribution of the built-in plugins (this project's, see pyproject.toml).
+BUILTIN_DISTRIBUTION = "cfm-materials"
 
 
 @dataclass(frozen=True)
@@ -105,23 +124,86 @@ def _iter_entry_points(group: str):
     return list(_installed_entry_points().select(group=group))
 
 
+def _normalise(dist: str | None) -> str:
+    """A distribution name compared the way pip compares them (PEP 503: case, ``-_.`` alike)."""
+    return re.sub(r"[-_.]+", "-", dist).lower() if dist else ""
+
+
+def _dist_of(ep) -> tuple[str | None, str | None]:
+    """(distribution name, version) of an entry point, (None, None) when it does not say."""
+    dist = getattr(ep, "dist", None)
+    return getattr(dist, "name", None), getattr(dist, "version", None)
+
+
+def _describe(ep) -> str:
+    name, version = _dist_of(ep)
+    who = f"{name} {version}" if name and version else (name or "an unknown distribution")
+    builtin = ", the built-in" if _normalise(name) == BUILTIN_DISTRIBUTION else ""
+    return f"{who} (entry point {ep.name} = {ep.value}{builtin})"
+
+
 @functools.lru_cache(maxsize=None)
 def _entry_point_table(kind: str) -> dict:
+    """name -> tuple of the distinct entry points declaring it (the same distribution and target
+    found twice on the path counts once)."""
     table: dict = {}
     for ep in _iter_entry_points(_kind(kind).group):
-        if ep.name in table:
-            warnings.warn(
-                f"two {kind} plugins are named '{ep.name}' ({table[ep.name].value} and {ep.value}); "
-                f"keeping the first.", RuntimeWarning, stacklevel=3)
-            continue
-        table[ep.name] = ep
-    return table
+        same = table.setdefault(ep.name, [])
+        key = (_normalise(_dist_of(ep)[0]), ep.value)
+        if all((_normalise(_dist_of(o)[0]), o.value) != key for o in same):
+            same.append(ep)
+    return {name: tuple(eps) for name, eps in table.items()}
+
+
+def preferences() -> dict:
+    """The distributions chosen with :data:`PREFER_ENV` for ambiguous plugin names.
+
+    Returns
+    -------
+    dict
+        ``(kind or None, name) -> normalised distribution name``; ``None`` as kind: any kind.
+
+    Raises
+    ------
+    InputError
+        An item that is not ``[kind:]name=distribution``.
+    """
+    text = os.environ.get(PREFER_ENV, "").strip()
+    out = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        m = re.fullmatch(r"(?:([A-Za-z_]+):)?([^=:\s]+)=([A-Za-z0-9][A-Za-z0-9._-]*)", item)
+        if not m:
+            raise InputError(f"{PREFER_ENV} item {item!r} is not '[kind:]name=distribution' (e.g. "
+                             f"'materials:cfm=my-cfm-fork'); the whole value is {text!r}.")
+        out[(m.group(1), m.group(2))] = _normalise(m.group(3))
+    return out
+
+
+def _resolve(kind: str, name: str):
+    """(entry point, None) for a name of the entry-point table, or (None, why it is ambiguous)."""
+    eps = _entry_point_table(kind)[name]
+    if len(eps) == 1:
+        return eps[0], None
+    prefs = preferences()
+    want = prefs.get((kind, name)) or prefs.get((None, name))
+    what = f"{kind[:-1]} '{name}'"
+    listed = " and ".join(_describe(ep) for ep in eps)
+    if want:
+        chosen = [ep for ep in eps if _normalise(_dist_of(ep)[0]) == want]
+        if chosen:
+            return chosen[0], None
+        return None, (f"{what} is declared by {listed}, and {PREFER_ENV} prefers distribution '{want}', which "
+                      f"declares no {what}; name one of those distributions")
+    taken = any(_normalise(_dist_of(ep)[0]) == BUILTIN_DISTRIBUTION for ep in eps)
+    return None, (f"{what} is declared by {listed}: " + ("a plugin reuses a built-in's name" if taken else
+                  "two plugins share one name") + f", and none is chosen silently; set {PREFER_ENV}="
+                  f"\"{kind}:{name}=DISTRIBUTION\" to the distribution to use, or uninstall the other")
 
 
 @functools.lru_cache(maxsize=None)
-def _load(kind: str, name: str):
-    """(object, None) or (None, error text) for one entry point."""
-    ep = _entry_point_table(kind)[name]
+def _load_entry_point(kind: str, name: str, dist: str | None, value: str):
+    """(object, None) or (None, error text) for one entry point (cached by its origin)."""
+    ep = next(e for e in _entry_point_table(kind)[name] if (_dist_of(e)[0], e.value) == (dist, value))
     try:
         obj = ep.load()
     except Exception as exc:  # a broken plugin must not break the listing
@@ -130,6 +212,14 @@ def _load(kind: str, name: str):
     if not spec.accepts(obj):
         return None, f"{ep.value} is {obj!r}, not {spec.expected} as the '{spec.group}' group requires"
     return obj, None
+
+
+def _load(kind: str, name: str):
+    """(object, None) or (None, error text) for the entry point of a name (ambiguity: an error)."""
+    ep, err = _resolve(kind, name)
+    if err:
+        return None, err
+    return _load_entry_point(kind, name, _dist_of(ep)[0], ep.value)
 
 
 def names(kind: str) -> list[str]:
@@ -166,7 +256,8 @@ def entries(kind: str) -> dict[str, tuple[object, str | None]]:
     -------
     dict of str to (object or None, str or None)
         ``name -> (obj, None)`` for a usable plugin, ``name -> (None, error text)`` for one that
-        failed to load or is not of the kind's type; runtime registrations win over entry points.
+        failed to load, is not of the kind's type or is declared by several distributions with
+        none chosen (the text names them); runtime registrations win over entry points.
 
     Raises
     ------
@@ -209,11 +300,16 @@ def get(kind: str, name: str):
     ------
     InputError
         Unknown name (the message lists the names that exist and how to add one), a plugin
-        that is installed but failed to load or is of the wrong type, or an undeclared ``kind``.
+        that is installed but failed to load or is of the wrong type, a name declared by several
+        distributions with none chosen in :data:`PREFER_ENV` (the message names them and their
+        entry points), or an undeclared ``kind``.
     """
     if name in _runtime[_kind(kind).name]:
         return _runtime[kind][name]
     if name in _entry_point_table(kind):
+        ep, ambiguous = _resolve(kind, name)
+        if ambiguous:
+            raise InputError(ambiguous + ".")
         obj, err = _load(kind, name)
         if err is None:
             return obj
@@ -295,19 +391,20 @@ def origin(kind: str, name: str) -> dict:
     Raises
     ------
     InputError
-        Unknown name or undeclared ``kind``.
+        Unknown name, undeclared ``kind``, or a name several distributions declare with none
+        chosen (:data:`PREFER_ENV`).
     """
     if name in _runtime[_kind(kind).name]:
         obj = _runtime[kind][name]
         return {"name": name, "distribution": None, "version": None,
                 "value": f"runtime ({getattr(obj, '__module__', None) or type(obj).__module__})"}
-    table = _entry_point_table(kind)
-    if name not in table:
+    if name not in _entry_point_table(kind):
         get(kind, name)  # raises the unknown-name error
-    ep = table[name]
-    dist = getattr(ep, "dist", None)
-    return {"name": name, "distribution": getattr(dist, "name", None), "version": getattr(dist, "version", None),
-            "value": ep.value}
+    ep, ambiguous = _resolve(kind, name)
+    if ambiguous:
+        raise InputError(ambiguous + ".")
+    dist, version = _dist_of(ep)
+    return {"name": name, "distribution": dist, "version": version, "value": ep.value}
 
 
 def refresh() -> None:
@@ -315,4 +412,4 @@ def refresh() -> None:
     plugins); runtime registrations are kept."""
     _installed_entry_points.cache_clear()
     _entry_point_table.cache_clear()
-    _load.cache_clear()
+    _load_entry_point.cache_clear()

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from cfm_core.post import G0
+from cfm_core.fingerprint import code_label
 from cfm_core.post.writers import atomic_write, write_json
 
 from . import figures
@@ -67,7 +68,9 @@ def _md_header(rep) -> list[str]:
     if rep["incomplete"]:
         lines += ["Not run (each makes the result INCOMPLETE):", ""] + [f"- {m}" for m in rep["incomplete"]] + [""]
     lines += [
-             f"- git commit: `{rep['commit']}`",
+             f"- git commit: `{rep['commit']}`"
+             + (f"; code {code_label(rep['provenance']['code'])}, source digest "
+                f"`{rep['provenance']['code']['source_digest']}`" if rep.get("provenance") else ""),
              f"- machine: {m['platform']}, {m['cpu_count']} CPUs ({m['processor']}), Python {m['python']}, "
              f"numpy {m['numpy']}, scipy {m['scipy']}, numba {m['numba']}, torch {m['torch']}, "
              f"scikit-fem {m['scikit-fem']}",

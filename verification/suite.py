@@ -150,6 +150,7 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     rep = {"mode": mode, "verdict": v["verdict"], "passed": v["verdict"] == "PASSED", "exit_code": v["exit_code"],
            "failed": v["failed"], "incomplete": v["incomplete"], "checks": v["checks"], "required": required,
            "sections": list(sections), "commit": git_commit(), "machine": machine_info(),
+           "provenance": provenance_record(inv),
            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "backends_requested": selected,
            "inventory": [{k: val for k, val in b.items() if k != "instance"} for b in inv],
            "agreement": agree, "work_precision": wp, "stability": stab, "drucker": drucker_maps,
@@ -165,6 +166,50 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     for msg in v["incomplete"][:20]:
         say(f"verify: NOT RUN {msg}")
     return rep
+
+
+def provenance_record(inv) -> dict:
+    """What a verification report was made with: the code, the plugins and the gold inputs.
+
+    Parameters
+    ----------
+    inv : list of dict
+        The backend inventory (:func:`.inventory.discover`).
+
+    Returns
+    -------
+    dict
+        :func:`cfm_core.runs.provenance.provenance` (code state: version, commit, dirty, source
+        digest; Python, platform, cores) with ``backends`` (name -> distribution, version, entry
+        point of each backend in the inventory, or the error of one that cannot be placed),
+        ``materials`` (the same for every registered material, with its definition digest) and
+        ``gold`` (case -> digests of its definition and material, :func:`.gold.store.inputs`).
+    """
+    import warnings
+
+    from cfm_core import plugins
+    from cfm_core.material.cache import spec_fingerprint
+    from cfm_core.runs.provenance import provenance
+
+    from .gold.store import case_names, inputs
+
+    def origin(kind, name):
+        try:
+            where = plugins.origin(kind, name)
+        except Exception as exc:  # an ambiguous or broken plugin: recorded, not fatal to the report
+            return {"error": str(exc)}
+        return {"distribution": where["distribution"], "version": where["version"], "entry_point": where["value"]}
+
+    backends = {b["name"]: origin("backends", b["name"]) for b in inv}
+    materials = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        entries = plugins.entries("materials")
+    for name, (spec, err) in entries.items():
+        materials[name] = origin("materials", name)
+        if spec is not None:
+            materials[name]["definition_digest"] = spec_fingerprint(spec)
+    return provenance(backends=backends, materials=materials, gold={n: inputs(n) for n in case_names()})
 
 
 def _drucker_all() -> tuple[dict, list]:

@@ -10,7 +10,11 @@ the material's functions as globals. So the module is written once per material 
 
 into ``$CFM_CACHE_DIR`` (default ``~/.cache/cfm/numba``), named by a hash of its full text, and
 imported with importlib; every kernel is ``njit(cache=True)``, so a second process loads the
-machine code from ``__pycache__`` beside the file instead of recompiling. The kernel files stay
+machine code from ``__pycache__`` beside the file instead of recompiling. The cache is keyed by
+content: the module holds everything its machine code depends on (the material's generated code,
+itself cached under :func:`cfm_core.material.cache.spec_fingerprint`, and every kernel file),
+and numba's index adds its own version, the CPU and each function's bytecode. The kernel files
+imported on their own key numba's cache on their whole folder (:mod:`cfm_backends.numba_cache`). The kernel files stay
 ordinary modules in the package (readable, importable and testable on their own: the block
 between ``# >>> standalone`` and ``# <<< standalone`` gives them their imports and material stubs).
 """
@@ -45,10 +49,14 @@ def cache_dir() -> Path:
     return core_cache_dir("numba")
 
 
+#: Folder of the kernel files (its files' full text enters every generated module, and so the
+#: module's name and numba's cache of it: an edit of any kernel recompiles).
+KERNELS_DIR = Path(__file__).with_name("kernels")
+
+
 def kernel_text() -> list[str]:
     """The kernel sources (in KERNEL_FILES order) without their standalone blocks."""
-    here = Path(__file__).with_name("kernels")
-    return [f"# ---- kernels/{name} ----\n" + strip_standalone((here / name).read_text())
+    return [f"# ---- kernels/{name} ----\n" + strip_standalone((KERNELS_DIR / name).read_text())
             for name in KERNEL_FILES]
 
 

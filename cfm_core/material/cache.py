@@ -1,14 +1,23 @@
 """On-disk cache of generated material code (and the folder numba kernels are compiled into).
 
 Location: ``$CFM_CACHE_DIR`` or ``~/.cache/cfm``. Set ``CFM_NO_CODEGEN_CACHE=1`` to bypass it.
-A generated source is keyed by a fingerprint of everything it is derived from: for each term its
-kind, name, parameter declarations, the full text of the file defining its energy function and
-the values its closure captures, plus the text of :mod:`cfm_core.material.codegen`. A term defined where
-no source file exists (an interactive session) is never cached.
+A generated source is keyed by a fingerprint of everything it is derived from (:func:`spec_fingerprint`):
+
+- the generator: the text of every module of :mod:`cfm_core.material` (the code generator and the
+  symbolic layer it traces with), the sympy version (its simplification and printing shape the
+  code) and the project's version;
+- for each term its kind, name, parameter declarations and the values its closure captures, the
+  full text of the file defining its energy function and of every file that function reaches
+  through its globals and closure (a helper of another module, such as the CFM lipid term calling
+  the Neo-Hookean energy), followed within the term's own top-level package, ``cfm_plugins`` and
+  ``cfm_core``.
+
+A term defined where no source file exists (an interactive session) is never cached.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -16,11 +25,18 @@ import os
 import re
 import sys
 import tempfile
+import types
 from pathlib import Path
 
-#: The code generator's file: its text enters every fingerprint. Read as a file, not imported
-#: (importing it imports sympy, which a run whose generated code is cached does not need).
+from .. import fingerprint
+
+#: The code generator's file. Its text, and that of every module beside it, enters every
+#: fingerprint; read as files, not imported (importing it imports sympy, which a run whose
+#: generated code is cached does not need).
 CODEGEN_FILE = Path(__file__).with_name("codegen.py")
+
+#: Top-level packages whose functions a term's energy may call and whose text is then followed.
+FOLLOWED_PACKAGES = ("cfm_core", "cfm_plugins")
 
 
 def cache_dir(*parts: str) -> Path:
@@ -51,14 +67,116 @@ def cache_dir(*parts: str) -> Path:
     return path
 
 
-def _file_text(func) -> str | None:
+def _source_file(obj) -> str | None:
     try:
-        path = inspect.getsourcefile(func)
+        path = inspect.getsourcefile(obj)
     except TypeError:
         return None
-    if not path or not os.path.isfile(path):
+    return path if path and os.path.isfile(path) else None
+
+
+@functools.lru_cache(maxsize=1)
+def generator_digest() -> str:
+    """Digest of what the code generator depends on: the text of every module of
+    :mod:`cfm_core.material`, the sympy version and the project's version (once per process).
+
+    Returns
+    -------
+    str
+        24 hexadecimal characters.
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    h = hashlib.sha256()
+    for path in sorted(CODEGEN_FILE.parent.glob("*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    try:
+        sympy = version("sympy")
+    except PackageNotFoundError:  # pragma: no cover - sympy is a dependency
+        sympy = "none"
+    h.update(f"sympy {sympy}; {fingerprint.DISTRIBUTION} {fingerprint.package_version()}".encode())
+    return h.hexdigest()[:24]
+
+
+def _top(obj) -> str:
+    return (getattr(obj, "__module__", None) or getattr(obj, "__name__", "") or "").split(".")[0]
+
+
+def _code_names(code) -> set:
+    """Global and attribute names used by a code object and the functions nested in it."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _code_names(const)
+    return names
+
+
+def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
+    """Source files a term's energy function depends on: its own and, recursively, those of the
+    functions, terms and modules it reaches through its globals and closure, within its own
+    top-level package and ``packages``.
+
+    Parameters
+    ----------
+    func : function
+        An energy function (``Term.energy``).
+    packages : tuple of str
+        Top-level packages followed besides ``func``'s own.
+
+    Returns
+    -------
+    list of str or None
+        Absolute paths, sorted; None when ``func`` itself has no source file (defined
+        interactively).
+    """
+    if _source_file(func) is None:
         return None
-    return Path(path).read_text()
+    follow = {_top(func), *packages}
+    files, seen, todo = set(), set(), [func]
+    while todo:
+        obj = todo.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if isinstance(getattr(obj, "energy", None), types.FunctionType):  # a Term
+            todo.append(obj.energy)
+            continue
+        if isinstance(obj, types.ModuleType):
+            path = getattr(obj, "__file__", None)
+            if _top(obj) in follow and path and os.path.isfile(path):
+                files.add(path)
+            continue
+        if not isinstance(obj, types.FunctionType) or _top(obj) not in follow:
+            continue
+        path = _source_file(obj)
+        if path:
+            files.add(path)
+        names = _code_names(obj.__code__)
+        reached = [obj.__globals__[n] for n in names if n in obj.__globals__]
+        reached += [c.cell_contents for c in (obj.__closure__ or ()) if _cell_set(c)]
+        for value in reached:
+            todo.append(value)
+            if isinstance(value, types.ModuleType) and _top(value) in follow:
+                todo += [getattr(value, n) for n in names if isinstance(getattr(value, n, None), types.FunctionType)]
+    return sorted(files)
+
+
+def _cell_set(cell) -> bool:
+    try:
+        cell.cell_contents
+    except ValueError:  # an empty cell
+        return False
+    return True
+
+
+def _closure_value(value):
+    """A closure value as stable text: numbers and arrays by content, functions by name."""
+    if isinstance(value, (types.FunctionType, types.ModuleType)) or hasattr(value, "energy"):
+        return f"<{type(value).__name__} {getattr(value, '__module__', '')}.{getattr(value, '__qualname__', getattr(value, 'name', ''))}>"
+    try:
+        return fingerprint.digest(value)
+    except TypeError:
+        return repr(value)
 
 
 def spec_fingerprint(spec) -> str | None:
@@ -67,9 +185,9 @@ def spec_fingerprint(spec) -> str | None:
     Parameters
     ----------
     spec : MaterialSpec
-        The spec; each term's kind, name, parameters, energy qualname and closure values, the full
-        text of the file defining each energy and the text of :mod:`cfm_core.material.codegen`
-        enter the hash.
+        The spec; :func:`generator_digest`, and for each term its kind, name, parameters, energy
+        qualname, closure values and the text of every file its energy depends on
+        (:func:`dependency_files`) enter the hash.
 
     Returns
     -------
@@ -79,15 +197,16 @@ def spec_fingerprint(spec) -> str | None:
     """
 
     h = hashlib.sha256()
-    h.update(CODEGEN_FILE.read_bytes())
+    h.update(generator_digest().encode())
     terms = spec.isochoric + ((spec.volumetric,) if spec.volumetric else ())
     for term in terms:
-        text = _file_text(term.energy)
-        if text is None:
+        files = dependency_files(term.energy)
+        if files is None:
             return None
-        closure = [c.cell_contents for c in (term.energy.__closure__ or ())]
+        closure = [_closure_value(c.cell_contents) for c in (term.energy.__closure__ or ()) if _cell_set(c)]
         h.update(repr((term.kind, term.name, term.parameters, term.energy.__qualname__, closure)).encode())
-        h.update(text.encode())
+        for text in sorted(fingerprint.digest_bytes(Path(f).read_bytes()) for f in files):
+            h.update(text.encode())
     return h.hexdigest()[:24]
 
 

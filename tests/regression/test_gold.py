@@ -12,7 +12,7 @@ import pytest
 from cfm_verification.gold import RTOL
 from cfm_verification.gold.cases import CASES
 from cfm_verification.gold.record import compare
-from cfm_verification.gold.store import case_names, compute, load
+from cfm_verification.gold.store import case_names, compute, load, why_rewrite
 
 SCENES = {"point", "single-element", "relaxation", "drop-test"}
 
@@ -21,7 +21,7 @@ def test_the_suite_spans_scenes_materials_and_backends():
     assert len(CASES) >= 40 and len(set(case_names())) == len(CASES)
     assert {c.scene for c in CASES} == SCENES
     materials = {c.overrides.get("material", "cfm") for c in CASES}
-    assert materials == {"cfm", "neo-hookean", "ogden", "mooney-rivlin"}
+    assert materials == {"cfm", "cfm-septa", "neo-hookean", "ogden", "mooney-rivlin"}
     assert {c.backend for c in CASES} == {"numpy", "numba", "torch", "skfem"}
     assert any(c.overrides.get("elastic") for c in CASES) and any(not c.overrides.get("elastic") for c in CASES)
     drops = [c for c in CASES if c.scene == "drop-test"]
@@ -37,6 +37,9 @@ def test_stored_reference_is_complete(name):
     assert doc is not None, f"no stored reference for {name}: python -m cfm_verification.gold --update --only {name}"
     assert doc["commit"] and doc["commit"] != "unknown" and doc["rtol"] == RTOL
     assert doc["checked"], "each reference says where it was checked independently"
+    why = why_rewrite(name, doc)
+    assert why is None, (f"{name}: the stored reference is {why}; rewrite it from a commit: "
+                         f"python -m cfm_verification.gold --update --only {name}")
     rec = doc["record"]
     assert rec["steps"] > 0 and rec["dt_max"] > 0 and rec["samples"]
     if rec["kind"] != "point":

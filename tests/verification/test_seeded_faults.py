@@ -135,3 +135,23 @@ def test_cli_exit_code_is_one_for_a_failed_check(tmp_path, monkeypatch, capsys):
     code = main(["verify", "--quick", "--backends", "numpy", "--require", "", "--only", "point",
                  "--out", str(tmp_path / "c")])
     assert code == 1 and "verify: FAILED agreement / material point" in capsys.readouterr().out
+
+
+def test_report_json_records_the_code_plugins_and_gold_inputs(tmp_path):
+    """report.json says which code made it (commit, dirty, source digest), where every backend and
+    material came from, and the input digests of every gold case (old report: the commit string only)."""
+    import json
+
+    from cfm_core import fingerprint
+    from cfm_verification.gold.store import case_names, inputs
+
+    rep = _suite(tmp_path, ["numpy"], ["point"])
+    doc = json.loads((tmp_path / "out" / "report.json").read_text())
+    prov = doc["provenance"]
+    assert prov["code"] == fingerprint.code_state() and prov["code"]["source_digest"]
+    assert prov["backends"]["numpy"]["distribution"] == "cfm-materials"
+    assert prov["materials"]["cfm-septa"]["definition_digest"]
+    assert set(prov["gold"]) == set(case_names())
+    assert prov["gold"]["point-cfm-septa-visco-uniaxial-numpy"] == inputs("point-cfm-septa-visco-uniaxial-numpy")
+    assert prov["code"]["source_digest"] in (tmp_path / "out" / "report.md").read_text()
+    assert rep["provenance"] == prov

@@ -13,6 +13,10 @@ Regenerate after an intended change, printing every difference first::
     python -m cfm_verification.gold            # compare only, exit 1 on a difference
     python -m cfm_verification.gold --update   # rewrite the references (runs the independent checks)
     python -m cfm_verification.gold --update --only skfem   # only cases whose name contains 'skfem'
+
+``--update`` runs from committed code only (``--allow-dirty`` to override, stamped so) and writes
+nothing whose independent check fails; a reference records the code state and the digests of
+its inputs (:mod:`.store`).
 """
 
 #: Relative tolerance (-) of every stored value (arrays: relative to the array's largest magnitude).

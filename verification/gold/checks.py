@@ -8,6 +8,11 @@ confirmed, and the reference is then not written. Checks:
   (hand-written Eq. 2-7, summed Prony integral; itself checked against mpmath), 1e-9 relative;
 - energy-fd: the elastic Cauchy stress against central differences of the energy
   (sigma = J^-1 dW/dF F^T, step 1e-6), 1e-6 relative: checks stress against energy;
+- prony-energy-fd: (viscoelastic materials without a hand-written truth, e.g. cfm-septa) the
+  stress history against the hereditary integral (:func:`cfm_verification.truths.prony_convolution`)
+  of the instantaneous isochoric stress, with the volumetric stress added; both from central
+  differences of the elastic energy (S = F^-1 dW/dF; U(J) = W(J^1/3 I), S_vol = J U'(J) C^-1; the
+  isochoric part scaled to its instantaneous value by the named Prony values), 1e-6 relative;
 - truth-uniaxial: the single element's reaction force against the quasi-static uniaxial-stress
   truth (:func:`cfm_verification.truths.uniaxial_force`), the agreement tolerances of the suite;
 - uniaxial-reference: (non-CFM materials, no hand-written truth) against the quasi-static
@@ -68,6 +73,45 @@ def energy_fd(case, raw) -> str:
         worst = max(worst, float(np.abs(v - s[k]).max() / np.abs(s).max()))
     return _require(worst <= 1e-6, f"Cauchy stress = J^-1 dW/dF F^T by central differences of the energy at "
                                    f"{idx.size} points: max difference {worst:.2e} of the largest stress (limit 1e-6)")
+
+
+def _pk2_by_differences(material, F, h=1e-6):
+    """(S_iso, S_vol), each (n, 3, 3) in Pa, of an elastic material at F (n, 3, 3) from central
+    differences of its energy: S = F^-1 dW/dF, U(J) = W(J^1/3 I) - W(I), S_vol = J U'(J) C^-1."""
+    from cfm_core.material import reference as ref
+
+    F = np.asarray(F, dtype=float)
+    P = np.zeros_like(F)
+    for i in range(3):
+        for j in range(3):
+            Fp, Fm = F.copy(), F.copy()
+            Fp[:, i, j] += h
+            Fm[:, i, j] -= h
+            P[:, i, j] = (ref.energy(material, Fp) - ref.energy(material, Fm)) / (2 * h)
+    S = np.linalg.solve(F, P)
+    J = np.linalg.det(F)
+    eye = np.eye(3)
+    dU = (ref.energy(material, ((J + h) ** (1 / 3))[:, None, None] * eye)
+          - ref.energy(material, ((J - h) ** (1 / 3))[:, None, None] * eye)) / (2 * h)
+    S_vol = (J * dU)[:, None, None] * np.linalg.inv(np.einsum("nki,nkj->nij", F, F))
+    return S - S_vol, S_vol
+
+
+def prony_energy_fd(case, raw) -> str:
+    from cfm_core.material.registry import make_material
+
+    mat, t, F, s = raw["material"], raw["t"], raw["F"], raw["stress"]
+    gammas, taus = truths.prony_values(mat)
+    _require(bool(gammas), f"{mat.name} has no Prony series: this check is for viscoelastic materials")
+    elastic = make_material(case.overrides["material"], dict(mat.values), moduli=mat.moduli, elastic=True)
+    S_iso, S_vol = _pk2_by_differences(elastic, F)
+    S = truths.prony_convolution(t, truths.iso_scale(mat) * S_iso, gammas, taus) + S_vol
+    sig = np.einsum("nik,nkl,njl->nij", F, S, F) / np.linalg.det(F)[:, None, None]
+    v = np.stack([sig[:, 0, 0], sig[:, 1, 1], sig[:, 2, 2], sig[:, 0, 1], sig[:, 1, 2], sig[:, 0, 2]], axis=1)
+    d = float(np.linalg.norm(s - v) / np.linalg.norm(v))
+    return _require(d <= 1e-6, f"hereditary integral (cfm_verification.truths.prony_convolution, {len(gammas)} Prony "
+                               f"terms) of the stress by central differences of the elastic energy: rel L2 {d:.2e} "
+                               f"<= 1e-6")
 
 
 def _reaction_vs(t, force, raw, limit, what) -> str:
@@ -162,6 +206,6 @@ def paper_table(case, raw) -> str:
                     f"{s['peak_g']:.1f} g against 52.5 g")
 
 
-CHECKS = {"truth-point": truth_point, "energy-fd": energy_fd, "truth-uniaxial": truth_uniaxial,
+CHECKS = {"truth-point": truth_point, "energy-fd": energy_fd, "prony-energy-fd": prony_energy_fd, "truth-uniaxial": truth_uniaxial,
           "uniaxial-reference": uniaxial_reference, "truth-relaxation": truth_relaxation,
           "energy-momentum": energy_momentum, "cross-backend": cross_backend, "paper-table": paper_table}

@@ -14,8 +14,11 @@ import math
 
 import numpy as np
 from numba import njit
+from cfm_backends.numba_cache import key_on_folder
 
 from .layout import FASTMATH
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

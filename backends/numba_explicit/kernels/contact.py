@@ -25,7 +25,11 @@ much heavier) and the z part of the reaction goes to the sphere.
 import math
 
 from numba import njit
+from cfm_backends.numba_cache import key_on_folder
+
 from .layout import FASTMATH
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

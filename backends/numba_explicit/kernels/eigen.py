@@ -24,8 +24,12 @@ reference and the fallback when the hybrid meets a non-finite value.
 import math
 
 from numba import njit
+from cfm_backends.numba_cache import key_on_folder
+
 from .layout import FASTMATH
 from .vmath import vsqrt
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

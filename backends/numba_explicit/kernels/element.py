@@ -30,11 +30,14 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from cfm_backends.numba_cache import key_on_folder
 
 from .constitutive import first_piola, psi_grad_hess_diag_v
 from .eigen import eig3, eig3_hybrid
 from .layout import *  # noqa: F401,F403
 from .vmath import vsqrt
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

@@ -7,10 +7,13 @@ Runs the element blocks' constitutive stages (``element.py``) on a block of one 
 # >>> standalone (removed when the kernels are concatenated into a generated module)
 import numpy as np
 from numba import njit
+from cfm_backends.numba_cache import key_on_folder
 
 from .constitutive import first_piola, prony_step
 from .element import eigen_block, eigen_fallback, material_block, prony_block, stress_block
 from .layout import *  # noqa: F401,F403
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

@@ -22,11 +22,14 @@ import math
 
 import numpy as np
 from numba import njit
+from cfm_backends.numba_cache import key_on_folder
 
 from .constitutive import prony_step
 from .contact import plane_contact, sphere_contact
 from .element import element_pass, energy_pass, gather_update
 from .layout import *  # noqa: F401,F403
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

@@ -29,6 +29,9 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core.extending import intrinsic
+from cfm_backends.numba_cache import key_on_folder
+
+key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
 
 

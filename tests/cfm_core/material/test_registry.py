@@ -4,6 +4,7 @@ import subprocess
 import sys
 import warnings
 from importlib.metadata import EntryPoint
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -46,14 +47,96 @@ def test_broken_plugin_is_reported_and_skipped(fake_entry_points):
         get_material("broken")
 
 
-def test_duplicate_names_warn_and_keep_the_first(fake_entry_points):
+def _ep(name, value, group, dist=None, version="1.0"):
+    """A fake entry point of a fake distribution (importlib attaches the real one the same way)."""
+    ep = EntryPoint(name, value, group)
+    return ep._for(SimpleNamespace(name=dist, version=version)) if dist else ep
+
+
+BUILTIN_CFM = ("cfm", "cfm_plugins.cfm:CFM", "cfm.materials", "cfm-materials", "0.2.0")
+IMPOSTOR = ("cfm", "cfm_plugins.neo_hookean:NEO_HOOKEAN", "cfm.materials", "cfm-impostor", "9.9")
+
+
+def test_a_plugin_reusing_a_builtin_name_is_refused_naming_both_distributions(fake_entry_points, monkeypatch):
+    """Old code: the first entry point on the path won with a RuntimeWarning (here the paper's model
+    would silently become neo-Hookean if the impostor came first)."""
+    monkeypatch.delenv(plugins.PREFER_ENV, raising=False)
+    fake_entry_points["cfm.materials"] = [_ep(*IMPOSTOR), _ep(*BUILTIN_CFM),
+                                          _ep("ogden", "cfm_plugins.ogden:OGDEN", "cfm.materials", "cfm-materials")]
+    with pytest.raises(InputError) as err:
+        get_material("cfm")
+    text = str(err.value)
+    for words in ("cfm-materials 0.2.0", "cfm = cfm_plugins.cfm:CFM, the built-in", "cfm-impostor 9.9",
+                  "cfm = cfm_plugins.neo_hookean:NEO_HOOKEAN", "reuses a built-in's name",
+                  'CFM_PLUGIN_PREFER="materials:cfm=DISTRIBUTION"'):
+        assert words in text, (words, text)
+    assert "\n" not in text
+    with pytest.raises(InputError, match="cfm-impostor"):
+        plugins.origin("materials", "cfm")
+    # listing still works and shows the conflict; the other names are usable
+    with pytest.warns(RuntimeWarning, match="'cfm' is skipped"):
+        entries = plugins.entries("materials")
+    assert entries["cfm"][0] is None and "cfm-impostor" in entries["cfm"][1]
+    assert entries["ogden"][1] is None and get_material("ogden").name == "ogden"
+    assert plugins.names("materials") == ["cfm", "ogden"]
+
+
+@pytest.mark.parametrize("prefer, expected, dist", [
+    ("materials:cfm=cfm-materials", "cfm", "cfm-materials"),
+    ("cfm=cfm_Impostor", "neo-hookean", "cfm-impostor"),           # any kind; names compared as pip does
+    ("backends:numba=x, materials:cfm=cfm-impostor", "neo-hookean", "cfm-impostor"),
+])
+def test_the_user_chooses_a_distribution_explicitly_and_origin_names_it(fake_entry_points, monkeypatch, prefer,
+                                                                        expected, dist):
+    monkeypatch.setenv(plugins.PREFER_ENV, prefer)
+    fake_entry_points["cfm.materials"] = [_ep(*IMPOSTOR), _ep(*BUILTIN_CFM)]
+    assert get_material("cfm").name == expected
+    where = plugins.origin("materials", "cfm")
+    assert where["distribution"] == dist and where["version"] == ("0.2.0" if dist == "cfm-materials" else "9.9")
+
+
+def test_a_preference_naming_neither_distribution_or_malformed_is_an_input_error(fake_entry_points, monkeypatch):
+    fake_entry_points["cfm.materials"] = [_ep(*IMPOSTOR), _ep(*BUILTIN_CFM)]
+    monkeypatch.setenv(plugins.PREFER_ENV, "materials:cfm=somebody-else")
+    with pytest.raises(InputError, match="prefers distribution 'somebody-else', which declares no material 'cfm'"):
+        get_material("cfm")
+    monkeypatch.setenv(plugins.PREFER_ENV, "cfm")
+    with pytest.raises(InputError, match=r"CFM_PLUGIN_PREFER item 'cfm' is not '\[kind:\]name=distribution'"):
+        get_material("cfm")
+
+
+def test_two_plugins_with_one_name_are_refused_and_one_distribution_found_twice_is_not(fake_entry_points,
+                                                                                       monkeypatch):
+    """Old code: a RuntimeWarning and the first one kept."""
+    monkeypatch.delenv(plugins.PREFER_ENV, raising=False)
     fake_entry_points["cfm.materials"] = [
-        EntryPoint("dup", "cfm_plugins.neo_hookean:NEO_HOOKEAN", "cfm.materials"),
-        EntryPoint("dup", "cfm_plugins.cfm:CFM", "cfm.materials"),
+        _ep("dup", "cfm_plugins.neo_hookean:NEO_HOOKEAN", "cfm.materials", "dist-a"),
+        _ep("dup", "cfm_plugins.cfm:CFM", "cfm.materials", "dist-b"),
+        _ep("twice", "cfm_plugins.ogden:OGDEN", "cfm.materials", "dist-a"),
+        _ep("twice", "cfm_plugins.ogden:OGDEN", "cfm.materials", "dist_A"),  # the same install seen twice
     ]
-    with pytest.warns(RuntimeWarning, match="keeping the first"):
-        spec = get_material("dup")
-    assert spec.name == "neo-hookean"
+    with pytest.raises(InputError, match=r"dist-a 1.0 \(entry point dup = cfm_plugins.neo_hookean:NEO_HOOKEAN\) and "
+                                         r"dist-b 1.0 \(entry point dup = cfm_plugins.cfm:CFM\): two plugins share"):
+        get_material("dup")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert get_material("twice").name == "ogden"
+    monkeypatch.setenv(plugins.PREFER_ENV, "dup=dist-b")
+    assert get_material("dup").name == "cfm"
+
+
+def test_an_explicit_runtime_registration_still_shadows_an_entry_point(fake_entry_points):
+    fake_entry_points["cfm.materials"] = [_ep(*BUILTIN_CFM)]
+    from cfm_plugins.neo_hookean import NEO_HOOKEAN
+
+    with pytest.raises(InputError, match="already registered"):
+        register_material(NEO_HOOKEAN, name="cfm")
+    register_material(NEO_HOOKEAN, name="cfm", overwrite=True)
+    try:
+        assert "mu" in [q.name for q in get_material("cfm").parameters]
+        assert plugins.origin("materials", "cfm")["distribution"] is None
+    finally:
+        plugins.unregister("materials", "cfm")
 
 
 def test_unknown_name_lists_what_exists(fake_entry_points):
