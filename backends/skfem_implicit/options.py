@@ -43,10 +43,14 @@ class SkfemOptions(Options):
     cut: float = option(0.5, "-", "step reduction after a failed step", low=0.0, high=1.0, low_open=True,
                         high_open=True)
     max_iterations: int = option(15, "-", "Newton iterations per step before the step is cut", low=1)
-    rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term", low=0.0,
-                         low_open=True, none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
-    atol: float = option(None, "N", "absolute Newton residual tolerance", low=0.0, low_open=True,
-                         none="1e-10 kappa0 h^2")
+    rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term of the iterate "
+                         "(internal forces with the reactions, inertia, contact, external; invariant to the "
+                         "stiffness scale)", low=0.0, low_open=True,
+                         none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
+    atol: float = option(None, "N", "absolute Newton residual tolerance added to rtol's", low=0.0, low_open=True,
+                         none="0: rtol only; a step whose Newton stagnates at the round-off floor (~eps kappa0 "
+                              "h^2) is accepted with the force balance it reached, which the run reports (a "
+                              "warning above 10 rtol, an error above 1e-3)")
     contact: str = option("augmented", "-", "contact: augmented Lagrangian (multipliers updated every step) or "
                           "plain penalty", choices=("augmented", "penalty"))
     penalty: float = option(None, "N/m", "contact augmentation (penalty) stiffness per node", low=0.0,

@@ -5,6 +5,9 @@ convergence, never beyond ``dt_max`` (default: the model's output interval, so h
 recorded at least that often), and they land exactly on the breakpoints of a prescribed motion
 and on the end time. Histories are recorded at every accepted step. Forces, impulses and
 energies in the Result are for the full model (x ``model.symmetry_factor``), SI units.
+``info["force_balance"]`` says how well the accepted steps balanced the forces (:mod:`.balance`);
+a run whose Newton stopped at round-off above the requested accuracy warns through
+``info["solver_warnings"]`` (passed on by the run checks) or, above 1e-3, stops.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from cfm_core.material.compile_notice import announce_compile
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
+from .balance import Balance
 from .compiled import module_source
 from .linear import dot
 from .options import check_options
@@ -95,7 +99,6 @@ def _run(model, progress, o) -> Result:
     sys_ = System(model, o["volumetric"], quasi, kernels=o["kernels"])
     h = sys_.disc.size
     sys_.penalty = float(o["penalty"]) if o["penalty"] is not None else o["penalty_factor"] * sys_.kappa0 * h
-    atol = float(o["atol"]) if o["atol"] is not None else 1e-10 * sys_.kappa0 * h * h
     solver = _linear_solver(sys_, o, quasi)
     if o["error_tol"] == "auto":  # accuracy-controlled steps for impacts; prescribed motions keep theirs
         o = {**o, "error_tol": 2e-3 if sys_.has_w else None}
@@ -114,7 +117,7 @@ def _run(model, progress, o) -> Result:
     else:
         dt = dt_max / 10.0
     dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
-    stepper = Stepper(sys_, o, solver, atol)
+    stepper = Stepper(sys_, o, solver)
     notice = (announce_compile(module_source(model.material), "cfm_skfem", "skfem", model.material.name, "elements")
               if sys_.compiled is not None else nullcontext())  # the numba backend's notice of a cold first run
     with notice:  # the first evaluation compiles the element kernels
@@ -126,6 +129,7 @@ def _run(model, progress, o) -> Result:
     next_frame = o["frame_interval"] or math.inf
     q_prev, t_prev_seg = None, None
     stats = {"newton_iterations": 0, "rejected_steps": 0, "error_rejections": 0, "linear_iterations": 0}
+    balance = Balance(stepper.rtol)  # force balance attained by the accepted steps
     tol = o["error_tol"] if (stepper.dynamic and o["error_tol"] is not None) else None
     newton_log = []
     failures = []  # (t (s), dt (s), quantity, message) of the first 50 rejected steps
@@ -165,6 +169,7 @@ def _run(model, progress, o) -> Result:
                 dt = dt_try
                 continue
             break
+        balance.add(info)
         if o["record_newton"]:
             newton_log.append([new.t, dt_try, info.residuals])
         q_prev, t_prev_seg = (state.q, state.t), sched.segment(state.t + 0.5 * dt_try)
@@ -202,7 +207,9 @@ def _run(model, progress, o) -> Result:
                     break
     wall = time.perf_counter() - wall0 - setup  # solver time: the stepping loop only (as the numba backend)
     monitor.final(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
-    info = {"checks": monitor.report(), "elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
+    warnings = balance.verdict(model, stepper, state.t)
+    info = {"checks": monitor.report(), "force_balance": balance.record(), "solver_warnings": warnings,
+            "elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
             "times": dict(sys_.times), "counts": dict(sys_.counts), "contact": o["contact"],
             "error_tol": tol, "failures": failures,
             "linear_solver": solver.name, "kernels": o["kernels"], "volumetric": o["volumetric"],

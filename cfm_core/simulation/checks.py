@@ -33,7 +33,9 @@ Two parts, both numpy only and backend-neutral:
     was 5-60 % above the uniaxial-stress solution, where KE / IE was 0.5-3 %; the CFM: 0.02 %);
   * the run ending at its end time while still in contact: it stops when the end time was
     automatic (a generous bound, so still being in contact means the impactor never came back:
-    bottoming out), and warns when the user chose the end time (the pulse is cut short).
+    bottoming out), and warns when the user chose the end time (the pulse is cut short);
+  * the backend's own accuracy warnings, ``result.info["solver_warnings"]`` (text; e.g. skfem's
+    Newton stopped by round-off, with the force balance it attained), are passed on first.
 
 Limits travel from the scene to the model as ``model.meta["checks"]`` (a dict of the keys above).
 """
@@ -423,7 +425,8 @@ def check_result(model, result) -> list[str]:
     Returns
     -------
     list of str
-        Warnings (hourglass energy, energy balance, end in contact with a user end time).
+        Warnings (the backend's ``info["solver_warnings"]``, hourglass energy, energy balance, end
+        in contact with a user end time).
 
     Raises
     ------
@@ -431,7 +434,7 @@ def check_result(model, result) -> list[str]:
         Bottoming out, end in contact with an automatic end time, or a stop limit passed.
     """
     limits = Limits.of(model)
-    warnings: list[str] = []
+    warnings: list[str] = [str(w) for w in (result.info or {}).get("solver_warnings", [])]
     t = np.asarray(result.t, dtype=np.float64)
     sph, plane = model.sphere, model.plane
     if sph is not None and plane is not None and result.impactor_z is not None and t.size:

@@ -113,3 +113,21 @@ def test_automatic_end_time_ending_in_contact_is_an_error(monkeypatch):
     with pytest.raises(NumericalError, match="still in contact") as err:
         drop_test(scene, "numba")
     assert err.value.quantity == "contact at the end time"
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_scenes_penetration_tolerance_reaches_every_backends_monitor(backend, tmp_path):
+    """[scene] penetration_tolerance read from the file decides the verdict in the run itself: 6 mm
+    (more than the 5 mm specimen) makes the touching impactor "bottomed out" at the first check,
+    where the default tolerance (5 % of the edge) lets the same run pass (previous test)."""
+    _available(backend)
+    from cfm_core.scene.scene import load_scene
+
+    path = tmp_path / "scene.toml"
+    path.write_text('[scene]\ntype = "drop-test"\nend_time = 0.001\npenetration_tolerance = 0.006\n'
+                    '[specimen]\nwidth = 0.02\nthickness = 0.005\nelement_size = 0.0025\n', encoding="utf-8")
+    scene = load_scene(path)
+    assert build_model(scene).meta["checks"]["penetration_tolerance"] == 0.006
+    with pytest.raises(NumericalError, match="tolerance 6 mm|bottoming out|reached the rigid plate") as err:
+        drop_test(scene, backend)
+    assert err.value.quantity == "bottoming out" and err.value.time < 1e-4

@@ -134,3 +134,31 @@ def test_batch_runs_get_the_physics_checks_each_on_its_own(models):
     assert node_position(out[1]) == node_position(alone_err.value)
     assert out[1].quantity == alone_err.value.quantity and abs(out[1].time - alone_err.value.time) < 1e-3
     assert out[0].info["checks"]["monitor_calls"] > 10 and out[0].info["checks"]["worst_plate"] < 1e-4
+
+
+def test_runs_differing_in_prony_series_and_moduli_each_get_their_own_result():
+    """Runs of one batch with their own Prony series (g_i, tau_i: another long-term fraction) and
+    moduli (c, k1, kappa): each equals its run alone and the numba run (a batch reading run 0's
+    long-term fraction or Prony terms, or another run's moduli, fails here; the other batch tests
+    vary only k2, speed, mass and thickness). 2 mm mesh, first 3 ms (through the peak)."""
+    pytest.importorskip("numba")
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    variants = [{},
+                {"g1": 0.30, "g2": 0.50, "g3": 0.15, "tau1": 2e-3, "c": 20.0},        # g_inf 0.05
+                {"g1": 0.60, "g2": 0.20, "g3": 0.05, "tau2": 0.05, "k1": 2000.0, "kappa": 1.0e6}]  # 0.15
+    models = [replace(build_model(BASE.with_overrides(parameters=p)), end_time=0.003) for p in variants]
+    ginf = [1.0 - sum(m.material.prony_arrays()[0]) for m in models]
+    assert ginf == pytest.approx([0.021, 0.05, 0.15])
+    batch = TorchExplicitBackend().run_batch(models)
+    for i, (m, r) in enumerate(zip(models, batch)):
+        alone = TorchExplicitBackend().run(m)
+        numba = NumbaExplicitBackend().run(m)
+        assert r.steps == alone.steps, i
+        assert rel_l2(r, alone, m) < 1e-10, i
+        assert rel_l2(r, numba, m) < 1e-6, i
+        np.testing.assert_allclose(r.energies["internal"], alone.energies["internal"], rtol=0,
+                                   atol=1e-9 * np.abs(alone.energies["kinetic"]).max())
+    for i in (1, 2):  # the variants really differ from run 0 (and from each other)
+        assert rel_l2(batch[i], batch[0], models[0]) > 1e-3
+    assert rel_l2(batch[2], batch[1], models[0]) > 1e-3

@@ -189,3 +189,43 @@ def test_cfm_septa_runs_on_every_backend(backend):
     truth = run_history(m, t, F)
     got = run_history(m, t, F, b)
     assert np.abs(got - truth).max() <= 1e-8 * np.abs(truth).max()
+
+
+#: Table 1 Prony series (g_i, tau_i in s), written here independently of the plugin's TABLE1_PRONY.
+TABLE1_G, TABLE1_TAU = np.array([0.45, 0.435, 0.094]), np.array([1e-3, 0.1, 10.0])
+
+
+@pytest.mark.parametrize("backend", ["reference", "numba", "torch", "skfem"])
+def test_registered_cfm_septa_relaxes_with_the_table1_prony_series(backend):
+    """Default run, every backend: the registered cfm-septa (default parameters) held after a jump to
+    an isochoric stretch with shear relaxes as the Table 1 series says (long-term moduli convention):
+
+        sigma(t) = sigma_el(F) (g_inf + sum g_i exp(-t / tau_i)) / g_inf,   g_inf = 1 - sum g_i
+
+    sigma_el: the elastic material's stress at F (J = 1: no volumetric part, all of it relaxes).
+    A cfm-septa composed without its Prony series (or with other terms) gives a constant stress."""
+    from cfm_core import get_backend, make_material
+    from cfm_core.simulation.point import run_history
+
+    b = None if backend == "reference" else get_backend(backend)
+    if b is not None:
+        ok, why = b.available()
+        if not ok:
+            pytest.skip(f"{backend}: {why}")
+    m = make_material("cfm-septa")
+    jump = 1e-12  # s: the step up to F (its Prony error ~ jump / tau1 = 1e-9)
+    t = np.array([0.0, jump, 5e-4, 1e-3, 3e-3, 0.05, 0.3, 5.0, 40.0])
+    lam = 0.75
+    F = np.tile(np.diag([lam, lam**-0.5, lam**-0.5]), (t.size, 1, 1))
+    F[1:, 0, 1] = 0.1
+    F[0] = np.eye(3)
+    elastic = run_history(make_material("cfm-septa", elastic=True), t[1:2], F[1:2])[0]
+    ginf = 1.0 - TABLE1_G.sum()
+    ratio = (ginf + np.exp(-(t[1:, None] - jump) / TABLE1_TAU) @ TABLE1_G) / ginf
+    truth = ratio[:, None] * elastic[None]
+    got = run_history(m, t, F, b)
+    assert np.abs(got[0]).max() < 1e-9 * np.abs(elastic).max()  # the reference state: stress-free
+    err = np.abs(got[1:] - truth).max() / np.abs(truth).max()
+    print(f"{backend}: relaxation ratio {ratio[0]:.4g} -> {ratio[-1]:.4g}, error {err:.2e}")
+    assert err < 1e-8
+    assert ratio[0] == pytest.approx(1.0 / ginf) and 1.0 < ratio[-1] < 1.1  # 47.6 x down to nearly relaxed

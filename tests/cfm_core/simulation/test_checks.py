@@ -179,3 +179,63 @@ def test_too_low_output_rate_is_refused_before_running(monkeypatch):
     monkeypatch.setattr(pipeline, "run_model", never)
     with pytest.raises(InputError, match=r"\[scene\] output_rate = 5000 Hz is too low.*6000 Hz"):
         drop_test(builtin_scene("drop-test").with_overrides(output_rate=5000.0), "numba")
+
+
+SCENE_TOML = """[scene]
+type = "drop-test"
+{tolerance}
+[specimen]
+width = 0.005
+thickness = 0.005
+element_size = 0.0025
+"""
+
+
+def _scene_model(tmp_path, tolerance_line):
+    """A drop-test model read from a scene file (2.5 mm elements: default tolerance 0.125 mm)."""
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import load_scene
+
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE_TOML.format(tolerance=tolerance_line), encoding="utf-8")
+    return build_model(load_scene(path))
+
+
+@pytest.mark.parametrize("line, verdict", [
+    ("", "stop"),                                   # default: 5 % of 2.5 mm = 0.125 mm < 0.2 mm
+    ("penetration_tolerance = 0.0003", "pass"),     # 0.3 mm from the scene: lets the 0.2 mm pass
+    ("penetration_tolerance = 0.00025", "pass"),
+    ("penetration_tolerance = 0.00015", "stop"),    # tighter than the depth: stops it
+])
+def test_the_scenes_penetration_tolerance_decides_the_verdict(tmp_path, line, verdict):
+    """A bottom node 0.2 mm behind the plate: the [scene] penetration_tolerance read from the file,
+    not the default, sets whether the monitor passes the state or stops the run."""
+    m = _scene_model(tmp_path, line)
+    x = m.nodes.copy()
+    node = int(np.flatnonzero(np.isclose(m.nodes[:, 2], m.plane.z))[0])
+    x[node, 2] -= 0.2e-3
+    mon = checks.Monitor(m)
+    expected = float(line.split("=")[1]) if line else 0.05 * 0.0025
+    assert mon.tol == pytest.approx(expected) and mon.report()["tolerance"] == pytest.approx(expected)
+    if verdict == "pass":
+        mon.check(1e-3, x, m.sphere.center[2])
+        assert mon.report()["worst_plate"] == pytest.approx(0.2e-3)
+    else:
+        with pytest.raises(NumericalError, match=f"tolerance {1e3 * expected:.4g} mm") as err:
+            mon.check(1e-3, x, m.sphere.center[2])
+        assert err.value.quantity == "penetration of the rigid plate" and err.value.node == node
+
+
+@pytest.mark.parametrize("line, stops", [("", False), ("penetration_tolerance = 0.006", True)])
+def test_the_scenes_penetration_tolerance_sets_the_bottoming_out_gap(tmp_path, line, stops):
+    """The end-of-run check reads the same tolerance: an impactor history whose lowest point stays
+    5 mm above the plate passes by default and is bottoming out with a 6 mm tolerance."""
+    m = _scene_model(tmp_path, line)
+    t = np.linspace(0.0, 5e-3, 51)
+    z = np.full(t.size, m.sphere.radius + m.plane.z + 0.005)
+    res = _result(t, np.where(t < 4e-3, 1.0, 0.0), np.full(t.size, 0.1), np.zeros(t.size), z=z)
+    if stops:
+        with pytest.raises(NumericalError, match="reached the rigid plate"):
+            checks.check_result(m, res)
+    else:
+        assert checks.check_result(m, res) == []
