@@ -34,6 +34,7 @@ from cfm_backends.explicit import errors
 from cfm_backends.explicit.checks import check_point_inputs
 from cfm_backends.explicit.options import document_run
 from cfm_core.errors import NumericalError
+from cfm_core.material.prony import gamma_inf
 from cfm_core.simulation.backend import Backend
 
 from .options import NumbaOptions
@@ -77,7 +78,7 @@ class NumbaExplicitBackend(Backend):
         gam, tau = (np.ascontiguousarray(a, dtype=np.float64) for a in material.prony_arrays())
         p = np.ascontiguousarray(material.param_array(), dtype=np.float64)
         out = np.zeros((t.shape[0], 6))
-        ginf = 1.0 - float(np.sum(gam))
+        ginf = gamma_inf(gam)  # the one exact sum
         with codegen.announce(material, "point_history"):  # its first call compiles it (once per machine)
             mod = codegen.load(material)
             status, i, J, m0, m1, m2 = mod.point_history(t, F, p, gam, tau, ginf, out)

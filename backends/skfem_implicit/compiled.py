@@ -102,7 +102,7 @@ class CompiledElements:
         self.theta = np.zeros(E)
         self.status = np.zeros(E, dtype=np.int64)
         self.jbad = np.zeros(E)
-        self.ginf = 1.0 - float(np.sum(self.gammas))  # g_inf = 1 - sum gamma_i (-)
+        self.ginf = prony.gamma_inf(self.gammas)  # g_inf = 1 - sum gamma_i (-), the material's one sum
         self._factors = (None, None)  # (dt, (decay, gain, feff)) of the last step size
         self._rest = None  # the relaxed state, read when evaluate gets hist=None
         # two history buffers, used in turn: evaluate writes the new state into the one that does not

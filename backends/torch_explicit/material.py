@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from cfm_core.errors import InputError
+from cfm_core.material.prony import gamma_inf
 
 
 def grad_hess_diag(material):
@@ -47,7 +48,7 @@ def parameters(material) -> list[float]:
 def prony(material) -> tuple[list[float], list[float], float]:
     """(gammas, taus (s), gamma_inf) of the active Prony series as Python floats."""
     gam, tau = (np.asarray(a, dtype=np.float64).reshape(-1) for a in material.prony_arrays())
-    return gam.tolist(), tau.tolist(), 1.0 - math.fsum(gam.tolist()) if gam.size else 1.0
+    return gam.tolist(), tau.tolist(), gamma_inf(gam)
 
 
 def prony_factors(dt: float, gammas, taus) -> tuple[list[float], list[float]]:

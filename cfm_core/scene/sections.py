@@ -94,7 +94,8 @@ class SceneSettings:
         _set(self, output_rate=_num("scene", "output_rate", rate, "Hz", 0, 1e9, lo_open=True))
         if self.penetration_tolerance is not None:
             _set(self, penetration_tolerance=_num("scene", "penetration_tolerance", self.penetration_tolerance,
-                                                  "m", 0, 0.1))
+                                                  "m", 0, 0.1, lo_open=True,
+                                                  note="0 would stop every run on round-off (7e-18 m)"))
         for key in ("hourglass_limit", "energy_limit"):
             if getattr(self, key) is not None:
                 _set(self, **{key: _num("scene", key, getattr(self, key), "-", 0, 1e6, lo_open=True)})

@@ -50,6 +50,7 @@ from .differences import forward_jacobian, forward_steps
 from .sweep import run_all
 from ..material.registry import get_material
 from ..material.registry import make_material
+from ..material import prony
 from ..post.filters import cfc_filter
 from ..post import relative_l2
 
@@ -142,7 +143,7 @@ def coordinates(names, scene, start: dict) -> Coordinates:
     decl = {p.name: p for p in spec.parameters}
     gammas = [p.name for p in (spec.prony.parameters[::2] if spec.prony else ())]
     fitted_g = [n for n in names if n in gammas]
-    g_inf = 1.0 - sum(start[g] for g in gammas)
+    g_inf = prony.gamma_inf(start[g] for g in gammas)
     units, logs, lo, hi = [], [], [], []
     for n in names:
         p = decl[n]

@@ -249,7 +249,7 @@ def _viscous(material, t, S0):
     gammas, taus = material.prony_arrays()
     if gammas.size == 0:
         return S0, np.ones(t.size)
-    g_inf = 1.0 - float(np.sum(gammas))
+    g_inf = prony.gamma_inf(gammas)
     dS = np.diff(S0, axis=0, prepend=np.zeros_like(S0[:1]))
     H = np.zeros_like(S0)
     eff = np.full(t.size, g_inf)

@@ -98,3 +98,18 @@ def test_a_memory_error_while_building_is_reported_with_the_model_size(monkeypat
 def test_memory_needed_counts_elements_and_nodes():
     assert model_mod.memory_needed(1000, 10) == 1000 * model_mod.BYTES_PER_ELEMENT + 10 * model_mod.BYTES_PER_NODE
     assert model_mod.available_memory() is None or model_mod.available_memory() > 0
+
+
+def test_zero_penetration_tolerance_is_refused_naming_the_key():
+    """0 m would stop every explicit run on round-off (a sphere penetration of 7e-18 m)."""
+    import pytest
+
+    from cfm_core import InputError, builtin_scene
+    from cfm_core.scene.scene import scene_from_dict, scene_to_dict
+
+    d = scene_to_dict(builtin_scene("drop-test"))
+    d["scene"]["penetration_tolerance"] = 0.0
+    with pytest.raises(InputError, match=r"penetration_tolerance.*round-off"):
+        scene_from_dict(d)
+    d["scene"]["penetration_tolerance"] = 1e-4
+    assert scene_from_dict(d).settings.penetration_tolerance == 1e-4
