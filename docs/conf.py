@@ -14,7 +14,8 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # an editable install finds the packages anyway; a plain checkout too
+if (ROOT / "cfm_core").is_dir():  # a plain checkout; an installed project is found anyway
+    sys.path.insert(0, str(ROOT))
 
 import cfm_core  # noqa: E402
 
