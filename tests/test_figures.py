@@ -250,12 +250,12 @@ def test_checker_finds_a_legend_over_data_a_hidden_curve_and_bad_ticks():
     y = 3e5 * np.exp(-t)
     ax.plot(t, y, label="measured")
     ax.plot(t, y, "-", label="fitted")
-    ax.plot([0, 15, 30], [3e5, 3e5, 3e5], label="across the top")
+    ax.plot([0, 15, 30], [1.5e5, 1.5e5, 1.5e5], label="across the middle")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("nominal stress (Pa)")
-    ax.legend(loc="upper right")
+    ax.legend(loc="center right")
     problems = _draw(fig)
-    assert any("covers the line 'across the top'" in p for p in problems)
+    assert any("covers the line 'across the middle'" in p for p in problems)
     assert any("'measured' is hidden under 'fitted'" in p for p in problems)
     assert any("show kPa" in p for p in problems)
     assert any("use a log axis" in p for p in problems)
@@ -424,7 +424,14 @@ KINDS = {name[5:]: fn for name, fn in dict(globals()).items() if name.startswith
 EXTRA = {"compare": difference_panel_problems, "compare_identical": difference_panel_problems}
 
 #: Figure kinds that fail the checks today, with what fails (strict: a fix makes the test XPASS).
-KNOWN: dict[str, str] = {}
+KNOWN: dict[str, str] = {
+    "compare": "cfm compare --plot (cfm_core/cli/compare.py): no difference panel",
+    "compare_identical": "cfm compare --plot: no difference panel; identical runs drawn over each other",
+    "calibrate": "cfm calibrate (cfm_core/studies/calibrate.py): the fitted curve hides the measured one in "
+                 "fit_<curve>.png; objective.png has ticks at evaluations 1.5, 2.5",
+    "fit": "cfm fit (cfm_core/studies/fit_output.py): the fitted curve hides the measured one; stress in Pa with "
+           "ticks of 10^5 (show kPa); the relaxation test on a linear 0-30 s axis (use a log time axis)",
+}
 
 
 @pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.xfail(reason=KNOWN[k], strict=True))
