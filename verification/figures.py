@@ -89,7 +89,7 @@ def drucker_map(path, name, smap) -> None:
 def paper_overlay(path, curves, experiment_g, title) -> None:
     """The paper's drop tests side by side: one panel per moduli convention, one colour per
     thickness (the same in both panels), the experimental peaks as dashed lines in the colour of
-    their thickness, the legend below the panels (it never covers a curve).
+    their thickness, named in the legend below the panels (it never covers a curve).
 
     Parameters
     ----------
@@ -118,14 +118,12 @@ def paper_overlay(path, curves, experiment_g, title) -> None:
             g = np.asarray(a) / G0
             ax.plot(1e3 * np.asarray(t), g, color=colour[h], linewidth=1.6)
             top, t_end = max(top, float(g.max())), max(t_end, 1e3 * float(t[-1]))
-        for h, peak in experiment_g.items():
+        for h, peak in experiment_g.items():  # named in the legend: a label in the axes would cross curves
             ax.axhline(peak, color=colour.get(h, "0.3"), linestyle="--", linewidth=1.0)
-            ax.annotate(f"experiment {1e3 * h:g} mm: {peak:g} g", (1.0, peak), xycoords=("axes fraction", "data"),
-                        xytext=(-3, 2), textcoords="offset points", ha="right", va="bottom", fontsize=7,
-                        color=colour.get(h, "0.3"))
         ax.set_xlim(0.0, t_end)
         ax.set_ylim(min(0.0, ax.get_ylim()[0]), 1.1 * max(top, *experiment_g.values()))
     handles = [Line2D([], [], color=colour[h], linewidth=1.6, label=f"{1e3 * h:g} mm") for h in thicknesses]
-    handles.append(Line2D([], [], color="0.3", linestyle="--", linewidth=1.0, label="experimental peak (paper)"))
-    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8, frameon=False)
+    handles += [Line2D([], [], color=colour.get(h, "0.3"), linestyle="--", linewidth=1.0,
+                       label=f"experiment {1e3 * h:g} mm: {peak:g} g") for h, peak in sorted(experiment_g.items())]
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(thicknesses), fontsize=8, frameon=False)
     _save(fig, path)
