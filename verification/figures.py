@@ -125,5 +125,6 @@ def paper_overlay(path, curves, experiment_g, title) -> None:
     handles = [Line2D([], [], color=colour[h], linewidth=1.6, label=f"{1e3 * h:g} mm") for h in thicknesses]
     handles += [Line2D([], [], color=colour.get(h, "0.3"), linestyle="--", linewidth=1.0,
                        label=f"experiment {1e3 * h:g} mm: {peak:g} g") for h, peak in sorted(experiment_g.items())]
-    fig.legend(handles=handles, loc="outside lower center", ncols=len(thicknesses), fontsize=8, frameon=False)
+    rows = max(1, len(experiment_g))  # the legend fills by column: the experiments make its last one
+    fig.legend(handles=handles, loc="outside lower center", ncols=-(-len(handles) // rows), fontsize=8, frameon=False)
     _save(fig, path)
