@@ -1,5 +1,7 @@
 """The circular fiber model (CFM) of Lanzl et al. for subcutaneous adipose tissue.
 
+The energy::
+
     Psi = W_lipid + W_RBM + U(J)                                      (paper Eq. 1, 7)
     W_lipid = c/2 (l1^2 + l2^2 + l3^2 - 3)                            (Eq. 2)
     W_RBM = sum over (a,b) in (1,2), (2,3), (1,3) of

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cfm_core.post.histories import G0
 from cfm_core.post.plots import _COLOURS, _save
 
 _MARKERS = "osD^v<>p"
@@ -52,7 +53,7 @@ def work_precision(path, study) -> bool:
         mine = sorted([r for r in runs if r["backend"] == name and tuple(sorted(r["options"].items())) == opts],
                       key=lambda r: r["wall"])
         w = np.array([max(r["wall"], 1e-6) for r in mine])
-        label = f"{name}, " + ", ".join(f"{key}={v:g}" for key, v in opts)
+        label = ", ".join([name] + [f"{key}={v:g}" for key, v in opts])  # "numba", "skfem, error_tol=0.002"
         for ax, key in zip(axes, ("peak_error", "rel_l2")):
             e = np.array([max(r[key], 1e-16) for r in mine])
             ax.loglog(w, e, marker=_MARKERS[i % len(_MARKERS)], color=_COLOURS[i % len(_COLOURS)],
@@ -62,7 +63,7 @@ def work_precision(path, study) -> bool:
                     ax.annotate(f"{1e3 * r['element_size']:g} mm", (x, y), xytext=(5, 6 if k == 0 else -11),
                                 textcoords="offset points", fontsize=6, color=_COLOURS[i % len(_COLOURS)])
     for ax in axes:
-        ax.axhline(0.01, color="0.5", linestyle=":", linewidth=1.0)
+        ax.axhline(0.01, color="0.5", linestyle=":", linewidth=1.0, label="1 % error")
     axes[1].legend(fontsize=7, frameon=False, loc="center left", bbox_to_anchor=(1.02, 0.5))
     _save(fig, path)
     return True
@@ -82,4 +83,48 @@ def drucker_map(path, name, smap) -> None:
         ax.axhline(0.0, color="k", linewidth=0.8)
         ax.set_yscale("symlog", linthresh=1e-6)
         ax.legend(fontsize=8, frameon=False)
+    _save(fig, path)
+
+
+def paper_overlay(path, curves, experiment_g, title) -> None:
+    """The paper's drop tests side by side: one panel per moduli convention, one colour per
+    thickness (the same in both panels), the experimental peaks as dashed lines in the colour of
+    their thickness, named in the legend below the panels (it never covers a curve).
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file (written atomically).
+    curves : list of (float, str, array_like, array_like)
+        ``(thickness (m), moduli convention, t (s) shape (n,), filtered acceleration (m/s^2) shape (n,))``.
+    experiment_g : dict of float to float
+        Experimental peak (g) by thickness (m), paper section 4.
+    title : str
+        Figure title.
+    """
+    from matplotlib.lines import Line2D
+
+    conventions = list(dict.fromkeys(c[1] for c in curves))
+    thicknesses = sorted({c[0] for c in curves})
+    colour = {h: _COLOURS[i % len(_COLOURS)] for i, h in enumerate(thicknesses)}
+    fig, axes = _fig(title, "Time from first contact (ms)", "Impactor acceleration, CFC 600 (g)",
+                     ncols=len(conventions), size=(4.2 * len(conventions), 4.4))
+    for ax, moduli in zip(axes, conventions):
+        ax.set_title(f"{moduli} moduli", fontsize=10)
+        top, t_end = 0.0, 0.0
+        for h, m, t, a in curves:
+            if m != moduli:
+                continue
+            g = np.asarray(a) / G0
+            ax.plot(1e3 * np.asarray(t), g, color=colour[h], linewidth=1.6)
+            top, t_end = max(top, float(g.max())), max(t_end, 1e3 * float(t[-1]))
+        for h, peak in experiment_g.items():  # named in the legend: a label in the axes would cross curves
+            ax.axhline(peak, color=colour.get(h, "0.3"), linestyle="--", linewidth=1.0)
+        ax.set_xlim(0.0, t_end)
+        ax.set_ylim(min(0.0, ax.get_ylim()[0]), 1.1 * max(top, *experiment_g.values()))
+    handles = [Line2D([], [], color=colour[h], linewidth=1.6, label=f"{1e3 * h:g} mm") for h in thicknesses]
+    handles += [Line2D([], [], color=colour.get(h, "0.3"), linestyle="--", linewidth=1.0,
+                       label=f"experiment {1e3 * h:g} mm: {peak:g} g") for h, peak in sorted(experiment_g.items())]
+    rows = max(1, len(experiment_g))  # the legend fills by column: the experiments make its last one
+    fig.legend(handles=handles, loc="outside lower center", ncols=-(-len(handles) // rows), fontsize=8, frameon=False)
     _save(fig, path)

@@ -132,7 +132,7 @@ def figure(out: Path, rows, calibrated: dict | None, runs: dict | None = None) -
         ax3.set_title("impactor acceleration (CFC 600); dotted: experimental peaks", fontsize=9)
         ax3.set_xlabel("time (ms)")
         ax3.set_ylabel("acceleration (g)")
-        ax3.legend(fontsize=6)
+        ax3.legend(fontsize=6, ncols=2, frameon=False, loc="upper center", bbox_to_anchor=(0.5, -0.15))  # below: never over a curve
         ax3.grid(True, color="0.88", linewidth=0.6)
     colours = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
     for k2s, colour in zip(sorted({r["k2s"] for r in rows}), colours):
@@ -145,8 +145,9 @@ def figure(out: Path, rows, calibrated: dict | None, runs: dict | None = None) -
             ax2.semilogx(*zip(*pts), "s--", color=colour, label=f"8 mm, k2s = {k2s:g}")
     for h, p in EXPERIMENT.items():
         ax1.axhline(p, color="0.4", linewidth=0.8, linestyle=":")
-        ax1.annotate(f"experiment {1e3 * h:g} mm: {p} g", (1.0, p), xycoords=("axes fraction", "data"), ha="right",
-                     va="bottom", fontsize=7)
+        ax1.annotate(f"experiment {1e3 * h:g} mm: {p} g", (0.0, p), xycoords=("axes fraction", "data"), ha="left",
+                     va="bottom" if h < 0.008 else "top", xytext=(3, 0), textcoords="offset points", fontsize=7)
+        # at the left edge: the calibrated points sit at the right end of the dotted lines
     if calibrated:
         f = calibrated["fitted"]
         for h, marker in (("0.005", "*"), ("0.008", "P")):
@@ -157,11 +158,11 @@ def figure(out: Path, rows, calibrated: dict | None, runs: dict | None = None) -
         ax1.set_title("peak impactor acceleration (CFC 600)", fontsize=9)
     ax1.set_xlabel("septa stiffness k1s (Pa, long-term)")
     ax1.set_ylabel("peak acceleration (g)")
-    ax1.legend(fontsize=6)
+    ax1.legend(fontsize=6, ncols=2, frameon=False, loc="upper center", bbox_to_anchor=(0.5, -0.15))  # below: never over a curve
     ax2.set_title("early stiffness: acceleration at 2 ms, 8 mm", fontsize=9)
     ax2.set_xlabel("septa stiffness k1s (Pa, long-term)")
     ax2.set_ylabel("acceleration at t = 2 ms (g)")
-    ax2.legend(fontsize=6)
+    ax2.legend(fontsize=6, ncols=2, frameon=False, loc="upper center", bbox_to_anchor=(0.5, -0.15))  # below: never over a curve
     for ax in (ax1, ax2):
         ax.grid(True, color="0.88", linewidth=0.6)
     fig.savefig(out / "septa.png")

@@ -71,8 +71,8 @@ class Result:
         """Largest relative energy-balance error over the run (-).
 
         With total(t) = kinetic + internal + hourglass + contact [+ numerical_dissipation] - external,
-        the error is max_t |total(t) - total(0)| divided by the largest of kinetic + internal energy
-        and |external work| seen during the run (docs/conventions.md section 5).
+        the error is ``max_t |total(t) - total(0)|`` divided by the largest of kinetic + internal energy
+        and ``|external work|`` seen during the run (docs/conventions.md section 5).
         ``numerical_dissipation`` (J), when a backend reports it, is the energy its time integrator
         removes (the implicit backend's generalized-alpha method).
 
@@ -91,7 +91,7 @@ class Result:
         return float(np.max(np.abs(total - total[0])) / scale)
 
     def hourglass_ratio(self) -> float:
-        """Largest hourglass energy over the largest |internal energy| of the run (-).
+        """Largest hourglass energy over the largest ``|internal energy|`` of the run (-).
 
         Returns
         -------

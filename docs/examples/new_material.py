@@ -1,4 +1,8 @@
-"""A new material in about ten lines: a Yeoh term with the Ogden volumetric term (SI units).
+"""
+A new material in ten lines
+===========================
+
+A Yeoh term with the Ogden volumetric term (SI units).
 
 The energy is written once with the symbolic helpers of :mod:`cfm_core.material.sym` (here plain
 arithmetic is enough); stress and tangent come from exact derivatives, on every backend.
@@ -29,5 +33,7 @@ def main() -> float:
     return float(sigma[0, 0])
 
 
+# %%
+# Register the material and evaluate its Cauchy stress at one deformation:
 if __name__ == "__main__":
     main()
