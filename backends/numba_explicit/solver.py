@@ -20,6 +20,7 @@ from cfm_backends.explicit import errors, geometry, history
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity
 from cfm_backends.threads import num_threads
+from cfm_core.material.prony import gamma_inf
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -74,7 +75,7 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     par[K.P_SYM] = float(model.symmetry_factor)
     par[K.P_TEND] = float(model.end_time)
     par[K.P_SEPTIME] = o.separation_time
-    par[K.P_GINF] = model.material.gamma_inf  # the one exact sum (cfm_core.material.prony.gamma_inf)
+    par[K.P_GINF] = gamma_inf(model.material.prony_arrays()[0])  # the one exact sum
     ipar[K.I_HGWAVE] = 0 if o.hourglass_wave == "shear" else 1
     ipar[K.I_STOPSEP] = int(bool(model.stop_after_separation))
     sph = model.sphere
