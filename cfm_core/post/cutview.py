@@ -155,6 +155,7 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - pad, hi[1] + max(pad, 0.5 * (hi[1] - lo[1])))
     ax.set_aspect("equal")
+    ax.grid(False)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
     label = name.split(" [")[0].replace("_instantaneous", " (instantaneous)")

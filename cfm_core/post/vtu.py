@@ -81,7 +81,7 @@ def mirror(nodes, hexes, point, cell, axis: int, at: float = 0.0, tol: float = 1
     return out_nodes, out_hexes, out_point, out_cell
 
 
-def sphere_cap(radius: float, center, quadrant: bool, n_polar: int = 12, n_azimuth: int = 48):
+def sphere_cap(radius: float, center, quadrant: bool, n_polar: int = 48, n_azimuth: int = 48):
     """Triangulated lower half of a sphere (the impactor's contact surface).
 
     Parameters
