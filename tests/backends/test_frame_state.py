@@ -40,3 +40,20 @@ def test_frame_stress_is_the_stress_of_the_solvers_next_pass():
     # the viscous part matters: the instantaneous stress differs by far more than round-off
     inst, exact = element_stress(model.material, F, None)
     assert not exact and np.abs(inst - sigma).max() / np.abs(sigma).max() > 1e-3
+
+
+def test_torch_frames_give_the_same_stress_and_velocity_as_numba():
+    pytest.importorskip("torch")
+    from cfm_core.simulation.registry import backend_for
+
+    model = build_model(builtin_scene("drop-test").with_overrides(thickness=0.004, element_size=0.002, width=0.012))
+    B = mean_gradients(model.nodes, model.hexes)
+    runs = [backend_for(b).run(model, frame_interval=1e-3) for b in ("numba", "torch")]
+    assert len(runs[0].frames) == len(runs[1].frames) == len(runs[1].frame_state) >= 4
+    for (t1, u1), s1, (t2, u2), s2 in zip(runs[0].frames, runs[0].frame_state, runs[1].frames, runs[1].frame_state):
+        assert t1 == pytest.approx(t2, rel=1e-12)
+        a, exact_a = element_stress(model.material, deformation_gradients(B, model.hexes, model.nodes + u1), s1)
+        b, exact_b = element_stress(model.material, deformation_gradients(B, model.hexes, model.nodes + u2), s2)
+        assert exact_a and exact_b
+        assert np.abs(a - b).max() <= 1e-11 * max(np.abs(a).max(), 1.0)
+        assert np.abs(s1["velocity"] - s2["velocity"]).max() < 1e-10
