@@ -123,7 +123,12 @@ def deformation_gradients(B, hexes, x) -> np.ndarray:
     return np.einsum("eai,eaj->eij", np.asarray(x, dtype=np.float64)[np.asarray(hexes)], B)
 
 
-def element_stress(material, F, state=None):
+def _from_principal(values, Q):
+    """Q diag(values) Q^T batched, as :func:`cfm_core.material.kinematics.from_principal` (matmul: faster)."""
+    return (Q * values[:, None, :]) @ np.swapaxes(Q, 1, 2)
+
+
+def element_stress(material, F, state=None, principal=None):
     """Second Piola-Kirchhoff and Cauchy stress of elements at F, as the solver evaluates them.
 
     Parameters
@@ -135,6 +140,8 @@ def element_stress(material, F, state=None):
     state : dict, optional
         The backend's Prony state at the frame: ``prony_H`` (k, e, 6) and ``prony_S0`` (e, 6)
         (Pa, Voigt 11, 22, 33, 12, 23, 13) and ``prony_dt`` (s), the step that led to the frame.
+    principal : tuple, optional
+        ``(m, Q, J)`` of :func:`cfm_core.material.kinematics.principal` of F, when already known.
 
     Returns
     -------
@@ -144,16 +151,19 @@ def element_stress(material, F, state=None):
         True when this is the solver's stress (elastic material, or Prony state given); False:
         the instantaneous response of a viscoelastic material.
     """
-    S_iso, S_vol = ref.pk2_parts(material, F)
+    m, Q, J = principal if principal is not None else kin.principal(F)
+    (g,) = ref.principal_response(material, m, "psi_grad")
+    S_iso, S_vol = _from_principal(2.0 * g[:, :3], Q), _from_principal(2.0 * g[:, 3:], Q)
     gammas, taus = material.prony_arrays()
-    if gammas.size == 0:
-        return kin.cauchy_from_pk2(F, S_iso + S_vol), True
-    if state is None or "prony_H" not in state:
-        return kin.cauchy_from_pk2(F, S_iso + S_vol), False
-    H = kin.from_voigt(np.asarray(state["prony_H"], dtype=np.float64))      # (k, e, 3, 3)
-    S0_old = kin.from_voigt(np.asarray(state["prony_S0"], dtype=np.float64))
-    _, S_visc = prony.update(H, S0_old, S_iso, float(state["prony_dt"]), gammas, taus)
-    return kin.cauchy_from_pk2(F, S_visc + S_vol), True
+    exact = gammas.size == 0 or (state is not None and "prony_H" in state)
+    if gammas.size == 0 or not exact:
+        S = S_iso + S_vol
+    else:
+        H = kin.from_voigt(np.asarray(state["prony_H"], dtype=np.float64))      # (k, e, 3, 3)
+        S0_old = kin.from_voigt(np.asarray(state["prony_S0"], dtype=np.float64))
+        _, S_visc = prony.update(H, S0_old, S_iso, float(state["prony_dt"]), gammas, taus)
+        S = S_visc + S_vol
+    return F @ S @ np.swapaxes(F, 1, 2) / J[:, None, None], exact
 
 
 def _fibre_switch(m, J) -> np.ndarray:
@@ -187,9 +197,9 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
         Whether the stress fields are the solver's (see :func:`element_stress`).
     """
     out, exact = {}, True
-    m, _, J = kin.principal(F)
+    m, Q, J = kin.principal(F)
     if any(k in keys for k in STRESS_FIELDS):
-        sigma, exact = element_stress(material, F, state)
+        sigma, exact = element_stress(material, F, state, principal=(m, Q, J))
         if "cauchy_stress" in keys:
             out["cauchy_stress"] = kin.to_voigt(sigma)
         p = -np.trace(sigma, axis1=1, axis2=2) / 3.0
@@ -206,7 +216,8 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
     if "max_shear_strain" in keys:
         out["max_shear_strain"] = 0.5 * (eps[:, 0] - eps[:, 2])
     if "energy_density" in keys:
-        out["energy_density"] = ref.energy(material, F)
+        (e,) = ref.principal_response(material, m, "psi_energy")
+        out["energy_density"] = e[:, 0] + e[:, 1]
     if "fibre_switch" in keys:
         out["fibre_switch"] = _fibre_switch(m, J)
     if "material_id" in keys:
