@@ -120,7 +120,7 @@ def mean_gradients(nodes, hexes) -> np.ndarray:
 
 def deformation_gradients(B, hexes, x) -> np.ndarray:
     """F (e, 3, 3) (-) of each element from current node positions x (n, 3) (m) and B (e, 8, 3)."""
-    return np.einsum("eai,eaj->eij", np.asarray(x, dtype=np.float64)[np.asarray(hexes)], B)
+    return np.swapaxes(np.asarray(x, dtype=np.float64)[np.asarray(hexes)], 1, 2) @ B
 
 
 def _from_principal(values, Q):
@@ -197,7 +197,8 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
         Whether the stress fields are the solver's (see :func:`element_stress`).
     """
     out, exact = {}, True
-    m, Q, J = kin.principal(F)
+    J = np.linalg.det(F)
+    m, Q = np.linalg.eigh(np.swapaxes(F, 1, 2) @ F)         # as kinematics.principal, with matmul
     if any(k in keys for k in STRESS_FIELDS):
         sigma, exact = element_stress(material, F, state, principal=(m, Q, J))
         if "cauchy_stress" in keys:

@@ -143,7 +143,9 @@ def write_field_series(out_dir, model, result, keys, full: bool = False) -> list
     Parameters
     ----------
     out_dir : str or path-like
-        Existing output folder (a stage).
+        Existing output folder: a stage (:func:`cfm_core.post.staging.staged_folder`), published
+        whole by the caller; the frame files are written uncompressed (binary, base64: zlib
+        took most of the writing time) and not one by one atomically.
     model : Model
         The model that ran (reference nodes, hexes, material, sphere, symmetry in ``meta``).
     result : Result
@@ -195,14 +197,14 @@ def write_field_series(out_dir, model, result, keys, full: bool = False) -> list
         mesh = meshio.Mesh(x, [("hexahedron", hexes)], point_data={names[k_]: a for k_, a in point.items()},
                            cell_data={names[k_]: [a] for k_, a in cell.items()})
         name = f"specimen_{k:0{width}d}.vtu"
-        atomic_write(out / name, lambda tmp, m=mesh: meshio.write(tmp, m, file_format="vtu"))
+        meshio.write(out / name, mesh, file_format="vtu", compression=None)  # a stage: published whole
         entries.append(f'    <DataSet timestep="{float(t)!r}" group="" part="0" file="{name}"/>')
         if sph is not None:
             z = float(np.interp(t, result.t, result.impactor_z)) if result.impactor_z is not None else sph.center[2]
             pts, tris = sphere_cap(sph.radius, (sph.center[0], sph.center[1], z), quadrant=quarter and not full)
             iname = f"impactor_{k:0{width}d}.vtu"
             cap = meshio.Mesh(pts, [("triangle", tris)])
-            atomic_write(out / iname, lambda tmp, m=cap: meshio.write(tmp, m, file_format="vtu"))
+            meshio.write(out / iname, cap, file_format="vtu", compression=None)
             entries.append(f'    <DataSet timestep="{float(t)!r}" group="" part="1" file="{iname}"/>')
     notes = {"points": "deformed coordinates x = X + u (m); reference: X = x - displacement",
              "symmetry": "full (mirrored quarter)" if full else (model.meta or {}).get("symmetry"),

@@ -325,9 +325,9 @@ class ReactionOutcome:
         return ["reaction.csv", "scene.toml", "summary.json", *(["reaction.png"] if plot else [])]
 
 
-#: Bytes per value in the written files: CSV text (shortest repr), VTU (zlib-compressed base64 of
-#: 8-byte values; measured about 25 bytes per node and cell together for a 2 mm specimen).
-_CSV_BYTES, _VTU_BYTES = 26, 4
+#: Bytes per value in the written files: CSV text (shortest repr), VTU (uncompressed base64 of
+#: 8-byte values, 4/3 * 8; cfm_core.post.vtu).
+_CSV_BYTES, _VTU_BYTES = 26, 11
 #: Bytes of a PNG figure (6.4 x 4.2 in at 150 dpi), an upper estimate.
 PNG_BYTES = 400_000
 
@@ -350,8 +350,8 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
     -------
     int
         Bytes: the history CSV (4 columns at the output rate up to the end time), the PNG, and
-        for ``vtu`` one frame per ``frame_interval`` up to the end time (points, displacement and
-        cells of the mesh). A drop test stops once the impactor separates, well before its
+        for ``vtu`` one frame per ``frame_interval`` up to the end time (points, displacement,
+        velocity, cells and the default fields of :mod:`cfm_core.post.fields`, the impactor). A drop test stops once the impactor separates, well before its
         automatic end time, so this is several times what is written.
     """
     rows = scene.end_time * float(scene.settings.output_rate) + 2
@@ -362,7 +362,7 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
         spec = scene.specimen
         if spec.mesh:
             try:
-                per_frame = 4 * Path(spec.mesh).stat().st_size
+                per_frame = 8 * Path(spec.mesh).stat().st_size + 60_000
             except OSError:
                 per_frame = 0
         else:
@@ -370,6 +370,8 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
             n = max(1, round(spec.width / h / (2 if spec.symmetry == "quarter" else 1)))
             nz = max(1, round(spec.thickness / h))
             nodes, cells = (n + 1) ** 2 * (nz + 1), n * n * nz
-            per_frame = (6 * nodes + 10 * cells) * _VTU_BYTES
+            # points, displacement, velocity (9 per node); connectivity, offsets, types and every
+            # default field (28 per cell); the impactor's cap (about 60 kB)
+            per_frame = (9 * nodes + 28 * cells) * _VTU_BYTES + 60_000
         total += frames * per_frame
     return total
