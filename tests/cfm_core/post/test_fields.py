@@ -145,3 +145,31 @@ def test_vtu_options_are_checked_before_the_run(tmp_path, capsys):
     assert main(["drop-test", "--vtu", "--full", "--symmetry", "none", "--out", str(out)]) == 2
     assert "quarter" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_series_without_prony_state_names_its_stress_instantaneous(tmp_path):
+    """A backend that stores neither velocities nor Prony state (skfem): the stress arrays of a
+    viscoelastic material say they are instantaneous, velocity is left out and fields.json says so;
+    the impactor cap sits at the impactor's position at the frame time."""
+    from cfm_core.post.vtu import write_field_series
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+    from cfm_core.simulation.result import Result
+
+    model = build_model(builtin_scene("drop-test").with_overrides(thickness=0.004, element_size=0.002, width=0.012))
+    u = np.zeros_like(model.nodes)
+    u[:, 2] = -0.1 * model.nodes[:, 2]
+    t = np.linspace(0.0, 2e-3, 11)
+    z = model.sphere.center[2] - 0.4 * t
+    res = Result(t=t, backend="fake", steps=10, wall_time=0.0, impactor_z=z, frames=[(0.0, 0 * u), (1e-3, u)])
+    names = write_field_series(tmp_path, model, res, DEFAULT_FIELDS)
+    assert names == ["specimen.pvd", "fields.json", "specimen_*.vtu (2 frames)", "impactor_*.vtu (2 frames)"]
+    notes = json.loads((tmp_path / "fields.json").read_text())
+    assert "instantaneous" in notes["stress"] and "not written" in notes["velocity"]
+    mesh = meshio.read(tmp_path / "specimen_0001.vtu")
+    assert "cauchy_stress_instantaneous [Pa]" in mesh.cell_data and "cauchy_stress [Pa]" not in mesh.cell_data
+    assert "velocity [m/s]" not in mesh.point_data
+    assert np.allclose(mesh.cell_data["J [-]"][0], 0.9, rtol=1e-12)
+    cap = meshio.read(tmp_path / "impactor_0001.vtu").points
+    assert cap[:, 2].min() == pytest.approx(z[5] - model.sphere.radius, abs=1e-12)
+    assert (cap[:, 0] >= -1e-15).all() and (cap[:, 1] >= -1e-15).all()     # a quarter cap over the quarter model
