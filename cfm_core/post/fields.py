@@ -26,7 +26,7 @@ from ..errors import InputError
 from ..material import kinematics as kin
 from ..material import prony
 from ..material import reference as ref
-from ..scene.mesh import HEX_REFERENCE, _shape_gradients
+from ..scene.mesh import _shape_gradients
 
 
 @dataclass(frozen=True)
@@ -228,4 +228,4 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
 
 
 __all__ = ["FIELDS", "DEFAULT_FIELDS", "STRESS_FIELDS", "FieldInfo", "parse_fields", "mean_gradients",
-           "deformation_gradients", "element_stress", "cell_fields", "HEX_REFERENCE"]
+           "deformation_gradients", "element_stress", "cell_fields"]
