@@ -127,6 +127,17 @@ def test_written_series_reads_back_with_names_shapes_and_units(tmp_path):
         # points are deformed: x - displacement is the reference mesh (undeformed bottom at z = 0)
         X = mesh.points - mesh.point_data["displacement [m]"]
         assert abs(X[:, 2].min()) < 1e-15 and X[:, 0].min() == pytest.approx(-0.006)
+    try:  # the "done when" of issue 21: pyvista opens the series (whole specimen and impactor)
+        import pyvista
+    except ImportError:
+        pyvista = None
+    if pyvista is not None:
+        reader = pyvista.get_reader(str(out / "specimen.pvd"))
+        assert reader.time_values == pytest.approx(times)
+        reader.set_active_time_value(reader.time_values[-1])
+        blocks = reader.read()
+        assert blocks.n_blocks == 2 and blocks[0].n_cells == 4 * ne_quarter and blocks[1].n_cells > 100
+        assert "von_mises [Pa]" in blocks[0].array_names and "log_strain [-]" in blocks[0].array_names
     png = tmp_path / "cut.png"
     assert main(["fields", str(out), "--at", "2e-3", "--field", "cauchy_stress_33", "--png", str(png)]) == 0
     assert png.stat().st_size > 10_000
