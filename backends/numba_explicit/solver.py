@@ -25,6 +25,7 @@ from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
 from . import codegen
+from .frames import frame_state
 from .kernels import layout as K
 from .options import PARALLEL_MIN, NumbaOptions
 
@@ -214,6 +215,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     next_progress = tick
     fi = o.frame_interval
     frames = [(0.0, np.zeros_like(prep.nodes))] if fi else []
+    states = [frame_state(prep, model.n_elements, prep.mat[1].shape[0])] if fi else []  # velocity, Prony state
     next_frame = fi if fi else math.inf
     chunks = []
     hist = np.zeros((4096, K.H_N))
@@ -235,6 +237,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
             monitor.check(t, prep.st[0], z())
         if fi and t >= next_frame:
             frames.append((t, prep.st[0] - prep.nodes))
+            states.append(frame_state(prep, model.n_elements, prep.mat[1].shape[0]))
             next_frame = (math.floor(t / fi) + 1) * fi
         if t >= next_progress:
             if progress is not None and min(t, end) > reported:
@@ -253,6 +256,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     h = np.concatenate(chunks)
     res = _result(model, prep, h, wall, compile_time, threads, frames, stop, o)
     res.info["checks"] = monitor.report()
+    res.frame_state = states
     return res
 
 

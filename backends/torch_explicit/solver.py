@@ -33,6 +33,7 @@ from cfm_core.simulation.result import Result
 
 from . import arrays as arr
 from . import material as mat
+from .frames import frame_state
 from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
 
 
@@ -133,6 +134,7 @@ class _Run:
         next_progress = tick
         fi = o.frame_interval
         frames = [(0.0, np.zeros((a.n, 3)))] if fi else []
+        states = [frame_state(v, self.state, 0.0, a.ne)] if fi else []  # velocity, Prony state
         next_frame = fi if fi else math.inf
         reported = 0.0
         stop = "end_time"
@@ -233,6 +235,7 @@ class _Run:
                     SEPT = 0.0
             if fi and t >= next_frame:
                 frames.append((t, u.T.to("cpu", torch.float64).numpy().copy()))
+                states.append(frame_state(v, self.state, dtp, a.ne))
                 next_frame = (math.floor(t / fi) + 1) * fi
             if t >= next_progress:
                 if self.progress is not None and min(t, end) > reported:
@@ -250,6 +253,7 @@ class _Run:
         h = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
         res = self._result(h, wall, steps, DT0, dtmin, dtmax, maxpen, frames, stop)
         res.info["checks"] = monitor.report()
+        res.frame_state = states
         return res
 
     # ---- errors ----

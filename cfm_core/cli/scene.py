@@ -12,6 +12,7 @@ from ..runs.outcomes import output_bytes
 from ..runs.settings import plan_run
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..simulation.registry import backend_for
+from .fields import add_vtu_options, check_vtu_options
 from .options import add_material_options, backend_options, parse_params
 
 
@@ -41,7 +42,7 @@ def add_parser(sub) -> None:
     p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
     p.add_argument("--symmetry", choices=["quarter", "none"], help="quarter model (default) or full specimen")
     add_material_options(p, default_material=None)
-    p.add_argument("--vtu", action="store_true", help="also write the deformed specimen over time (ParaView .pvd/.vtu)")
+    add_vtu_options(p)
     p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
     _add_output_options(p)
     add_run_parser(sub)
@@ -97,11 +98,13 @@ def _run_and_write(args, scene) -> tuple:
     the run; a failed run leaves --out as it was."""
     plan = _plan(args, scene)
     plot, vtu = not args.no_plot, getattr(args, "vtu", False)
-    need = output_bytes(scene, plan.options, plot=plot, vtu=vtu)
+    fields, full = check_vtu_options(args, scene)
+    need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite) as stage:
         outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)
         try:
-            names = outcome.write(stage, plot=plot, vtu=vtu) if scene.type == "drop-test" else outcome.write(stage, plot=plot)
+            names = (outcome.write(stage, plot=plot, vtu=vtu, fields=fields, full=full) if scene.type == "drop-test"
+                     else outcome.write(stage, plot=plot))
         except OSError as exc:  # a disk that filled up during the run, a folder removed meanwhile
             raise InputError(f"--out {args.out}: the run finished but its files could not be written "
                              f"({exc.strerror or exc}); nothing was published, --out is as it was.") from None
@@ -139,6 +142,7 @@ def add_run_parser(sub) -> None:
     p.add_argument("--option", action="append", metavar="NAME=VALUE",
                    help="a backend option in SI units, repeatable ('cfm backends --options' lists them)")
     add_material_options(p, default_material=None)
+    add_vtu_options(p)
     p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot")
     _add_output_options(p)
 

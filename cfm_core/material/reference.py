@@ -27,6 +27,33 @@ def _evaluate(material, m, *names):
     return outs
 
 
+def principal_response(material, m, *names):
+    """The material's generated functions at squared principal stretches m (for a caller that has
+    already decomposed C, e.g. :mod:`cfm_core.post.fields`).
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    m : ndarray, shape (n, 3)
+        Eigenvalues of C (-), from :func:`cfm_core.material.kinematics.principal`.
+    *names : str
+        Kernel names: ``"psi_energy"`` ((W, U), Pa), ``"psi_grad"`` (6 first derivatives: 3
+        isochoric, 3 volumetric, Pa), ``"psi_hess"``.
+
+    Returns
+    -------
+    list of ndarray
+        One (n, k) array per name.
+
+    Raises
+    ------
+    NumericalError
+        A non-finite value (names the point and the eigenvalues of C).
+    """
+    return _evaluate(material, np.asarray(m, dtype=np.float64), *names)
+
+
 def energy(material, F) -> np.ndarray:
     """Instantaneous strain energy per reference volume psi = W(l1, l2, l3) + U(J)
     (docs/conventions.md section 2; for the CFM paper Eq. 1-7).

@@ -21,7 +21,9 @@ from ..errors import InputError
 from ..post import G0, compare_histories
 from ..post.plots import plot_acceleration, plot_reaction, subtitled
 from ..post.staging import staged_folder
-from ..post.writers import write_drop_test, write_text, write_reaction, write_vtu_series
+from ..post.fields import parse_fields
+from ..post.vtu import write_field_series
+from ..post.writers import write_drop_test, write_text, write_reaction
 from ..scene.scene import scene_to_toml
 from .provenance import describe_run
 
@@ -116,7 +118,8 @@ class DropTestOutcome:
                          f"{1e3 * sc.impactor.mass:g} g R{1e3 * sc.impactor.radius:g} mm{friction}, "
                          f"{1e3 * s['element_size']:g} mm elements{mesh}", _run_phrases(s), width=75)
 
-    def save(self, out, plot: bool = True, vtu: bool = False, overwrite: bool = True) -> Path:
+    def save(self, out, plot: bool = True, vtu: bool = False, overwrite: bool = True, fields=None,
+             full: bool = False) -> Path:
         """Write the run's files, the same the command line writes.
 
         ``acceleration.csv`` (t s, a_raw and a_cfc600 m/s^2), ``scene.toml`` (the resolved scene
@@ -133,10 +136,14 @@ class DropTestOutcome:
         plot : bool
             Write ``acceleration.png``.
         vtu : bool
-            Write the deformed specimen over time (needs a run with stored frames, backend option
-            ``frame_interval`` in s).
+            Write the deformed specimen with its fields and the impactor over time (needs a run
+            with stored frames, backend option ``frame_interval`` in s; :mod:`cfm_core.post.vtu`).
         overwrite : bool
             False: refuse a directory holding an earlier cfm output.
+        fields : str or sequence of str, optional
+            Field keys of the VTU files (:data:`cfm_core.post.fields.FIELDS`); None: the default set.
+        full : bool
+            Mirror the quarter model into the whole specimen in the VTU files.
 
         Returns
         -------
@@ -151,9 +158,9 @@ class DropTestOutcome:
         NumericalError
             A history or summary value is not finite (nothing is published).
         """
-        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot, vtu))
+        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot, vtu, fields, full))
 
-    def write(self, folder, plot: bool = True, vtu: bool = False) -> list[str]:
+    def write(self, folder, plot: bool = True, vtu: bool = False, fields=None, full: bool = False) -> list[str]:
         """Write the files of :meth:`save` into ``folder`` directly, without staging (for a caller
         that stages the folder itself, as the command line does around the whole run).
 
@@ -161,13 +168,14 @@ class DropTestOutcome:
         ----------
         folder : str or path-like
             An existing, empty directory (a stage).
-        plot, vtu : bool
+        plot, vtu, fields, full
             As for :meth:`save`.
 
         Returns
         -------
         list of str
-            The names written, the ParaView frames as one ``specimen_*.vtu (N frames)`` entry.
+            The names written, the ParaView frames as one ``specimen_*.vtu (N frames)`` entry
+            (and ``impactor_*.vtu``, ``fields.json``).
 
         Raises
         ------
@@ -180,8 +188,7 @@ class DropTestOutcome:
             if not self.result.frames:
                 raise InputError("vtu output needs a run with stored frames (backend option frame_interval, s; "
                                  "the command line's --vtu sets it).")
-            write_vtu_series(out, self.model.nodes, self.model.hexes, self.result.frames)
-            names += ["specimen.pvd", f"specimen_*.vtu ({len(self.result.frames)} frames)"]
+            names += write_field_series(out, self.model, self.result, parse_fields(fields), full=full)
         write_text(out / "scene.toml", scene_to_toml(self.scene))
         if plot:
             plot_acceleration(out / "acceleration.png", self.t, self.a_raw, self.a_cfc, self.title())
@@ -318,9 +325,9 @@ class ReactionOutcome:
         return ["reaction.csv", "scene.toml", "summary.json", *(["reaction.png"] if plot else [])]
 
 
-#: Bytes per value in the written files: CSV text (shortest repr), VTU (zlib-compressed base64 of
-#: 8-byte values; measured about 25 bytes per node and cell together for a 2 mm specimen).
-_CSV_BYTES, _VTU_BYTES = 26, 4
+#: Bytes per value in the written files: CSV text (shortest repr), VTU (uncompressed base64 of
+#: 8-byte values, 4/3 * 8; cfm_core.post.vtu).
+_CSV_BYTES, _VTU_BYTES = 26, 11
 #: Bytes of a PNG figure (6.4 x 4.2 in at 150 dpi), an upper estimate.
 PNG_BYTES = 400_000
 
@@ -343,8 +350,8 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
     -------
     int
         Bytes: the history CSV (4 columns at the output rate up to the end time), the PNG, and
-        for ``vtu`` one frame per ``frame_interval`` up to the end time (points, displacement and
-        cells of the mesh). A drop test stops once the impactor separates, well before its
+        for ``vtu`` one frame per ``frame_interval`` up to the end time (points, displacement,
+        velocity, cells and the default fields of :mod:`cfm_core.post.fields`, the impactor). A drop test stops once the impactor separates, well before its
         automatic end time, so this is several times what is written.
     """
     rows = scene.end_time * float(scene.settings.output_rate) + 2
@@ -355,7 +362,7 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
         spec = scene.specimen
         if spec.mesh:
             try:
-                per_frame = 4 * Path(spec.mesh).stat().st_size
+                per_frame = 8 * Path(spec.mesh).stat().st_size + 60_000
             except OSError:
                 per_frame = 0
         else:
@@ -363,6 +370,8 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
             n = max(1, round(spec.width / h / (2 if spec.symmetry == "quarter" else 1)))
             nz = max(1, round(spec.thickness / h))
             nodes, cells = (n + 1) ** 2 * (nz + 1), n * n * nz
-            per_frame = (6 * nodes + 10 * cells) * _VTU_BYTES
+            # points, displacement, velocity (9 per node); connectivity, offsets, types and every
+            # default field (28 per cell); the impactor's cap (about 60 kB)
+            per_frame = (9 * nodes + 28 * cells) * _VTU_BYTES + 60_000
         total += frames * per_frame
     return total

@@ -47,6 +47,11 @@ class Result:
         Smallest and largest time step (s); NaN when not recorded.
     frames : list of (float, ndarray)
         Optional ``(t (s), nodal displacement (n, 3) in m)`` for visualisation.
+    frame_state : list of dict
+        Empty, or one dict per frame with what the backend stores besides the displacement:
+        ``velocity`` (n, 3) (m/s) and, for a viscoelastic material, its Prony state ``prony_H``
+        (k, e, 6), ``prony_S0`` (e, 6) (Pa, Voigt 11, 22, 33, 12, 23, 13) and ``prony_dt`` (s),
+        from which :mod:`cfm_core.post.fields` recovers the solver's stress at the frame.
     info : dict
         Free-form diagnostics (str -> JSON-able value).
     """
@@ -65,6 +70,7 @@ class Result:
     dt_min: float = float("nan")
     dt_max: float = float("nan")
     frames: list = field(default_factory=list)
+    frame_state: list = field(default_factory=list)
     info: dict = field(default_factory=dict)
 
     def energy_error(self) -> float:
