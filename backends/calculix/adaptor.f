@@ -4,7 +4,7 @@
 !     Jaumann-rate tangent of Kirchhoff stress / J, from DFGRD0/1).
 !     The generated routines are renamed CFMU_<n>; the dispatch on the
 !     material name (after the ABAQUS prefix) is generated with them
-!     (include file cfm_dispatch.inc). A material error of the UMAT
+!     in place of the line CFM-DISPATCH. A material error of the UMAT
 !     (PNEWDT < 1, which ccx ignores) stops ccx with the line
 !     'CFM-UMAT-ERROR element point code' instead of a wrong result.
       subroutine umat(stress,statev,ddsdde,sse,spd,scd,
@@ -47,16 +47,16 @@
       e7 = 0.0d0
       dd = 0.0d0
       found = 0
-      include 'cfm_dispatch.inc'
+!     CFM-DISPATCH
       if (found .eq. 0) then
         write (*,'(a,a)') ' CFM-UMAT-ERROR unknown material ',
      &    trim(cmname)
-        call exit(3)
+        stop 3
       end if
       if (pnew .lt. 1.0d0) then
         write (*,'(a,i0,a,i0,a,g0)') ' CFM-UMAT-ERROR element ', noel,
      &    ' point ', npt, ' time ', time(2) + dtime
-        call exit(3)
+        stop 3
       end if
 !     PK2 at the end: S = J F^-1 sigma F^-T
       f = dfgrd1

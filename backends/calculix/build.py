@@ -134,6 +134,43 @@ def _code_only(text: str) -> str:
     return "\n".join(ln for ln in text.splitlines() if ln[:1] not in ("c", "C", "!", "*") and ln.strip())
 
 
+def linked_source(mats, sources=None) -> tuple[str, dict]:
+    """The Fortran source linked into ccx: the adaptor with its dispatch, then the renamed UMATs.
+
+    Parameters
+    ----------
+    mats : sequence of Material
+        Bound materials (their UMATs are generated unless given in ``sources``).
+    sources : dict, optional
+        Material name -> generated UMAT source (``umat.f`` of ``cfm export``).
+
+    Returns
+    -------
+    source : str
+        One fixed-form source: ``umat`` (ccx's entry, :file:`adaptor.f`) and ``cfmu_<n>``.
+    names : dict
+        Material name -> {"tag": CalculiX name after ``ABAQUS``, "definition": definition hash}.
+    """
+    sources = sources or {m.spec.name: _umat_code(m) for m in mats}
+    dispatch, names, parts = [], {}, []
+    for n, m in enumerate(mats, 1):
+        t = tag(m.spec.name)
+        text = re.sub(r"(?im)^(\s+)subroutine umat\(", rf"\1subroutine cfmu_{n}(", sources[m.spec.name])
+        text = re.sub(r"(?im)^(\s+)end subroutine umat\b", rf"\1end subroutine cfmu_{n}", text)
+        parts.append(text)
+        dispatch += [f"      if (cmname(1:{len(t) + 1}) .eq. '{t} ') then",
+                     "        found = 1",
+                     f"        call cfmu_{n}(sig, statev, dd, e1, e2, e3, e4, ddsddt,",
+                     "     &    drplde, e5, stran, dstran, time, dtime, temp, dtemp, predef,",
+                     "     &    dpred, cmname, ndi, nshr, ntens, nstatv, props, nprops,",
+                     "     &    coords, drot, pnew, celent, dfgrd0, dfgrd1, noel, npt,",
+                     "     &    layer, kspt, kstep(1), kinc)",
+                     "      end if"]
+        names[m.spec.name] = {"tag": t, "definition": spec_fingerprint(m.spec)}
+    adaptor = ADAPTOR.read_text().replace("!     CFM-DISPATCH\n", "\n".join(dispatch) + "\n")
+    return "\n".join([adaptor, *parts]), names
+
+
 def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     """Build ccx with the generated UMATs of ``materials`` linked in (cached); return its record.
 
@@ -177,23 +214,8 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
         stage = out / "stage"
         shutil.rmtree(stage, ignore_errors=True)
         stage.mkdir()
-        dispatch, names = [], {}
-        for n, m in enumerate(mats, 1):
-            t = tag(m.spec.name)
-            text = re.sub(r"(?im)^(\s+)subroutine umat\(", rf"\1subroutine cfmu_{n}(", sources[m.spec.name])
-            text = re.sub(r"(?im)^(\s+)end subroutine umat\b", rf"\1end subroutine cfmu_{n}", text)
-            (stage / f"cfmu_{n}.f").write_text(text)
-            dispatch += [f"      if (cmname(1:{len(t) + 1}) .eq. '{t} ') then",
-                         "        found = 1",
-                         f"        call cfmu_{n}(sig, statev, dd, e1, e2, e3, e4, ddsddt,",
-                         "     &    drplde, e5, stran, dstran, time, dtime, temp, dtemp, predef,",
-                         "     &    dpred, cmname, ndi, nshr, ntens, nstatv, props, nprops,",
-                         "     &    coords, drot, pnew, celent, dfgrd0, dfgrd1, noel, npt,",
-                         "     &    layer, kspt, kstep(1), kinc)",
-                         "      end if"]
-            names[m.spec.name] = {"tag": t, "definition": spec_fingerprint(m.spec)}
-        (stage / "cfm_dispatch.inc").write_text("\n".join(dispatch) + "\n")
-        shutil.copy(ADAPTOR, stage / "cfm_adaptor.f")
+        text, names = linked_source(mats, sources)
+        (stage / "cfm_umats.f").write_text(text)
         say(f"compiling the UMATs of {', '.join(names)} and linking ccx")
         objs = []
         for f in sorted(stage.glob("*.f")):
