@@ -24,7 +24,7 @@ PRESCRIBED_SET = "NPRESC"
 
 
 def _lines(values, per_line: int = 8) -> list[str]:
-    vals = [f"{v:.17g}" for v in values]
+    vals = [f"{v:.14g}" for v in values]
     return [", ".join(vals[i:i + per_line]) for i in range(0, len(vals), per_line)]
 
 
@@ -59,7 +59,7 @@ def material_card(material, native: bool = False) -> list[str]:
             raise InputError(f"CalculiX's native material is '*HYPERELASTIC, NEO HOOKE' only: material '{name}' "
                              f"has no native twin (use the generated UMAT, native=False).")
         mu, kappa = _neo_hookean_moduli(material)
-        return ["*MATERIAL, NAME=NATIVE", "*HYPERELASTIC, NEO HOOKE", f"{mu / 2:.17g}, {2.0 / kappa:.17g}"]
+        return ["*MATERIAL, NAME=NATIVE", "*HYPERELASTIC, NEO HOOKE", f"{mu / 2:.14g}, {2.0 / kappa:.14g}"]
     props = layout.props(material)
     lines = [f"*MATERIAL, NAME=ABAQUS{tag(name)}", f"*USER MATERIAL, CONSTANTS={len(props)}"]
     lines += _lines(props)
@@ -133,7 +133,7 @@ def write_deck(model, path, max_increment: float = np.inf, native: bool = False)
         raise InputError(f"calculix backend: the scene '{model.name}' has no prescribed motion.")
     dynamic = not model.meta.get("quasi_static") and model.density > 0.0
     out = ["*HEADING", f"cfm model {model.name} (SI units: m, s, kg, Pa)", "*NODE, NSET=NALL"]
-    out += [f"{i + 1}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in enumerate(model.nodes)]
+    out += [f"{i + 1}, {x:.14g}, {y:.14g}, {z:.14g}" for i, (x, y, z) in enumerate(model.nodes)]
     out.append("*ELEMENT, TYPE=C3D8R, ELSET=EALL")
     out += [f"{e + 1}, " + ", ".join(str(int(n) + 1) for n in hexa) for e, hexa in enumerate(model.hexes)]
     p = model.prescribed
@@ -142,7 +142,7 @@ def write_deck(model, path, max_increment: float = np.inf, native: bool = False)
     mat = material_card(model.material, native)
     out += mat
     if dynamic:
-        out += ["*DENSITY", f"{model.density:.17g}"]
+        out += ["*DENSITY", f"{model.density:.14g}"]
     out.append(f"*SOLID SECTION, ELSET=EALL, MATERIAL={mat[0].split('=')[1]}")
     out.append("*AMPLITUDE, NAME=APRESC, TIME=TOTAL TIME")
     pts = [v for tv in zip(p.times, p.values) for v in tv]
@@ -154,7 +154,7 @@ def write_deck(model, path, max_increment: float = np.inf, native: bool = False)
     start = 0.0
     for k, (end, dt) in enumerate(increments(model, max_increment)):
         proc = "*DYNAMIC, DIRECT" if dynamic else "*STATIC, DIRECT"
-        out += [f"*STEP, NLGEOM, INC={int(round((end - start) / dt)) + 10}", proc, f"{dt:.17g}, {end - start:.17g}"]
+        out += [f"*STEP, NLGEOM, INC={int(round((end - start) / dt)) + 10}", proc, f"{dt:.14g}, {end - start:.14g}"]
         if k == 0:
             out.append("*BOUNDARY, AMPLITUDE=APRESC")
             out += [f"{int(n) + 1}, {p.dof + 1}, {p.dof + 1}, 1." for n in p.nodes]
