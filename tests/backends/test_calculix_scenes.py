@@ -85,3 +85,12 @@ def test_native_refuses_other_materials(ccx):
     m = build_model(builtin_scene("single-element"))
     with pytest.raises(InputError, match="NEO HOOKE"):
         ccx.run(m, native=True)
+
+
+def test_drop_test_refused_clearly():
+    """The drop test is not run in CalculiX yet: an InputError naming the scene, before any ccx run."""
+    from cfm_backends.calculix.deck import write_deck
+
+    m = build_model(builtin_scene("drop-test").with_overrides(element_size=0.002))
+    with pytest.raises(InputError, match="rigid bodies"):
+        write_deck(m, "unused.inp")
