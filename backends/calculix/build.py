@@ -36,6 +36,10 @@ CFLAGS = ("-Wall -O2 -I/usr/include/spooles -DARCH=\"Linux\" -DSPOOLES -DARPACK 
 FFLAGS = "-O2 -fallow-argument-mismatch"
 LIBS = ["-lspooles", "-lpthread", "-larpack", "-llapack", "-lblas", "-lm", "-lc", "-fopenmp"]
 ADAPTOR = Path(__file__).with_name("adaptor.f")
+#: ccx 2.20's umat_abaqus.f returns the UMAT's tangent only when ccx asks for it (icmd /= 3); the
+#: C3D8R hourglass force of the stress-only call (resultsmech.f, hgforce) then reads an undefined
+#: elas(1) and the elements distort. The link stage compiles a copy that always returns it.
+UMAT_ABAQUS_PATCH = ("      if(icmd.ne.3) then", "      if(.true.) then")
 
 
 def tag(name: str) -> str:
@@ -200,7 +204,7 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     mats = [make_material(name) for name in dict.fromkeys(materials)]
     sources = {m.spec.name: _umat_code(m) for m in mats}
     adaptor = ADAPTOR.read_text()
-    key = digest({"version": VERSION, "adaptor": adaptor, "cflags": CFLAGS, "fflags": FFLAGS,
+    key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "cflags": CFLAGS, "fflags": FFLAGS,
                   "umats": {k: _code_only(v) for k, v in sources.items()}})[:20]
     out = cache_dir("calculix", key)
     record_path = out / "build.json"
@@ -216,10 +220,15 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
         stage.mkdir()
         text, names = linked_source(mats, sources)
         (stage / "cfm_umats.f").write_text(text)
+        original = (src / "umat_abaqus.f").read_text()
+        if original.count(UMAT_ABAQUS_PATCH[0]) != 1:
+            raise InputError(f"CalculiX build: {src / 'umat_abaqus.f'} is not the expected ccx {VERSION} source.")
+        (stage / "umat_abaqus.f").write_text(original.replace(*UMAT_ABAQUS_PATCH))
         say(f"compiling the UMATs of {', '.join(names)} and linking ccx")
         objs = []
         for f in sorted(stage.glob("*.f")):
-            _run(["gfortran", "-O2", "-ffixed-form", "-c", f.name, "-o", f.stem + ".o"], cwd=stage, log=log)
+            _run(["gfortran", "-O2", "-ffixed-form", *FFLAGS.split(), "-c", f.name, "-o", f.stem + ".o"], cwd=stage,
+                 log=log)
             objs.append(f.stem + ".o")
         _run(["gfortran", "-O2", "-o", "ccx", *objs, str(src / f"ccx_{VERSION}.o"), str(src / f"ccx_{VERSION}.a"),
               *LIBS], cwd=stage, log=log)
