@@ -204,7 +204,8 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     mats = [make_material(name) for name in dict.fromkeys(materials)]
     sources = {m.spec.name: _umat_code(m) for m in mats}
     adaptor = ADAPTOR.read_text()
-    key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "cflags": CFLAGS, "fflags": FFLAGS,
+    key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "cflags": CFLAGS,
+                  "fflags": FFLAGS,
                   "umats": {k: _code_only(v) for k, v in sources.items()}})[:20]
     out = cache_dir("calculix", key)
     record_path = out / "build.json"

@@ -8,11 +8,14 @@ node made ccx's impact rules cut every increment to the minimum); contact is fri
 lift-off (a fixed support raised the peak and added a 1 kHz ring), here a layer of hexahedra
 with every node fixed.
 
-Not wired into the backend yet (:func:`.deck.write_deck` refuses rigid bodies): with the UMAT,
-C3D8R specimen elements distorted in the first 50 us increment (element 15, F12 about -1.06:
-ccx's hourglass control of reduced-integration hexahedra with a user material), and C3D8 ran
-but slowly (29 increments of 50 us in 300 s on a loaded 2-core machine). Kept as the starting
-point of the drop test in CalculiX.
+Not wired into the backend yet (:func:`.deck.write_deck` refuses rigid bodies). Found so far:
+before the umat_abaqus.f patch of :mod:`.build`, C3D8R specimen elements distorted in the first
+50 us increment (the hourglass force read an undefined tangent); C3D8 ran but slowly (29
+increments of 50 us in 300 s on a loaded 2-core machine). With the patch, the first UMAT call
+at t = 0 (the initial accelerations of ``*INITIAL CONDITIONS, TYPE=VELOCITY``) gets an invalid
+deformation gradient or state (error 1 or 2, varying from build to build: uninitialised input
+on ccx's side); with ``DIRECT`` increments ccx's impact rules set the allowed increment to 0.
+Kept as the starting point of the drop test in CalculiX.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import numpy as np
 
 from cfm_core.errors import InputError
 
-from .deck import _int_lines, _lines, material_card
+from .deck import _int_lines, material_card
 
 #: Penalty stiffness of the contact (Pa/m), ``PRESSURE-OVERCLOSURE=LINEAR`` (issue 22: about 1e10).
 PENALTY = 1e10
