@@ -14,7 +14,11 @@ before the umat_abaqus.f patch of :mod:`.build`, C3D8R specimen elements distort
 increments of 50 us in 300 s on a loaded 2-core machine). With the patch, the first UMAT call
 at t = 0 (the initial accelerations of ``*INITIAL CONDITIONS, TYPE=VELOCITY``) gets an invalid
 deformation gradient or state (error 1 or 2, varying from build to build: uninitialised input
-on ccx's side); with ``DIRECT`` increments ccx's impact rules set the allowed increment to 0.
+on ccx's side). The same deck with the generated neo-Hookean UMAT (one state variable) runs,
+as does CalculiX's native NEO HOOKE, so the CFM's 25 state variables are the suspect (not
+zero at the start in this deck: try ``*INITIAL CONDITIONS, TYPE=SOLUTION``). With ``DIRECT``
+increments ccx's impact rules want a smaller increment and the native run stopped after 13
+increments (6 s each on the loaded machine): use ``*DYNAMIC`` with automatic increments.
 Kept as the starting point of the drop test in CalculiX.
 """
 
