@@ -18,10 +18,10 @@ import warnings
 
 from .. import plugins
 from ..errors import InputError, NumericalError
-from . import compare, export, fields, fit, material, scene, studies
+from . import calculix, compare, export, fields, fit, material, scene, studies
 from .suggest import Parser, VersionAction, refuse_unknown
 
-BUILTIN = (material, scene, compare, studies, fit, export, fields)
+BUILTIN = (material, scene, compare, studies, fit, export, fields, calculix)
 
 plugins.declare_kind(
     "commands", "cfm.commands", lambda obj: callable(getattr(obj, "add_parser", None)) and

@@ -133,7 +133,7 @@ def _tensor(v, order):
     return T
 
 
-def run_umat(lib: Library, props, t, F, nstatv: int, statev=None, stress=None) -> dict:
+def run_umat(lib: Library, props, t, F, nstatv: int, statev=None, stress=None, cmname: str = "CFM") -> dict:
     """Call the UMAT along a history as Abaqus/Standard does (one increment per step).
 
     Parameters
@@ -151,6 +151,8 @@ def run_umat(lib: Library, props, t, F, nstatv: int, statev=None, stress=None) -
     statev, stress : ndarray, optional
         State variables and Cauchy stress (order 11, 22, 33, 12, 13, 23) at t[0] (default zero:
         an undeformed, relaxed start); a restart passes a saved state.
+    cmname : str
+        ``CMNAME`` (the material name; CalculiX's adaptor dispatches on it).
 
     Returns
     -------
@@ -171,7 +173,7 @@ def run_umat(lib: Library, props, t, F, nstatv: int, statev=None, stress=None) -
         out["stress"][0] = stress
     d = lambda v=0.0: np.array([v], dtype=np.float64)  # noqa: E731 - a scalar passed by reference
     i = lambda v: np.array([v], dtype=np.int32)  # noqa: E731
-    cmname = ctypes.create_string_buffer(b"CFM".ljust(80), 80)
+    name = ctypes.create_string_buffer(cmname.encode().ljust(80), 80)
     for k in range(1, n):
         stress_k = out["stress"][k - 1].copy()
         statev_k = out["statev"][k - 1].copy()
@@ -183,7 +185,7 @@ def run_umat(lib: Library, props, t, F, nstatv: int, statev=None, stress=None) -
         drot, coords = np.asfortranarray(np.eye(3)), np.zeros(3)
         args = [stress_k, statev_k, ddsdde, sse, spd, scd, rpl, ddsddt, drplde, drpldt, stran, dstran, time,
                 d(t[k] - t[k - 1]), d(), d(), np.zeros(1), np.zeros(1)]
-        fn(*[_p(a) for a in args], cmname, *[_p(a) for a in (
+        fn(*[_p(a) for a in args], name, *[_p(a) for a in (
             i(3), i(3), i(6), i(nstatv), props, i(props.size), coords, drot, pnewdt, d(1e-3), f0, f1,
             i(1), i(1), i(1), i(1), i(1), i(k))], ctypes.c_size_t(80))
         out["stress"][k], out["statev"][k], out["ddsdde"][k] = stress_k, statev_k, ddsdde

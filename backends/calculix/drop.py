@@ -1,0 +1,175 @@
+"""The drop test as a CalculiX deck: specimen, rigid impactor cap, rigid plate, frictionless contact.
+
+Lessons of the hand-built deck (issue 22): the impactor is a rigid body (``*RIGID BODY``) whose
+mass is carried as the density of a meshed spherical cap (a ``*MASS`` element on the reference
+node made ccx's impact rules cut every increment to the minimum); contact is frictionless
+``SURFACE TO SURFACE`` with a linear penalty (``NODE TO SURFACE`` crashed); the specimen is C3D8R
+(C3D8I went unstable past ~50 % compression); the plate is a contact surface that allows
+lift-off (a fixed support raised the peak and added a 1 kHz ring), here a layer of hexahedra
+with every node fixed.
+
+Not wired into the backend yet (:func:`.deck.write_deck` refuses rigid bodies). Found so far:
+before the umat_abaqus.f patch of :mod:`.build`, C3D8R specimen elements distorted in the first
+50 us increment (the hourglass force read an undefined tangent); C3D8 ran but slowly (29
+increments of 50 us in 300 s on a loaded 2-core machine). With the patch, the first UMAT call
+at t = 0 (the initial accelerations of ``*INITIAL CONDITIONS, TYPE=VELOCITY``) gets an invalid
+deformation gradient or state (error 1 or 2, varying from build to build: uninitialised input
+on ccx's side). The same deck with the generated neo-Hookean UMAT (one state variable) runs,
+as does CalculiX's native NEO HOOKE, so the CFM's 25 state variables are the suspect (not
+zero at the start in this deck: try ``*INITIAL CONDITIONS, TYPE=SOLUTION``). With ``DIRECT``
+increments ccx's impact rules want a smaller increment and the native run stopped after 13
+increments (6 s each on the loaded machine): use ``*DYNAMIC`` with automatic increments.
+Kept as the starting point of the drop test in CalculiX.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cfm_core.errors import InputError
+
+from .deck import _int_lines, material_card
+
+#: Penalty stiffness of the contact (Pa/m), ``PRESSURE-OVERCLOSURE=LINEAR`` (issue 22: about 1e10).
+PENALTY = 1e10
+#: Thickness of the impactor cap and of the plate layer, relative to the element size (-).
+LAYER = 1.0
+
+
+def _grid(n_x: int, extent: float) -> np.ndarray:
+    return np.linspace(0.0, extent, n_x + 1)
+
+
+def _hex_block(coords_bottom, coords_top, n: int, first_node: int, first_elem: int):
+    """Nodes and hexahedra of one layer on an (n+1) x (n+1) grid: bottom face then top face."""
+    nodes = np.concatenate([coords_bottom, coords_top])
+    m = (n + 1) * (n + 1)
+    elems = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            quad = [a, a + 1, a + n + 2, a + n + 1]
+            elems.append([first_node + q for q in quad] + [first_node + m + q for q in quad])
+    ids = np.arange(first_elem, first_elem + len(elems))
+    return nodes, np.array(elems), ids
+
+
+def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> list[str]:
+    """Deck lines of a quarter (or full) drop-test model.
+
+    Parameters
+    ----------
+    model : Model
+        A drop-test model (sphere and plane present, frictionless).
+    dt : float
+        Fixed time increment (s).
+    end_time : float
+        End of the step (s).
+    native : bool
+        CalculiX's own neo-Hookean material (:func:`.deck.material_card`).
+
+    Returns
+    -------
+    list of str
+        The deck; node sets ``NREF`` (impactor reference node), surfaces ``STOP``/``SCAP``
+        (specimen top / impactor) and ``SBOT``/``SPLATE``.
+
+    Raises
+    ------
+    InputError
+        Friction (only frictionless contact is written), or gravity.
+    """
+    if model.friction != 0.0 or model.gravity != 0.0:
+        raise InputError(f"calculix backend: the drop test is written frictionless and without gravity; the scene "
+                         f"has friction = {model.friction:g}, gravity = {model.gravity:g} m/s^2.")
+    sph = model.sphere
+    x = model.nodes
+    h = float(np.min(np.linalg.norm(x[model.hexes[:, 1]] - x[model.hexes[:, 0]], axis=1)))
+    quarter = model.symmetry_factor > 1.0
+    lo = x.min(axis=0)
+    hi = x.max(axis=0)
+    n_spec = x.shape[0]
+    out = ["*HEADING", f"cfm drop test {model.name} (SI units: m, s, kg, Pa)", "*NODE, NSET=NALL"]
+    out += [f"{i + 1}, {a:.14g}, {b:.14g}, {c:.14g}" for i, (a, b, c) in enumerate(x)]
+    # impactor cap: a layer over the specimen's footprint, outer face on the sphere
+    span = max(hi[0] - lo[0], hi[1] - lo[1]) * 1.04
+    n = max(2, int(math.ceil(span / h)))
+    g = _grid(n, span) if quarter else np.linspace(-span / 2, span / 2, n + 1)
+    X, Y = np.meshgrid(g, g)
+    X, Y = X.ravel(), Y.ravel()
+    c = np.array(sph.center)
+    r2 = sph.radius ** 2 - (X - c[0]) ** 2 - (Y - c[1]) ** 2
+    if np.any(r2 <= 0):
+        raise InputError("calculix backend: the specimen is wider than the impactor; the cap cannot cover it.")
+    outer = np.stack([X, Y, c[2] - np.sqrt(r2)], axis=1)
+    t_cap = LAYER * h
+    inner = c + (outer - c) * (sph.radius - t_cap) / sph.radius
+    cap_nodes, cap_elems, cap_ids = _hex_block(outer, inner, n, n_spec + 1, model.n_elements + 1)
+    # plate: a layer below z = plane.z, every node fixed
+    p0 = np.stack([X, Y, np.full_like(X, model.plane.z - LAYER * h)], axis=1)
+    p1 = np.stack([X, Y, np.full_like(X, model.plane.z)], axis=1)
+    first_plate = n_spec + 1 + cap_nodes.shape[0]
+    plate_nodes, plate_elems, plate_ids = _hex_block(p0, p1, n, first_plate, cap_ids[-1] + 1)
+    ref = first_plate + plate_nodes.shape[0]
+    rot = ref + 1
+    out += [f"{first_node}, {a:.14g}, {b:.14g}, {cc:.14g}"
+            for first_node, (a, b, cc) in zip(range(n_spec + 1, n_spec + 1 + len(cap_nodes)), cap_nodes)]
+    out += [f"{k}, {a:.14g}, {b:.14g}, {cc:.14g}"
+            for k, (a, b, cc) in zip(range(first_plate, first_plate + len(plate_nodes)), plate_nodes)]
+    out += [f"{ref}, {c[0]:.14g}, {c[1]:.14g}, {c[2]:.14g}", f"{rot}, {c[0]:.14g}, {c[1]:.14g}, {c[2]:.14g}"]
+    out.append("*ELEMENT, TYPE=C3D8R, ELSET=ESPEC")
+    out += [f"{e + 1}, " + ", ".join(str(int(v) + 1) for v in hx) for e, hx in enumerate(model.hexes)]
+    out.append("*ELEMENT, TYPE=C3D8R, ELSET=ECAP")
+    out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(cap_ids, cap_elems)]
+    out.append("*ELEMENT, TYPE=C3D8R, ELSET=EPLATE")
+    out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(plate_ids, plate_elems)]
+    out.append("*NSET, NSET=NCAP")
+    out += _int_lines(range(n_spec + 1, n_spec + 1 + len(cap_nodes)))
+    out.append("*NSET, NSET=NPLATE")
+    out += _int_lines(range(first_plate, first_plate + len(plate_nodes)))
+    out += ["*NSET, NSET=NREF", str(ref)]
+    # surfaces: specimen top (S2) and bottom (S1) faces, cap outer face (S1), plate top (S2)
+    top = np.isin(model.hexes[:, 4:], model.sphere_nodes).all(axis=1)
+    bot = np.isin(model.hexes[:, :4], model.plane_nodes).all(axis=1)
+    out.append("*SURFACE, NAME=STOP, TYPE=ELEMENT")
+    out += [f"{e + 1}, S2" for e in np.flatnonzero(top)]
+    out.append("*SURFACE, NAME=SBOT, TYPE=ELEMENT")
+    out += [f"{e + 1}, S1" for e in np.flatnonzero(bot)]
+    out.append("*SURFACE, NAME=SCAP, TYPE=ELEMENT")
+    out += [f"{e}, S1" for e in cap_ids]
+    out.append("*SURFACE, NAME=SPLATE, TYPE=ELEMENT")
+    out += [f"{e}, S2" for e in plate_ids]
+    mat = material_card(model.material, native)
+    out += mat + ["*DENSITY", f"{model.density:.14g}"]
+    out.append(f"*SOLID SECTION, ELSET=ESPEC, MATERIAL={mat[0].split('=')[1]}")
+    volume = _cap_volume(cap_nodes, cap_elems - (n_spec + 1))
+    out += ["*MATERIAL, NAME=RIGIDCAP", "*ELASTIC", "1e9, 0.3", "*DENSITY", f"{sph.mass / volume:.14g}",
+            "*SOLID SECTION, ELSET=ECAP, MATERIAL=RIGIDCAP",
+            "*MATERIAL, NAME=PLATE", "*ELASTIC", "1e9, 0.3", "*DENSITY", "1000.",
+            "*SOLID SECTION, ELSET=EPLATE, MATERIAL=PLATE",
+            f"*RIGID BODY, ELSET=ECAP, REF NODE={ref}, ROT NODE={rot}"]
+    out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{PENALTY:.6g}, 0.1",
+            "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "STOP, SCAP",
+            "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "SBOT, SPLATE"]
+    out.append("*BOUNDARY")
+    out += [f"{int(a) + 1}, {int(d) + 1}, {int(d) + 1}" for a, d in np.asarray(model.fixed_dofs)]
+    out += ["NPLATE, 1, 3", f"{ref}, 1, 2", f"{rot}, 1, 3"]
+    out.append("*INITIAL CONDITIONS, TYPE=VELOCITY")
+    out += ["NCAP, 3, " + f"{sph.velocity:.14g}", f"{ref}, 3, {sph.velocity:.14g}"]
+    steps = int(math.ceil(end_time / dt - 1e-9))
+    out += [f"*STEP, NLGEOM, INC={steps + 10}", "*DYNAMIC, DIRECT", f"{end_time / steps:.14g}, {end_time:.14g}",
+            "*NODE PRINT, NSET=NREF", "U, V", "*CONTACT PRINT, SLAVE=STOP, MASTER=SCAP", "CF", "*END STEP"]
+    return out
+
+
+def _cap_volume(nodes, elems) -> float:
+    """Volume (m^3) of the cap's hexahedra (each split into 6 tetrahedra)."""
+    tets = ((0, 1, 3, 4), (1, 2, 3, 6), (1, 3, 4, 6), (3, 4, 6, 7), (1, 4, 5, 6))
+    vol = 0.0
+    for hx in elems:
+        p = nodes[hx]
+        for a, b, cc, d in tets:
+            vol += abs(np.linalg.det(np.stack([p[b] - p[a], p[cc] - p[a], p[d] - p[a]]))) / 6.0
+    return vol

@@ -1,0 +1,26 @@
+"""Options of the calculix backend's ``run`` (one typed declaration: unit, default, range, meaning)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from cfm_core.simulation.options import Options, document, option
+
+
+@document
+@dataclass(frozen=True)
+class CalculixOptions(Options):
+    """Options of the CalculiX backend (SI units)."""
+
+    owner = "calculix backend"
+
+    threads: int = option(1, "-", "threads of ccx (OMP_NUM_THREADS, CCX_NPROC_EQUATION_SOLVER)", kind="int",
+                          low=1, high=256)
+    max_increment: float = option(math.inf, "s", "largest time increment (fixed increments, DIRECT); the output "
+                                  "interval and 20 increments per prescribed segment bound it too", low=0.0,
+                                  low_open=True)
+    native: bool = option(False, "-", "CalculiX's own *HYPERELASTIC, NEO HOOKE instead of the generated UMAT "
+                          "(neo-hookean material only)", kind="bool")
+    keep: str = option(None, "-", "folder to run ccx in and keep (deck, .dat, .frd, .sta)", kind="str",
+                       none="a temporary folder")

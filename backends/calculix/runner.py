@@ -1,0 +1,149 @@
+"""Run ccx on a deck in a temporary folder and read its ``.dat`` back into a :class:`Result`."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from cfm_core.errors import InputError, NumericalError
+from cfm_core.simulation.result import Result
+
+from .deck import write_deck
+
+_TOTAL = re.compile(r"total force \(fx,fy,fz\) for set (\S+) and time\s+(\S+)\s*\n\s*\n\s*(\S+)\s+(\S+)\s+(\S+)")
+_UMAT_ERROR = re.compile(r"CFM-UMAT-ERROR (.*)")
+
+
+def read_totals(text: str, nset: str) -> tuple[np.ndarray, np.ndarray]:
+    """Times and total forces of a node set from a ccx ``.dat`` file (``*NODE PRINT, TOTALS=ONLY``, RF).
+
+    Parameters
+    ----------
+    text : str
+        The ``.dat`` file's content.
+    nset : str
+        Node set name (upper case).
+
+    Returns
+    -------
+    t : ndarray, shape (m,)
+        Total times (s) of the printed increments, steps concatenated (CalculiX prints each step's
+        time from the step's start; they are made cumulative here).
+    force : ndarray, shape (m, 3)
+        Total reaction force (N) of the set in x, y, z.
+    """
+    rows = [(float(m.group(2)), float(m.group(3)), float(m.group(4)), float(m.group(5)))
+            for m in _TOTAL.finditer(text) if m.group(1).upper() == nset.upper()]
+    if not rows:
+        return np.zeros(0), np.zeros((0, 3))
+    a = np.array(rows)
+    return a[:, 0], a[:, 1:]
+
+
+def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, native: bool = False,
+            keep: str | None = None) -> Result:
+    """Write the deck of ``model``, run ``ccx`` on it, return the histories as a :class:`Result`.
+
+    Parameters
+    ----------
+    ccx : str
+        Path of the ccx executable (the project's build).
+    model : Model
+        A prescribed-motion model.
+    threads : int
+        ``OMP_NUM_THREADS`` / ``CCX_NPROC_EQUATION_SOLVER`` for ccx.
+    max_increment : float
+        Largest time increment (s).
+    native : bool
+        CalculiX's own neo-Hookean material instead of the UMAT.
+    keep : str, optional
+        A folder to run in and keep (deck, ``.dat``, ``.frd``, ``.sta``); default a temporary one.
+
+    Returns
+    -------
+    Result
+        ``reaction_force`` (N, full model: times the symmetry factor) at the increments' ends,
+        with t = 0 prepended at zero force; ``info`` has ``deck_lines``, ``increments``.
+
+    Raises
+    ------
+    NumericalError
+        ccx stopped (a UMAT error, naming element, point and time; or no convergence).
+    """
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="cfm-ccx-") as tmp:
+        work = Path(keep) if keep else Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        deck = work / "job.inp"
+        write_deck(model, deck, max_increment=max_increment, native=native)
+        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads),
+               "CCX_NPROC_RESULTS": str(threads)}
+        t1 = time.perf_counter()
+        proc = subprocess.run([ccx, "-i", "job"], cwd=work, capture_output=True, text=True, env=env)
+        wall = time.perf_counter() - t1
+        log = proc.stdout + proc.stderr
+        (work / "ccx.log").write_text(log)
+        dat = (work / "job.dat").read_text() if (work / "job.dat").exists() else ""
+        err = _UMAT_ERROR.search(log)
+        if err:
+            raise NumericalError(f"calculix backend: the generated UMAT stopped ccx: {err.group(1)} (model "
+                                 f"'{model.name}').", quantity="umat")
+        if proc.returncode != 0 or "*ERROR" in log:
+            msg = "\n".join(ln for ln in log.splitlines() if "ERROR" in ln)[:1500] or log[-1500:]
+            raise NumericalError(f"calculix backend: ccx failed (exit {proc.returncode}) on model '{model.name}':\n"
+                                 f"{msg}", quantity="ccx")
+        n_lines = len(deck.read_text().splitlines())
+    t, force = read_totals(dat, "NPRESC")
+    if t.size == 0:
+        raise NumericalError(f"calculix backend: ccx printed no reaction force for model '{model.name}'.",
+                             quantity="ccx output")
+    # step times restart at each step: make them cumulative
+    total = np.empty_like(t)
+    offset, last = 0.0, 0.0
+    for i, ti in enumerate(t):
+        if ti < last - 1e-15:
+            offset += last
+        total[i] = offset + ti
+        last = ti
+    if not np.isfinite(force).all():
+        raise NumericalError(f"calculix backend: non-finite reaction force in model '{model.name}'.",
+                             quantity="reaction force")
+    dof = model.prescribed.dof
+    times = np.concatenate([[0.0], total])
+    rf = np.concatenate([[0.0], force[:, dof]]) * float(model.symmetry_factor)
+    dts = np.diff(times)
+    info = {"solver": "CalculiX ccx 2.20", "element": "C3D8R", "deck_lines": n_lines, "increments": int(t.size),
+            "threads": threads, "setup_time": t1 - t0}
+    return Result(t=times, backend="calculix", steps=int(t.size), wall_time=wall, reaction_force=rf,
+                  dt_min=float(dts.min()), dt_max=float(dts.max()), info=info)
+
+
+def check_ccx(ccx: str | None) -> str:
+    """The ccx path, or InputError saying how to build it.
+
+    Parameters
+    ----------
+    ccx : str or None
+        Path from the build record.
+
+    Returns
+    -------
+    str
+        The path.
+
+    Raises
+    ------
+    InputError
+        No build: run ``cfm calculix build``.
+    """
+    if not ccx or not Path(ccx).exists():
+        raise InputError("calculix backend: no CalculiX build with this material's UMAT; run `cfm calculix build` "
+                         "(fetches calculix-ccx 2.20 from Debian's source package, builds it with the generated "
+                         "UMATs linked in; about ten minutes once, then seconds per material).")
+    return ccx

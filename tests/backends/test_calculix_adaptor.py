@@ -1,0 +1,77 @@
+"""The Fortran linked into ccx (adaptor + generated UMATs) through ccx's ABAQUS calling convention.
+
+ccx's ``umat_abaqus.f`` passes and expects the second Piola-Kirchhoff stress and the tangent
+dS/dE; the adaptor converts the generated UMAT's Cauchy stress and Jaumann tangent. Checked here
+without ccx (gfortran only): S against the numpy reference pulled back (S = J F^-1 sigma F^-T), and
+the tangent against central differences of S in the Green-Lagrange strain, on a rotated,
+stretched and sheared F, for the CFM (with its Prony series) and the neo-Hookean material.
+"""
+
+import numpy as np
+import pytest
+from scipy.linalg import expm, sqrtm
+
+from cfm_backends.calculix.build import linked_source
+from cfm_core.export.expected import history
+from cfm_core.export.generate import sizes
+from cfm_core.export.harness import compile_library, gfortran, run_umat
+from cfm_core.export.layout import props
+from cfm_core.material import make_material
+
+ORDER = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+@pytest.fixture(scope="module")
+def setup():
+    if gfortran() is None:
+        pytest.skip("gfortran is not installed (apt-get install gfortran)")
+    mats = [make_material("cfm"), make_material("neo-hookean")]
+    text, names = linked_source(mats)
+    return mats, compile_library(text, "calculix-adaptor"), names
+
+
+def _F(s):
+    R = expm(np.array([[0.0, -0.3, 0.1], [0.3, 0.0, -0.2], [-0.1, 0.2, 0.0]]))
+    U = np.array([[1.0 - 0.25 * s, 0.04 * s, 0.0], [0.04 * s, 1.0 + 0.1 * s, 0.03 * s],
+                  [0.0, 0.03 * s, 1.0 + 0.12 * s]])
+    return R @ U
+
+
+def _call(lib, mat, tag, t, F, statev=None):
+    return run_umat(lib, props(mat), t, F, sizes(mat.spec)["NS"], statev=statev, cmname=tag)
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_pk2_and_material_tangent(setup, which):
+    mats, lib, names = setup
+    mat = mats[which]
+    tag = names[mat.spec.name]["tag"]
+    t = np.linspace(0.0, 2e-3, 9)
+    F = np.array([_F(s) for s in np.linspace(0.0, 1.0, t.size)])
+    out = _call(lib, mat, tag, t, F)
+    sigma, _ = history(mat, t, F)
+    for k in range(1, t.size):
+        J = np.linalg.det(F[k])
+        Fi = np.linalg.inv(F[k])
+        S = J * Fi @ sigma[k] @ Fi.T
+        want = np.array([S[a, b] for a, b in ORDER])
+        assert np.allclose(out["stress"][k], want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+    # tangent of the last increment: central differences of S in E at the same start state and dt
+    k = t.size - 1
+    C = F[k].T @ F[k]
+    R = F[k] @ np.linalg.inv(np.real(sqrtm(C)))
+    h = 1e-6
+    num = np.zeros((6, 6))
+    for b, (i, j) in enumerate(ORDER):
+        dE = np.zeros((3, 3))
+        dE[i, j] = dE[j, i] = h
+        cols = []
+        for sgn in (1.0, -1.0):
+            Fp = R @ np.real(sqrtm(C + 2.0 * sgn * dE))
+            o = _call(lib, mat, tag, t[k - 1:k + 1], np.array([F[k - 1], Fp]), statev=out["statev"][k - 1])
+            cols.append(o["stress"][1])
+        num[:, b] = (cols[0] - cols[1]) / (2.0 * h) / (1.0 if i == j else 2.0)
+    scale = np.abs(num).max()
+    assert np.allclose(out["ddsdde"][k], num, atol=1e-6 * scale), (out["ddsdde"][k], num)
+    # and the tangent is not trivially zero
+    assert scale > 0.0
