@@ -470,8 +470,6 @@ EXTRA = {"compare": difference_panel_problems, "compare_identical": difference_p
 
 #: Figure kinds that fail the checks today, with what fails (strict: a fix makes the test XPASS).
 KNOWN: dict[str, str] = {
-    "compare": "cfm compare --plot (cfm_core/cli/compare.py): no difference panel",
-    "compare_identical": "cfm compare --plot: no difference panel; identical runs drawn over each other",
     "calibrate": "cfm calibrate (cfm_core/studies/calibrate.py): the fitted curve hides the measured one in "
                  "fit_<curve>.png; objective.png has ticks at evaluations 1.5, 2.5",
     "fit": "cfm fit (cfm_core/studies/fit_output.py): the fitted curve hides the measured one; stress in Pa with "
