@@ -470,8 +470,6 @@ EXTRA = {"compare": difference_panel_problems, "compare_identical": difference_p
 
 #: Figure kinds that fail the checks today, with what fails (strict: a fix makes the test XPASS).
 KNOWN: dict[str, str] = {
-    "calibrate": "cfm calibrate (cfm_core/studies/calibrate.py): the fitted curve hides the measured one in "
-                 "fit_<curve>.png; objective.png has ticks at evaluations 1.5, 2.5",
     "fit": "cfm fit (cfm_core/studies/fit_output.py): the fitted curve hides the measured one; stress in Pa with "
            "ticks of 10^5 (show kPa); the relaxation test on a linear 0-30 s axis (use a log time axis)",
 }
