@@ -470,8 +470,6 @@ EXTRA = {"compare": difference_panel_problems, "compare_identical": difference_p
 
 #: Figure kinds that fail the checks today, with what fails (strict: a fix makes the test XPASS).
 KNOWN: dict[str, str] = {
-    "fit": "cfm fit (cfm_core/studies/fit_output.py): the fitted curve hides the measured one; stress in Pa with "
-           "ticks of 10^5 (show kPa); the relaxation test on a linear 0-30 s axis (use a log time axis)",
 }
 
 

@@ -72,7 +72,7 @@ def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     pb, files = result.problem, []
     fitted = "; ".join(f"{n} = {result.final.params[n] * f:.4g}{' ' + u if u else ''} (start "
-                       f"{result.start.params[n] * f:.4g})"
+                       f"{result.start.params[n] * f:.4g}{' ' + u if u else ''})"
                        for n, (f, u) in zip(pb.coords.names, map(display, pb.coords.units)))
     for j, c in enumerate(pb.curves):
         path = out / f"fit_{_safe(c.name)}.png"
