@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .plots import _COLOURS, _save
+from .plots import _COLOURS, _save, _title_size
 from .writers import _finite_array
 
 
@@ -51,7 +51,7 @@ def plot_comparison(path, curves: list, title: str, ylabel: str, scale: float = 
     fig = Figure(figsize=(6.4, 5.6), dpi=150, layout="constrained")
     FigureCanvasAgg(fig)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1.0])
-    top.set_title(title, fontsize=8 if title.count("\n") >= 2 else None)
+    top.set_title(title, fontsize=_title_size(title))
     (_, t0, y0), peak = curves[0], 0.0
     largest = []
     for i, (label, t, y) in enumerate(curves):
