@@ -82,7 +82,7 @@ def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
         files.append(path)
     from matplotlib.ticker import MaxNLocator
 
-    fig, ax = _figure("Objective history")
+    fig, ax = _figure(subtitled("Objective history", [fitted]))
     for line in list(ax.lines):  # the figure's zero line has no place on a log axis
         line.remove()
     ax.relim()
