@@ -369,7 +369,7 @@ def kind_relaxation_reaction(runs, out):
 
 
 def kind_point_uniaxial(runs, out):
-    assert main(["point", "--material", "cfm", "--uniaxial", "--rate", "100", "--stretch", "0.5",
+    assert main(["point", "--material", "cfm", "--uniaxial", "--rate", "100", "--stretch", "0.5", "--param", "k1=1000",
                  "--out", str(out / "uniaxial.csv")]) == 0
 
 
@@ -382,8 +382,11 @@ def kind_compare_identical(runs, out):
 
 
 def kind_sweep_peaks(runs, out):
-    assert main(["sweep", "--serial", "--scene", str(runs["scene"]), "--vary", "thickness=0.004,0.005",
-                 "--vary", "k2=1.66,3", "--out", str(out / "sw")]) in (0, 1)
+    scene = out / "named.toml"  # a named scene with a parameter override and a backend option: a long subtitle
+    scene.write_text(runs["scene"].read_text().replace('type = "drop-test"', 'type = "drop-test"\nname = "tiny"')
+                     + '[material]\nname = "cfm"\n[material.parameters]\nk1 = 1000\n')
+    assert main(["sweep", "--serial", "--quiet", "--scene", str(scene), "--vary", "thickness=0.004,0.005",
+                 "--vary", "k2=1.66,3", "--option", "hourglass=0.05", "--out", str(out / "sw")]) in (0, 1)
 
 
 def kind_calibrate(runs, out):
@@ -470,12 +473,6 @@ EXTRA = {"compare": difference_panel_problems, "compare_identical": difference_p
 
 #: Figure kinds that fail the checks today, with what fails (strict: a fix makes the test XPASS).
 KNOWN: dict[str, str] = {
-    "compare": "cfm compare --plot (cfm_core/cli/compare.py): no difference panel",
-    "compare_identical": "cfm compare --plot: no difference panel; identical runs drawn over each other",
-    "calibrate": "cfm calibrate (cfm_core/studies/calibrate.py): the fitted curve hides the measured one in "
-                 "fit_<curve>.png; objective.png has ticks at evaluations 1.5, 2.5",
-    "fit": "cfm fit (cfm_core/studies/fit_output.py): the fitted curve hides the measured one; stress in Pa with "
-           "ticks of 10^5 (show kPa); the relaxation test on a linear 0-30 s axis (use a log time axis)",
 }
 
 
@@ -491,3 +488,21 @@ def test_figure_kind_reads_well(kind, runs, tmp_path):
                 for i, (fig, renderer, texts) in enumerate(drawn)
                 if (p := figure_problems(fig, renderer, texts) + extra(fig))}
     assert not problems, f"{kind} ({', '.join(pngs)}):\n" + json.dumps(problems, indent=1)
+
+
+@pytest.mark.parametrize("kind, shown, hidden", [
+    ("sweep_peaks", ["tiny", "numba float64", "hourglass 0.05", "k1 = 1000 (default 1320)"], ["k2 =", "thickness"]),
+    ("point_uniaxial", ["uniaxial stress at 100 1/s", "k1 = 1000 (default 1320)"], []),
+    ("fit", ["k1 = 1.32 kPa (start 1 kPa)"], []),
+])
+def test_titles_name_the_run(kind, shown, hidden, runs, tmp_path):
+    """Titles name the scene, backend with dtype, options and parameter overrides (the varied
+    names of a sweep left to its axes and legend)."""
+    with drawn_figures() as drawn:
+        KINDS[kind](runs, tmp_path)
+    titles = [ax.get_title() for fig, _, _ in drawn for ax in fig.axes if ax.get_title()]
+    assert titles, kind
+    for title in titles:
+        flat = " ".join(title.split())
+        assert all(s in flat for s in shown), (kind, flat, shown)
+        assert not any(h in flat.split("\n")[-1] for h in hidden), (kind, flat, hidden)

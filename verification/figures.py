@@ -82,7 +82,8 @@ def drucker_map(path, name, smap) -> None:
             ax.plot(e, r, color=_COLOURS[i % len(_COLOURS)], label=path_name)
         ax.axhline(0.0, color="k", linewidth=0.8)
         ax.set_yscale("symlog", linthresh=1e-6)
-        ax.legend(fontsize=8, frameon=False)
+    handles, labels = axes[0].get_legend_handles_labels()  # one legend below the panels: it covers no curve
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8, frameon=False)
     _save(fig, path)
 
 

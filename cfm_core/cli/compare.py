@@ -6,7 +6,8 @@ import numpy as np
 
 from ..post.compare import SIGNALS, Run, compare_runs, read_run
 from ..post.histories import G0
-from ..post.plots import _COLOURS, _figure, _save, subtitled
+from ..post.compare_plot import plot_comparison
+from ..post.plots import subtitled
 from ..post.staging import check_file_target
 from ..post.writers import write_json
 from ..runs.provenance import describe_differences
@@ -19,7 +20,7 @@ def add_parser(sub) -> None:
                                    "over the common time range, peak and time-of-peak differences, wall times.")
     p.add_argument("reference", help="output directory of the reference run")
     p.add_argument("runs", nargs="+", help="output directories of the runs to compare")
-    p.add_argument("--plot", help="also write an overlay PNG of all signals here")
+    p.add_argument("--plot", help="also write a PNG here: the signals over each other and each run's difference from the reference")
     p.add_argument("--json", help="also write the rows as JSON here")
 
 
@@ -57,13 +58,9 @@ def cmd_compare(args) -> int:
 
 
 def _plot(path, runs: list[Run], scale: float, shown: str, differences: list[str]) -> None:
-    fig, ax = _figure(subtitled("Run comparison", differences or ["no recorded difference"]))
-    ax.set_ylabel(f"{'Impactor acceleration' if shown == 'g' else 'Reaction force'} ({shown})")
-    for i, r in enumerate(runs):
-        ax.plot(1e3 * r.t, r.y / scale, color=_COLOURS[i % len(_COLOURS)], linewidth=2.0 if i == 0 else 1.2,
-                linestyle="-" if i == 0 else "--", label=r.label + (" (reference)" if i == 0 else ""))
-    ax.legend(loc="best", fontsize=8, frameon=False)
-    _save(fig, path)
+    ylabel = f"{'Impactor acceleration' if shown == 'g' else 'Reaction force'} ({shown})"
+    plot_comparison(path, [(r.label, r.t, r.y) for r in runs],
+                    subtitled("Run comparison", differences or ["no recorded difference"]), ylabel, scale)
 
 
 COMMANDS = {"compare": cmd_compare}

@@ -15,6 +15,7 @@ from ..post.staging import check_file_target
 from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
+from ..studies.outcomes import uniaxial_title
 from ..tables import unit_header
 from .options import add_material_options, parse_params
 
@@ -78,8 +79,7 @@ def _cmd_point(args) -> int:
         write_csv(args.out, unit_header(point.UNIAXIAL_UNITS), [t, lam, P, lat])
         written = [str(args.out)]
         if not args.no_plot:
-            plot_uniaxial(png, lam, P, f"{material.name} ({'elastic' if material.elastic else material.moduli}), "
-                                       f"uniaxial stress at {args.rate:g} /s, {source.split(' along')[0]}")
+            plot_uniaxial(png, lam, P, uniaxial_title(material, args.rate, source))
             written.append(str(png))
         print(f"wrote {', '.join(written)}: {t.size} rows (t s, stretch -, nominal stress Pa, lateral stretch -), {source}")
         return 0

@@ -34,7 +34,9 @@ def _finite(name: str, a, ndim: int | None = None, then: str = "refusing to post
 def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[np.ndarray, np.ndarray]:
     """Impactor acceleration on a uniform grid, box-averaged from the impulse (no aliasing).
 
-    With t_k = k h (s), h = 1/rate, k = 0 .. floor(t_end / h), t_end the last recorded time::
+    With t_k = k h (s), h = 1/rate, k = 0 .. floor(t_end / h), t_end the last recorded time (t_k computed
+    as k / rate, the float nearest k h: it prints as people write it, 6e-05 rather than
+    6.000000000000001e-05)::
 
         a_raw(t_k) = [I(t_k + h/2) - I(t_k - h/2)] / (h mass)        (m/s^2)
 
@@ -94,13 +96,15 @@ def resample_acceleration(result, mass: float, rate: float = 50_000.0) -> tuple[
         impulse = np.concatenate(([0.0], impulse))
     h = 1.0 / rate
     n = int(math.floor(t[-1] * rate * (1.0 + 1e-12))) + 1
-    grid = np.arange(n) * h
+    centre = np.arange(n) * h  # the box centres, computed as ever: the histories' bytes are unchanged
 
     def I(tq):
         return np.interp(tq, t, impulse, left=0.0, right=impulse[-1])
 
-    a_raw = (I(grid + 0.5 * h) - I(grid - 0.5 * h)) / (h * mass)
-    return grid, a_raw
+    a_raw = (I(centre + 0.5 * h) - I(centre - 0.5 * h)) / (h * mass)
+    # the times written: k / rate, the float nearest k h (6e-05 s, where k * h gives 6.000000000000001e-05);
+    # they differ from the centres by at most one unit in the last place
+    return np.arange(n) / rate, a_raw
 
 
 def acceleration_histories(result, mass: float, rate: float = 50_000.0, cfc: float = 600.0):

@@ -90,6 +90,17 @@ def subtitled(title: str, phrases, width: int = 80, lines: int = 3) -> str:
     return "\n".join([title, *wrapped])
 
 
+def _title_size(title: str) -> float | None:
+    """Font size (pt) of a title in a figure 6.4 in wide: the default (None) for up to two lines
+    of at most 62 characters; smaller for a longer line, so that it stays inside the figure, and
+    8 pt for three lines or more, so that the axes keep their room."""
+    lines = title.split("\n")
+    longest = max(len(line) for line in lines)
+    if len(lines) >= 3 or longest > 78:
+        return 8.0
+    return None if longest <= 62 else 10.0
+
+
 def _figure(title: str):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -97,10 +108,7 @@ def _figure(title: str):
     fig = Figure(figsize=(6.4, 4.2), dpi=150, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    if title.count("\n") < 2:
-        ax.set_title(title)
-    else:  # a title with a subtitle of several lines: smaller, so that the axes keep their room
-        ax.set_title(title, fontsize=8)
+    ax.set_title(title, fontsize=_title_size(title))
     ax.set_xlabel("Time (ms)")
     ax.set_ylabel("Impactor acceleration (g)")
     ax.grid(True, color="0.88", linewidth=0.6)

@@ -9,9 +9,45 @@ from pathlib import Path
 import numpy as np
 
 from ..post import G0
-from ..post.plots import _figure, _save, plot_overlay
-from ..post.writers import write_json, write_text
+from ..post.plots import _COLOURS, _figure, _save, display, subtitled
+from ..post.writers import _finite_array, write_json, write_text
 from ..scene.scene import scene_to_toml
+
+
+def plot_fit_curve(path, t, measured, start, fitted, title: str) -> None:
+    """PNG of one calibration curve: the measured filtered history drawn wide and light, the start
+    dashed and the fitted history thin and dark over it (a close fit leaves the measured curve
+    visible on both sides of the fitted one); time in ms, acceleration in g; written atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output PNG.
+    t : array_like, shape (n,)
+        Times (s).
+    measured, start, fitted : array_like, shape (n,)
+        Measured (CFC 600 filtered), start and fitted simulated accelerations (m/s^2).
+    title : str
+        Figure title.
+
+    Raises
+    ------
+    NumericalError
+        A non-finite value; no file is written.
+    """
+    ms = 1e3 * _finite_array("t", t, ndim=1)
+    fig, ax = _figure(title)
+    ax.plot(ms, _finite_array("measured", measured, ndim=1) / G0, color="0.72", linewidth=4.0,
+            label="measured (CFC 600)", solid_capstyle="butt")
+    ax.plot(ms, _finite_array("start", start, ndim=1) / G0, color=_COLOURS[1], linewidth=1.2,
+            linestyle=(0, (4, 2)), label="start")
+    ax.plot(ms, _finite_array("fitted", fitted, ndim=1) / G0, color=_COLOURS[0], linewidth=1.3, label="fitted")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi + 0.3 * (hi - lo))  # room for the legend above the curves
+    ax.set_xlim(ms[0], ms[-1])
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.95, edgecolor="0.8")
+    _save(fig, path)
+
 
 def _safe(name: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
@@ -35,19 +71,26 @@ def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     pb, files = result.problem, []
+    fitted = "; ".join(f"{n} = {result.final.params[n] * f:.4g}{' ' + u if u else ''} (start "
+                       f"{result.start.params[n] * f:.4g}{' ' + u if u else ''})"
+                       for n, (f, u) in zip(pb.coords.names, map(display, pb.coords.units)))
     for j, c in enumerate(pb.curves):
         path = out / f"fit_{_safe(c.name)}.png"
-        plot_overlay(path, [("measured (CFC 600)", c.t, c.a), ("start", c.t, result.start.histories[j]),
-                            ("fitted", c.t, result.final.histories[j])],
-                     f"{c.name}, {1e3 * c.thickness:g} mm: rel. L2 {100 * result.final.rel_l2[j]:.2f} %")
+        plot_fit_curve(path, c.t, c.a, result.start.histories[j], result.final.histories[j],
+                       subtitled(f"{c.name}, {1e3 * c.thickness:g} mm: rel. L2 {100 * result.final.rel_l2[j]:.2f} %",
+                                 [fitted]))
         files.append(path)
-    fig, ax = _figure("Objective history")
+    from matplotlib.ticker import MaxNLocator
+
+    fig, ax = _figure(subtitled("Objective history", [fitted]))
     for line in list(ax.lines):  # the figure's zero line has no place on a log axis
         line.remove()
     ax.relim()
     ax.set_xlabel("evaluation")
     ax.set_ylabel("cost 1/2 sum r^2 (-)")
-    ax.semilogy([h["evaluation"] for h in pb.history], [max(h["cost"], 1e-300) for h in pb.history], "o-")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # evaluations are counted: no tick at 1.5
+    ax.semilogy([h["evaluation"] for h in pb.history], [max(h["cost"], 1e-300) for h in pb.history], "o-",
+                color=_COLOURS[0], markersize=4)
     _save(fig, out / "objective.png")
     files.append(out / "objective.png")
     text = scene_to_toml(fitted_scene(scene, result))

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ..material.registry import get_material
-from ..post.plots import _figure, _save
+from ..post.plots import _COLOURS, _figure, _save, display, subtitled
 from ..post.writers import write_json, write_text
 from ..scene.scene import builtin_scene, scene_to_toml
 from .fit import LabFitResult
@@ -44,8 +46,11 @@ def fitted_scene(result: LabFitResult, scene=None):
                                 parameters=None).with_overrides(parameters=result.fitted)
 
 
-def plot_test(path, test: LabTest, P_start, P_fit) -> None:
-    """PNG of a test: measured, start and fitted nominal stress (Pa) against stretch or shear (-).
+def plot_test(path, test: LabTest, P_start, P_fit, phrases=()) -> None:
+    """PNG of a test: measured, start and fitted nominal stress (Pa, shown in kPa) against stretch
+    or shear (-), or against time (s) on a log axis for a relaxation test (the loading of
+    milliseconds and the hold of seconds both visible). The measured curve is drawn wide and light
+    under the thin fitted one, so that a close fit leaves it visible.
 
     Parameters
     ----------
@@ -55,16 +60,38 @@ def plot_test(path, test: LabTest, P_start, P_fit) -> None:
         The measured curve (against time for a relaxation test).
     P_start, P_fit : ndarray, shape (n,)
         Simulated nominal stress at the start and fitted values (Pa).
+    phrases : sequence of str, optional
+        Subtitle phrases (the fitted values).
     """
-    fig, ax = _figure(f"{test.name}: {test.kind}, {test.rate:g} 1/s")
-    ax.set_xlabel(f"{KINDS[test.kind][0]} (-)" if test.kind != "relaxation" else "time (s)")
-    ax.set_ylabel("nominal stress (Pa)")
-    x = test.t if test.kind == "relaxation" else test.x
-    ax.plot(x, test.P, "o", markersize=2.5, color="0.3", label="measured")
-    ax.plot(x, P_start, "--", color="tab:orange", linewidth=1.2, label="start")
-    ax.plot(x, P_fit, "-", color="tab:blue", linewidth=1.6, label="fitted")
-    ax.legend(fontsize=8)
+    fig, ax = _figure(subtitled(f"{test.name}: {test.kind}, {test.rate:g} 1/s", phrases))
+    ax.set_ylabel("Nominal stress (kPa)")
+    if test.kind == "relaxation":
+        keep = np.asarray(test.t) > 0.0  # a log time axis: the sample at t = 0 cannot be shown
+        x = np.asarray(test.t)[keep]
+        ax.set_xscale("log")
+        ax.set_xlabel("Time (s)")
+    else:
+        keep = slice(None)
+        x = np.asarray(test.x)
+        ax.set_xlabel(f"{KINDS[test.kind][0].capitalize()} (-)")
+    kpa = 1e-3
+    ax.plot(x, kpa * np.asarray(test.P)[keep], color="0.72", linewidth=4.0, solid_capstyle="butt",
+            label="measured")
+    ax.plot(x, kpa * np.asarray(P_start)[keep], color=_COLOURS[1], linewidth=1.2, linestyle=(0, (4, 2)),
+            label="start")
+    ax.plot(x, kpa * np.asarray(P_fit)[keep], "-", color=_COLOURS[0], linewidth=1.3, label="fitted")
+    ax.legend(loc="best", fontsize=8, framealpha=0.95, edgecolor="0.8")
     _save(fig, path)
+
+
+def _fitted_phrases(result: LabFitResult) -> list[str]:
+    """``name = fitted unit (start value)`` per fitted parameter, in the units figures show."""
+    phrases = []
+    for n, u in zip(result.coords.names, result.coords.units):
+        factor, shown = display(u)
+        unit = f" {shown}" if shown else ""
+        phrases.append(f"{n} = {result.fitted[n] * factor:.4g}{unit} (start {result.start[n] * factor:.4g}{unit})")
+    return phrases
 
 
 def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None = None) -> list[Path]:
@@ -92,7 +119,7 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
     files = []
     for t, s, f in zip(result.tests, result.P_start, result.P_fit):
         path = out / f"fit_{_safe(t.name)}.png"
-        plot_test(path, t, s, f)
+        plot_test(path, t, s, f, _fitted_phrases(result))
         files.append(path)
     text = scene_to_toml(fitted_scene(result, scene))
     head = "".join(f"# material fitted by cfm fit to {t.path} ({t.kind}, {t.rate:g} 1/s)\n" for t in result.tests)

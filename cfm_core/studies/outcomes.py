@@ -18,7 +18,8 @@ import numpy as np
 
 from ..post.staging import check_file_target, check_folder_target, earlier_files, remove_entry, staged_folder
 from ..post.writers import write_drop_test, write_json
-from ..runs.provenance import json_ready, provenance, scene_files
+from ..post.plots import subtitled
+from ..runs.provenance import describe_run, json_ready, material_record, provenance, scene_files
 from .sweep_output import plot_peaks, table_frame, write_sweep_json, write_table
 
 if TYPE_CHECKING:
@@ -148,6 +149,27 @@ class SweepOutcome:
         return json_ready(provenance(self.backend, self.options, material, scene_files(self.scene),
                                      run_id_key=self.key))
 
+    def title(self, record: dict | None = None) -> str:
+        """Title of ``peaks.png`` (after "Peak acceleration, "): the scene's name, then the material,
+        the backend with its dtype, and the options and material parameters that differ from their
+        defaults, the varied names left out (the figure's axes and legend show them).
+
+        Parameters
+        ----------
+        record : dict, optional
+            The sweep's provenance record (default: :meth:`provenance`).
+
+        Returns
+        -------
+        str
+            The title, with a subtitle line of phrases.
+        """
+        m = self.scene.material
+        varied = {a.name for a in self.axes}
+        phrases = [p for p in describe_run(record or self.provenance()) if p.split(" = ")[0] not in varied]
+        return subtitled(str(self.scene.settings.name), [f"{m.name} ({'elastic' if m.elastic else m.moduli})",
+                                                         *phrases], width=75)
+
     def save(self, out) -> Path:
         """Write the sweep's files, the same ``cfm sweep`` writes.
 
@@ -177,10 +199,11 @@ class SweepOutcome:
             if not same:
                 self._write_runs(stage / "runs")
             files = write_table(stage, self.rows, self.axes)
+            record = self.provenance()
             if any(r["status"] == "ok" for r in self.rows):
-                plot_peaks(stage / "peaks.png", self.rows, self.axes, f"{self.scene.settings.name}, {self.backend}")
+                plot_peaks(stage / "peaks.png", self.rows, self.axes, self.title(record))
                 files.append(stage / "peaks.png")
-            files.append(write_sweep_json(stage, self.axes, self.rows, self.provenance(),
+            files.append(write_sweep_json(stage, self.axes, self.rows, record,
                                           {"executed": self.executed, "skipped": self.skipped, "wall_time": self.wall,
                                            "backend": self.backend, "units": {"wall_time": "s"}}))
         self.files = [out / f.name for f in files]
@@ -199,6 +222,29 @@ class SweepOutcome:
 
 
 # ----------------------------------------------------------------------------- uniaxial
+def uniaxial_title(material, rate: float, source: str) -> str:
+    """Title of a uniaxial-stress figure.
+
+    Parameters
+    ----------
+    material : Material
+        The bound material.
+    rate : float
+        Engineering strain rate (1/s).
+    source : str
+        What computed the stress ("numpy reference", "backend numba along ...": cut before " along").
+
+    Returns
+    -------
+    str
+        ``cfm (long-term), uniaxial stress at 100 1/s, numpy reference`` and, on a second line, each
+        material parameter that differs from its default (``k1 = 1000 (default 970)``).
+    """
+    m = material
+    return subtitled(f"{m.name} ({'elastic' if m.elastic else m.moduli}), uniaxial stress at {rate:g} 1/s, "
+                     f"{source.split(' along')[0]}", describe_run({"material": material_record(m)}), width=75)
+
+
 @dataclass
 class UniaxialOutcome:
     """Uniaxial stress response of a material point (:func:`cfm_core.simulation.point.uniaxial`).
@@ -240,10 +286,9 @@ class UniaxialOutcome:
                              "lateral_stretch [-]": self.lateral})
 
     def title(self) -> str:
-        """Plot title: material, moduli convention (or elastic), rate, source."""
-        m = self.material
-        return (f"{m.name} ({'elastic' if m.elastic else m.moduli}), uniaxial stress at {self.rate:g} /s, "
-                f"{self.source.split(' along')[0]}")
+        """Plot title: material, moduli convention (or elastic), rate (1/s), source, and the
+        material parameters that differ from their defaults (:func:`uniaxial_title`)."""
+        return uniaxial_title(self.material, self.rate, self.source)
 
     def save(self, path, plot: bool = True) -> Path:
         """Write the CSV ``cfm point --uniaxial --out PATH`` writes, and its plot beside it.

@@ -55,15 +55,22 @@ def table_frame(rows: list, axes: list[Axis]) -> pd.DataFrame:
     return frame
 
 
+def _shortest(value: float) -> str:
+    """The shortest text that reads back to ``value`` (``repr``), integral values without ``.0``."""
+    value = float(value)
+    return str(int(value)) if value.is_integer() and abs(value) < 2**53 else repr(value)
+
+
 def write_table(out: Path, rows: list, axes: list[Axis]) -> list[Path]:
     """Write sweep.csv and, with pyarrow installed, sweep.parquet atomically; returns the paths.
 
     Both hold the same table (:func:`table_frame`); ``pandas.read_csv(path)`` and
-    ``pandas.read_parquet(path)`` read it back. Floats are written with 17 significant digits
-    (exact round trip)."""
+    ``pandas.read_parquet(path)`` read it back. Floats are written in Python's shortest form that
+    reads back to the same float (``repr``: an input 1.66 as ``1.66``, not ``1.6599999999999999``),
+    integral values without a fraction (``689``), missing values as empty cells."""
     frame = table_frame(rows, axes)
     out.mkdir(parents=True, exist_ok=True)
-    files = [atomic_write(out / "sweep.csv", lambda tmp: frame.to_csv(tmp, index=False, float_format="%.17g",
+    files = [atomic_write(out / "sweep.csv", lambda tmp: frame.to_csv(tmp, index=False, float_format=_shortest,
                                                                         lineterminator="\n"))]
     try:  # parquet needs pyarrow (in the 'dask' and 'all' extras); the CSV is the complete record
         files.append(atomic_write(out / "sweep.parquet", lambda tmp: frame.to_parquet(tmp, index=False)))
