@@ -88,18 +88,28 @@ def material_record(material) -> dict:
         ``name``, ``distribution``, ``version``, ``entry_point`` of the material plugin (None for
         a material composed in Python and not registered), ``definition_digest`` (changes when any
         term's source, parameters or the code generator changes; None for interactively defined
-        terms), ``parameters`` (every value, SI), ``overrides`` (:func:`parameter_overrides`),
-        ``moduli``, ``elastic``.
+        terms), ``terms`` (each energy term's name with the distribution, version and entry point
+        of the ``cfm.terms`` plugin of that name, None where it is not registered),
+        ``parameters`` (every value, SI), ``overrides`` (:func:`parameter_overrides`), ``moduli``,
+        ``elastic``.
     """
     spec = material.spec
-    try:
-        where = plugins.origin("materials", spec.name)
-    except ValueError:
-        where = {"distribution": None, "version": None, "value": None}
+    where = _origin("materials", spec.name)
+    terms = [*spec.isochoric, *((spec.volumetric,) if spec.volumetric else ())]
     return {"name": spec.name, "distribution": where["distribution"], "version": where["version"],
             "entry_point": where["value"], "definition_digest": spec_fingerprint(spec),
+            "terms": [{"name": t.name, **{k: v for k, v in _origin("terms", t.name).items() if k != "name"}}
+                      for t in terms],
             "parameters": dict(material.values), "overrides": parameter_overrides(material),
             "moduli": material.moduli, "elastic": bool(material.elastic)}
+
+
+def _origin(kind: str, name: str) -> dict:
+    """:func:`cfm_core.plugins.origin`, or Nones for a name not registered (composed in Python)."""
+    try:
+        return plugins.origin(kind, name)
+    except ValueError:
+        return {"name": name, "distribution": None, "version": None, "value": None}
 
 
 def parameter_overrides(material) -> dict:
@@ -208,7 +218,7 @@ def provenance(backend: str | None = None, options: dict | None = None, material
         record["material"] = material_record(material)
     record["input_files"] = dict(files or {})
     record.update(extra)
-    return record
+    return json_ready(record)  # strict JSON: an option such as dt_max = inf is written as "inf"
 
 
 def describe_differences(records: dict) -> list[str]:
