@@ -38,10 +38,10 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 templates_path = ["_templates"]
-# Files in docs/ that are not pages: generated tables included from pages, the draft front page,
-# the examples' sources (the gallery renders them), build output.
+# Files in docs/ that are not pages: generated tables included from pages, the examples' sources
+# (the gallery renders them), build output.
 exclude_patterns = [
-    "_build", "README-draft.md", "examples/*", "auto_examples/*.ipynb", "auto_examples/*.py",
+    "_build", "examples/*", "auto_examples/*.ipynb", "auto_examples/*.py",
     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5",
     "paper/*.md", "septa/*.md", "skfem/*.md", "skfem/*-*mm/*",
 ]

@@ -1,4 +1,4 @@
-"""Mooney-Rivlin on isochoric invariants: the ten-line plugin example of the README."""
+"""Mooney-Rivlin on isochoric invariants: the ten-line plugin example of docs/user/materials.md."""
 
 from cfm_core.material.parameters import positive
 from cfm_core.material.terms import isochoric

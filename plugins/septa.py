@@ -26,7 +26,7 @@ cone I4 = 1, not a polynomial): measured against an adaptive integration split a
 
 Parameters (SI): k1s (Pa, > 0, default 17970) fibre stiffness, k2s (-, > 0, default 1.80)
 stiffening exponent; the defaults are the fit of the two parameters to the paper's two peaks
-(README): matched, not confirmed, and the early loading of the drop test is then too stiff.
+(docs/user/septa.md): matched, not confirmed, and the early loading of the drop test is then too stiff.
 Under the "long-term" moduli convention they are relaxed values, like c and k1 (the Prony series
 acts on the whole isochoric energy).
 """
@@ -50,7 +50,7 @@ DEGREE = 17
 #: then takes the active side of the switch, as the CFM's fibres do).
 BITS = 40
 #: Defaults: the calibration to the paper's two peaks (80.7 g at 5 mm, 52.5 g at 8 mm) with the CFM part at
-#: Table 1 (README, docs/septa/calibration.json). Two numbers for two parameters: matched, not confirmed.
+#: Table 1 (docs/user/septa.md, docs/septa/calibration.json). Two numbers for two parameters: matched, not confirmed.
 K1S = positive("k1s", "Pa", 17970.0, "septa fibre stiffness, tension only (default: fitted to the paper's two peaks)")
 K2S = positive("k2s", "-", 1.80, "septa fibre stiffening exponent (default: fitted to the paper's two peaks)")
 

@@ -26,7 +26,7 @@ import numpy as np
 from . import histories, truths
 from .compare import ENDS_LOADED_FRACTION, compare_union
 
-#: Largest energy-balance error (-) of a completed scene run: the project's 1 % rule (README).
+#: Largest energy-balance error (-) of a completed scene run: the project's 1 % rule (docs/user/checks.md).
 ENERGY_LIMIT = 0.01
 
 #: Per pair kind: rel L2 limit (-), peak limit (-), |t_peak diff| limit (s), |duration diff|

@@ -1,6 +1,6 @@
 """What the septa fibres do to the paper's drop tests: sweep summary, calibration to the two peaks, figure.
 
-Usage (numba, the paper's 1 mm mesh; the sweep itself is a ``cfm sweep`` command, see README)::
+Usage (numba, the paper's 1 mm mesh; the sweep itself is a ``cfm sweep`` command, see docs/user/septa.md)::
 
     cfm sweep --serial --scene docs/septa/drop-test-septa.toml --vary thickness=0.005,0.008 \\
         --vary k1s=0.001,30,100,300,1000,3000 --vary k2s=0.1,1,10 --out out/septa-sweep

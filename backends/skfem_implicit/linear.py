@@ -6,7 +6,7 @@ data array only (:func:`kernels.scatter_matrix` or ``numpy.bincount``), so a fac
 keep its ordering and symbolic analysis for the whole run. Constrained dofs get an identity row
 and column (scaled by the mean diagonal; zero increment), so size, pattern and symmetry stay.
 
-Solvers (option ``linear_solver``; chosen by measurement, see the README):
+Solvers (option ``linear_solver``; chosen by measurement, docs/user/performance.md):
 
 - "pardiso": Intel MKL PARDISO through ctypes (the library that pypardiso installs), real
   symmetric indefinite (mtype -2, Bunch-Kaufman pivoting) on the upper triangle: the tangent of

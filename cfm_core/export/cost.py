@@ -96,7 +96,7 @@ def umat_cost(material, calls: int = 200_000) -> float:
     return float(out[0])
 
 
-if __name__ == "__main__":  # pragma: no cover - a measurement for the README
+if __name__ == "__main__":  # pragma: no cover - a measurement for docs/user/export.md
     name = sys.argv[1] if len(sys.argv) > 1 else "cfm"
     seconds = umat_cost(make_material(name))
     print(f"{name}: {seconds * 1e6:.2f} us CPU per UMAT call (stress + DDSDDE + Prony update), gfortran -O2, one core")

@@ -47,7 +47,7 @@ SCENE_KEYS = ("thickness", "velocity", "element_size", "width", "mass", "radius"
 #: Above this many runs, ``cfm sweep`` run from a terminal asks before starting (``--yes`` skips it).
 CONFIRM_RUNS = 200
 #: Measured cost of a drop test on numba (2 threads): 1.9 s for the default 8 mm specimen with 1 mm
-#: hexahedra (README, Sweeps); the time scales with elements x steps, i.e. with volume / h^4.
+#: hexahedra (docs/user/sweeps.md); the time scales with elements x steps, i.e. with volume / h^4.
 REFERENCE_RUN = {"seconds": 1.9, "volume": 0.05 * 0.05 * 0.008, "element_size": 0.001}
 #: Per-run overhead outside the solver (s): model build, post-processing, files.
 RUN_OVERHEAD = 0.03
