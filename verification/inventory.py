@@ -45,6 +45,9 @@ def discover(selected=None) -> list[dict]:
                     row.update(status="unavailable", reason=why)
                 elif selected is not None and name not in selected:
                     row.update(status="not selected", reason="left out by --backends")
+                elif selected is None and getattr(cls, "experimental", False):
+                    row.update(status="not selected", reason=f"experimental backend: verified when named "
+                                                             f"(--backends {name})")
                 else:
                     row.update(status="available", instance=inst,
                                can_point=type(inst).point is not Backend.point,

@@ -211,6 +211,11 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     record_path = out / "build.json"
     if record_path.exists() and (out / "ccx").exists():
         record = json.loads(record_path.read_text())
+        _, names = linked_source(mats, sources)
+        if any(record["materials"].get(k) != v for k, v in names.items()):
+            # the same UMAT code (the key) from a newer definition digest: the build holds it too
+            record["materials"] = {**record["materials"], **names}
+            record_path.write_text(json.dumps(record, indent=2) + "\n")
         return {**record, "cached": True, "seconds": time.perf_counter() - t0}
     with open(cache_dir("calculix") / "build.log", "a") as log:
         t1 = time.perf_counter()
