@@ -20,9 +20,15 @@ instead), in a function of its own so that LLVM vectorises it across elements (8
 AVX-512 instruction): kinematics (F, hourglass modes), eigen-decomposition of C, the material's
 derivatives, principal stresses and moduli, Prony update, forces and stress work. The rare
 cases the branch-free eigen-decomposition does not cover (isotropic C, e.g. the undeformed
-state) go through the scalar :func:`eig3` one by one. Element forces stay in a block array
-(``ef``); a node-parallel gather through the node -> element incidence sums them without
-write conflicts.
+state) go through the scalar :func:`eig3` one by one.
+
+Scatter: the elements (renumbered for locality before the run, ``cfm_backends.explicit.renumber``)
+are split into chunks of consecutive blocks, one parallel task each. A chunk adds its element
+forces straight onto a force buffer: onto the rows of the nodes it touches first (its own, a
+contiguous range: nodes are numbered in first-touch order) and onto private halo rows for the
+nodes an earlier chunk owns. No two chunks write the same row, so no atomics, no per-element
+force array and no serial pass; the node loop then adds each node's halo rows (few: only nodes
+on a chunk boundary have any) to its own row.
 """
 
 # >>> standalone (removed when the kernels are concatenated into a generated module)
@@ -39,69 +45,107 @@ from .vmath import vsqrt
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
+def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave):
     """Stresses, nodal forces, stable steps and the stress work of all elements at one state.
 
-    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8); bg (e, 56): B_a,k and
-    gamma_a,alpha of each element, row 7 a + (k | 3 + alpha) (per element, for the
-    element-by-element kinematics; the block array ed holds them again by rows); ed, eh, ef: the block
-    arrays (layout.py: geometry and state of each element; Prony state; nodal forces); decay,
-    gain: Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
-    isochoric, 1 full modulus. Writes the element forces (ef, N), dte (e,) = L / c
-    (s), status (e,), errv (e, 4) = (J, m0, m1, m2) at failures; updates the Prony state and the
-    previous-step S and E. Returns (stress work increment (J), number of failures).
+    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8) the corner nodes; slot (e, 8)
+    the row of the force buffer fb that each corner adds to (``forces.scatter_plan``); chunks
+    (c + 1, 3): per chunk of consecutive blocks, its first block, the first buffer row of the nodes
+    it owns, the first buffer row of its halo (the last row ends each range); ed, eh: the block
+    arrays (layout.py: geometry and state of each element; Prony state); fb (rows * NF,): the
+    force buffer (N), each chunk's rows zeroed and summed into by that chunk alone; decay, gain:
+    Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
+    isochoric, 1 full modulus. Writes bdt, bemin (nblk,): the smallest L / c of each block (s)
+    and its element, status (e,) at failures (1 inverted, 2 non-finite) and errv (nblk, 4) =
+    (J, m0, m1, m2) of the block's first failure; updates the Prony state and the previous-step
+    S and E. Returns (stress work increment (J), number of failures).
+
+    Parallel over the chunks (one task each): no two chunks write the same buffer row, so the
+    scatter needs no atomics and no serial pass, and the sums do not depend on the thread count.
     """
     ne = conn.shape[0]
-    nblk = (ne + BLOCK - 1) // BLOCK
     k6 = 6 * decay.shape[0] * BLOCK
     work = 0.0
     nbad = 0
-    for blk in prange(nblk):
-        e0 = blk * BLOCK
-        wb, nb = element_block(e0, min(BLOCK, ne - e0), x, v, conn, bg, ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK],
-                               eh[blk * k6:(blk + 1) * k6], ef[blk * EF_N * BLOCK:(blk + 1) * EF_N * BLOCK],
-                               p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave)
-        work += wb
-        nbad += nb
+    for c in prange(chunks.shape[0] - 1):
+        for r in range(chunks[c, 1] * NF, chunks[c + 1, 1] * NF):
+            fb[r] = 0.0
+        for r in range(chunks[c, 2] * NF, chunks[c + 1, 2] * NF):
+            fb[r] = 0.0
+        wc = 0.0
+        nc = 0
+        for blk in range(chunks[c, 0], chunks[c + 1, 0]):
+            e0 = blk * BLOCK
+            wb, nb = element_block(e0, min(BLOCK, ne - e0), blk, x, v, conn, slot,
+                                   ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK], eh[blk * k6:(blk + 1) * k6],
+                                   fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave)
+            wc += wb
+            nc += nb
+        work += wc
+        nbad += nc
     return work, nbad
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_block(e0, n, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
-    """:func:`element_pass` for the n elements from e0 (one block, its stretches ed, eh, ef of
-    the block arrays); returns (stress work (J), number of failures)."""
+def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv,
+                  rho, hg, hgwave):
+    """:func:`element_pass` for the n elements from e0 (block blk, its stretches ed, eh of the
+    block arrays), the forces added onto fb; returns (stress work (J), number of failures)."""
     wk = np.empty(W_N * BLOCK)
-    kinematics_block(wk, bg, x, v, conn, e0, n)
+    kinematics_block(wk, ed, x, v, conn, e0, n)
     eigen_block(wk, n)
     eigen_fallback(wk, n)
     material_block(wk, p, n)
     stress_block(wk, n)
     prony_block(wk, ed, eh, decay, gain, ginf, n)
-    forces_block(wk, ed, ef, rho, hg, hgwave, n)
+    forces_block(wk, ed, rho, hg, hgwave, n)
+    scatter_block(wk, fb, slot, e0, n)
     wb = 0.0
     nb = 0
+    dmin = np.inf
+    emin = e0
     for i in range(n):
         e = e0 + i
-        dte[e] = wk[W_DTE * BLOCK + i]
+        d = wk[W_DTE * BLOCK + i]
+        if d < dmin:
+            dmin = d
+            emin = e
         st = wk[W_ST * BLOCK + i]
         if st != 0.0:
             status[e] = 1 if st == 1.0 else 2
-            errv[e, 0] = wk[W_J * BLOCK + i]
-            for r in range(3):
-                errv[e, 1 + r] = 0.0 if st == 1.0 else wk[(W_M + r) * BLOCK + i]
+            if nb == 0:
+                errv[blk, 0] = wk[W_J * BLOCK + i]
+                for r in range(3):
+                    errv[blk, 1 + r] = 0.0 if st == 1.0 else wk[(W_M + r) * BLOCK + i]
             nb += 1
         else:
             wb += wk[W_WORK * BLOCK + i]
+    bdt[blk] = dmin
+    bemin[blk] = emin
     return wb, nb
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def kinematics_block(wk, bg, x, v, conn, e0, n):
+def scatter_block(wk, fb, slot, e0, n):
+    """Add the block's corner forces (wk rows W_FN + 6 a + c, N) onto the force buffer rows
+    slot[e, a] (fb value NF row + c), element by element in order (so a node's forces are summed
+    in element order within a chunk)."""
+    for i in range(n):
+        e = e0 + i
+        for a in range(8):
+            r = slot[e, a] * NF
+            for c in range(NF):
+                fb[r + c] += wk[(W_FN + 6 * a + c) * BLOCK + i]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def kinematics_block(wk, ed, x, v, conn, e0, n):
     """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
-    (rows W_Q, m/s) of the block's n elements from e0. Element by element, with B and gamma read
-    per element from bg (not vectorised: an indexed load x[conn] in a vectorised loop needs a
-    bounds proof LLVM cannot make, and gathering the corners into rows first costs more than it
-    saves; read by rows from the block array, B and gamma cost twice as much here)."""
+    (rows W_Q, m/s) of the block's n elements from e0. Element by element (not vectorised: an
+    indexed load x[conn] in a vectorised loop needs a bounds proof LLVM cannot make, and
+    gathering the corners into rows first costs more than it saves), B and gamma read from the
+    block's rows of ed (in cache: the block's stretch is 20 kB; a second per-element copy of B
+    and gamma was faster on a small mesh but doubled their memory traffic on a large one)."""
     for i in range(n):
         e = e0 + i
         f00 = 0.0
@@ -130,9 +174,9 @@ def kinematics_block(wk, bg, x, v, conn, e0, n):
             x0 = x[nd, 0]
             x1 = x[nd, 1]
             x2 = x[nd, 2]
-            b0 = bg[e, 7 * a]
-            b1 = bg[e, 7 * a + 1]
-            b2 = bg[e, 7 * a + 2]
+            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
+            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
             f00 += x0 * b0
             f01 += x0 * b1
             f02 += x0 * b2
@@ -145,10 +189,10 @@ def kinematics_block(wk, bg, x, v, conn, e0, n):
             v0 = v[nd, 0]
             v1 = v[nd, 1]
             v2 = v[nd, 2]
-            g0 = bg[e, 7 * a + 3]
-            g1 = bg[e, 7 * a + 4]
-            g2 = bg[e, 7 * a + 5]
-            g3 = bg[e, 7 * a + 6]
+            g0 = ed[(ED_G + 4 * a) * BLOCK + i]
+            g1 = ed[(ED_G + 4 * a + 1) * BLOCK + i]
+            g2 = ed[(ED_G + 4 * a + 2) * BLOCK + i]
+            g3 = ed[(ED_G + 4 * a + 3) * BLOCK + i]
             q00 += v0 * g0
             q01 += v1 * g0
             q02 += v2 * g0
@@ -394,14 +438,14 @@ def prony_block(wk, ed, eh, decay, gain, ginf, n):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def forces_block(wk, ed, ef, rho, hg, hgwave, n):
+def forces_block(wk, ed, rho, hg, hgwave, n):
     """Stable step, nodal forces and stress work of the block's elements (status 0; the others
     get dte = inf, zero forces and keep their previous-step S and E).
 
     dte = L / c with c = sqrt(M / rho) the longitudinal wave speed (s, rows W_DTE);
     internal forces V0 P B_a with P = F S (N); hourglass forces -c_hg sum_alpha q_alpha
     gamma_a,alpha with c_hg = Q_hg rho c V0^(2/3) / 4, c from the isochoric (hgwave 0) or full
-    modulus (ef rows 6 a + c); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
+    modulus (wk rows W_FN + 6 a + c); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
     E = (C - I) / 2 (J, rows W_WORK)."""
     for i in range(n):
         ok = wk[W_ST * BLOCK + i] == 0.0
@@ -479,47 +523,47 @@ def forces_block(wk, ed, ef, rho, hg, hgwave, n):
             g1 = ed[(ED_G + 4 * a + 1) * BLOCK + i] * chg
             g2 = ed[(ED_G + 4 * a + 2) * BLOCK + i] * chg
             g3 = ed[(ED_G + 4 * a + 3) * BLOCK + i] * chg
-            r = 6 * a * BLOCK + i
-            ef[r] = wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1 + wk[(W_P + 2) * BLOCK + i] * b2
-            ef[r + BLOCK] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
+            r = (W_FN + 6 * a) * BLOCK + i
+            wk[r] = wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1 + wk[(W_P + 2) * BLOCK + i] * b2
+            wk[r + BLOCK] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
                              + wk[(W_P + 5) * BLOCK + i] * b2)
-            ef[r + 2 * BLOCK] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
+            wk[r + 2 * BLOCK] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
                                  + wk[(W_P + 8) * BLOCK + i] * b2)
-            ef[r + 3 * BLOCK] = (wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1
+            wk[r + 3 * BLOCK] = (wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1
                                  + wk[(W_Q + 6) * BLOCK + i] * g2 + wk[(W_Q + 9) * BLOCK + i] * g3)
-            ef[r + 4 * BLOCK] = (wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1
+            wk[r + 4 * BLOCK] = (wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1
                                  + wk[(W_Q + 7) * BLOCK + i] * g2 + wk[(W_Q + 10) * BLOCK + i] * g3)
-            ef[r + 5 * BLOCK] = (wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1
+            wk[r + 5 * BLOCK] = (wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1
                                  + wk[(W_Q + 8) * BLOCK + i] * g2 + wk[(W_Q + 11) * BLOCK + i] * g3)
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def gather_update(ef, ptr, foff, mass, free, fint, fhg, x, v, vold, dtn, dt):
-    """Sum element forces per node, then central differences on the free dofs.
+def gather_update(fb, hptr, hrow, mass, free, fint, fhg, x, v, vold, dtn, dt):
+    """Sum each node's force rows, then central differences on the free dofs.
 
-    ef: the block array of the element nodal forces; ptr, foff: CSR incidence of node ->
-    (element, corner) as the offset in ef of that corner's internal force x-component (the
-    others follow every BLOCK values). fint, fhg (n, 3) receive the nodal
-    internal and hourglass forces (N); vold the velocities v^{n-1/2}; v becomes v^{n+1/2} =
+    fb: the force buffer (:func:`element_pass`): row j < n the node's own, rows hrow[hptr[j]:
+    hptr[j + 1]] its halo rows in other chunks (in chunk order). fint, fhg (n, 3) receive the
+    nodal internal and hourglass forces (N); vold the velocities v^{n-1/2}; v becomes v^{n+1/2} =
     v^{n-1/2} + dtn (f^hg - f^int) / m on free dofs (0 on fixed and prescribed ones); x becomes
     the trial x^{n+1} = x^n + dt v^{n+1/2}.
     """
     nn = x.shape[0]
     for n in prange(nn):
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        h0 = 0.0
-        h1 = 0.0
-        h2 = 0.0
-        for k in range(ptr[n], ptr[n + 1]):
-            r = foff[k]
-            s0 += ef[r]
-            s1 += ef[r + BLOCK]
-            s2 += ef[r + 2 * BLOCK]
-            h0 += ef[r + 3 * BLOCK]
-            h1 += ef[r + 4 * BLOCK]
-            h2 += ef[r + 5 * BLOCK]
+        r = n * NF
+        s0 = fb[r]
+        s1 = fb[r + 1]
+        s2 = fb[r + 2]
+        h0 = fb[r + 3]
+        h1 = fb[r + 4]
+        h2 = fb[r + 5]
+        for k in range(hptr[n], hptr[n + 1]):
+            r = hrow[k] * NF
+            s0 += fb[r]
+            s1 += fb[r + 1]
+            s2 += fb[r + 2]
+            h0 += fb[r + 3]
+            h1 += fb[r + 4]
+            h2 += fb[r + 5]
         fint[n, 0] = s0
         fint[n, 1] = s1
         fint[n, 2] = s2

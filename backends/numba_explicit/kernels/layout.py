@@ -96,9 +96,9 @@ R_STATE = 13        # non-finite kinematic state
 # ---- element blocks (kernels/element.py) ----
 # Elements are processed in blocks of BLOCK; each block's data is one stretch of the flat array
 # ``ed`` (ED_N rows of BLOCK values, element i of the block in column i), its Prony state one
-# stretch of ``eh`` (6 k rows, row 6 j + c), its nodal forces one stretch of ``ef`` (EF_N rows,
-# row 6 a + c: internal force c = 0..2, hourglass force 3..5 at corner a, N) and the per-step
-# intermediate values a scratch array of W_N rows.
+# stretch of ``eh`` (6 k rows, row 6 j + c), and the per-step intermediate values a scratch
+# array of W_N rows (rows W_FN + 6 a + c: internal force c = 0..2, hourglass force 3..5 at
+# corner a, N), from which the block adds its forces onto the nodes (scatter, see element.py).
 # Row offsets are compile-time constants: LLVM then proves that a stage's stores never overlap
 # its loads and vectorises the loops over the columns (with 2-D arrays or one array per quantity
 # it would need a run-time overlap check per pair and gives up).
@@ -112,7 +112,7 @@ ED_S0 = 59          # isochoric S0 of the previous step (Pa), 6 rows (11, 22, 33
 ED_SO = 65          # S of the previous step (Pa), 6 rows
 ED_EO = 71          # E = (C - I) / 2 of the previous step (-), 6 rows
 ED_N = 77
-EF_N = 48
+NF = 6              # values per node in the force buffer: internal force x, y, z, hourglass x, y, z (N)
 W_F = 0             # F, 9 rows (row-major)
 W_Q = 9             # hourglass modes q_alpha,i (m/s), 12 rows, row 3 alpha + i
 W_C = 21            # C = F^T F, 6 rows
@@ -131,4 +131,5 @@ W_DTE = 74          # L / c (s)
 W_WORK = 75         # stress work of the step (J)
 W_P = 76            # P = F S (Pa), 9 rows (row-major); 0 for failed elements
 W_CHG = 85          # hourglass damping -c_hg (kg/s); 0 for failed elements
-W_N = 86
+W_FN = 86           # nodal forces of the block's elements (N), 48 rows, row 6 a + c
+W_N = 134
