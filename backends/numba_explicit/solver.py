@@ -108,7 +108,8 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     v = np.zeros((n, 3)) if v0 is None else v0
     snodes = np.ascontiguousarray(model.sphere_nodes if sph is not None else [], dtype=np.int64)
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
-    ed = block_arrays(B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0)
+    hx = np.einsum("sa,eaj->esj", geometry.HG_BASE, nodes[hexes])    # h_alpha . X_k (m), (e, 4, 3)
+    ed = block_arrays(B, hx, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0)
     nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
     sp = scatter.plan(hexes, n, K.BLOCK)
     if sp.rows >= 2 ** 31:
@@ -116,7 +117,7 @@ def prepare(model, o: NumbaOptions) -> Prepared:
                          f"supported (32-bit node indices).")
     # 32-bit corner indices: half the index traffic of the element pass (meshes up to 2^31 nodes)
     geo = (np.ascontiguousarray(hexes, dtype=np.int32), np.ascontiguousarray(sp.slot, dtype=np.int32), sp.chunks,
-           mass, free, pmask, sp.hptr, sp.hrow)
+           mass, free.astype(np.int8), pmask.astype(np.int8), sp.hptr, sp.hrow)   # 0/1 masks: 1 byte per dof
     st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
           np.zeros(sp.rows * K.NF), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.full(nblk, np.inf), np.zeros(nblk, dtype=np.int64), np.zeros(ne, dtype=np.int8), np.zeros((nblk, 4)))
@@ -124,10 +125,11 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes, ren)
 
 
-def block_arrays(B, G, V0, L, hgfac):
+def block_arrays(B, hx, V0, L, hgfac):
     """The block array of the element kernels (kernels/layout.py, rows ED_*).
 
-    B (e, 8, 3) (1/m), G (e, 8, 4) (-), V0, L, hgfac (e,): per element. Returns ed (nblk * ED_N
+    B (e, 8, 3) (1/m), hx (e, 4, 3) = h_alpha . X_k (m; the hourglass vectors are gamma_a,alpha
+    = h_alpha,a - sum_k hx_alpha,k B_a,k), V0, L, hgfac (e,): per element. Returns ed (nblk * ED_N
     * BLOCK,): in block b = e // BLOCK, column i = e % BLOCK, row r holds ed[(b * ED_N + r) *
     BLOCK + i]. The state rows start at zero (undeformed, relaxed); columns beyond the last
     element are never used.
@@ -136,7 +138,7 @@ def block_arrays(B, G, V0, L, hgfac):
     nblk = -(-ne // K.BLOCK)
     rows = np.zeros((nblk * K.BLOCK, K.ED_N))
     rows[:ne, K.ED_B:K.ED_B + 24] = B.reshape(ne, 24)
-    rows[:ne, K.ED_G:K.ED_G + 32] = G.reshape(ne, 32)
+    rows[:ne, K.ED_HX:K.ED_HX + 12] = hx.reshape(ne, 12)
     rows[:ne, K.ED_V0] = V0
     rows[:ne, K.ED_L] = L
     rows[:ne, K.ED_HGF] = hgfac

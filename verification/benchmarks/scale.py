@@ -17,8 +17,9 @@ machine are not meaningful: compare rows of one run, not runs of different days)
 2. torch (eager float64, one thread) / numba at each drop-test size, both run end to end for
    the same short end time (few steps: torch eager is slow), wall time per element-cycle.
 3. Threads at the largest drop-test size: 2 threads against 1 (wall time, alternating, best of
-   ``repeat``); then the same with one core kept busy by a second process this benchmark starts
-   (a bounded busy loop), the default thread count (``threads=None``) against one thread.
+   ``repeat``); then with one core kept busy by a second process this benchmark starts (a
+   bounded busy loop, killed at the end), the default thread count (``threads=None``) against
+   one thread and two.
 """
 
 from __future__ import annotations
@@ -177,10 +178,11 @@ def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: boo
         proc = busy_core(3600.0)
         try:
             time.sleep(1.0)
-            w = wall(big, (None, 1), repeat)
+            w = wall(big, (None, 1, 2), repeat)
             b = w["best"]
             say(f"  one core busy (second process): default ({w['used'][None]} threads) {b[None]:.2f} s, "
-                f"1 thread {b[1]:.2f} s, ratio {b[1] / b[None]:.2f} (target >= 1: never slower)  ({load()})")
+                f"1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s; 1 thread / default {b[1] / b[None]:.2f} "
+                f"(target >= 1: never slower)  ({load()})")
         finally:
             proc.kill()
             proc.wait()
