@@ -123,7 +123,7 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         numba.set_num_threads(old)
 
 
-STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces", "scatter")
+STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces", "corners_scatter")
 
 
 def _stages(mod, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, rho, hg, cpu) -> dict:
@@ -135,8 +135,8 @@ def _stages(mod, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, rho, hg, cp
     from cfm_backends.numba_explicit.kernels import layout as K
 
     fns = (mod.kinematics_block, mod.eigen_block, mod.eigen_fallback, mod.material_block, mod.stress_block,
-           mod.prony_block, mod.forces_block, mod.scatter_block)
-    kin, eig, fbk, mat, st, pr, fo, sca = fns
+           mod.prony_block, mod.forces_block, mod.corner_forces, mod.scatter_corner)
+    kin, eig, fbk, mat, st, pr, fo, cor, sca = fns
     B, EDN, WN = K.BLOCK, K.ED_N, K.W_N
 
     @njit
@@ -163,7 +163,9 @@ def _stages(mod, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, rho, hg, cp
             elif stage == 6:
                 fo(w, edb, rho, hg, 0, n)
             else:
-                sca(w, fb, slot, e0, n)
+                for a in range(8):
+                    cor(w, edb, a, n)
+                    sca(w, fb, slot, e0, a, n)
 
     nblk = -(-conn.shape[0] // B)
     wk = np.zeros(nblk * WN * B)

@@ -99,7 +99,9 @@ def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf
     stress_block(wk, n)
     prony_block(wk, ed, eh, decay, gain, ginf, n)
     forces_block(wk, ed, rho, hg, hgwave, n)
-    scatter_block(wk, fb, slot, e0, n)
+    for a in range(8):
+        corner_forces(wk, ed, a, n)
+        scatter_corner(wk, fb, slot, e0, a, n)
     wb = 0.0
     nb = 0
     dmin = np.inf
@@ -126,16 +128,17 @@ def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def scatter_block(wk, fb, slot, e0, n):
-    """Add the block's corner forces (wk rows W_FN + 6 a + c, N) onto the force buffer rows
-    slot[e, a] (fb value NF row + c), element by element in order (so a node's forces are summed
-    in element order within a chunk)."""
+def scatter_corner(wk, fb, slot, e0, a, n):
+    """Add corner a's forces of the block's elements (wk rows W_FN + c, N) onto the force buffer
+    rows slot[e, a] (value NF row + c), element by element in order."""
     for i in range(n):
-        e = e0 + i
-        for a in range(8):
-            r = slot[e, a] * NF
-            for c in range(NF):
-                fb[r + c] += wk[(W_FN + 6 * a + c) * BLOCK + i]
+        r = slot[e0 + i, a] * NF
+        fb[r] += wk[W_FN * BLOCK + i]
+        fb[r + 1] += wk[(W_FN + 1) * BLOCK + i]
+        fb[r + 2] += wk[(W_FN + 2) * BLOCK + i]
+        fb[r + 3] += wk[(W_FN + 3) * BLOCK + i]
+        fb[r + 4] += wk[(W_FN + 4) * BLOCK + i]
+        fb[r + 5] += wk[(W_FN + 5) * BLOCK + i]
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -484,13 +487,13 @@ def prony_block(wk, ed, eh, decay, gain, ginf, n):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def forces_block(wk, ed, rho, hg, hgwave, n):
-    """Stable step, nodal forces and stress work of the block's elements (status 0; the others
-    get dte = inf, zero forces and keep their previous-step S and E).
+    """Stable step, P, c_hg and stress work of the block's elements for :func:`corner_forces` (status 0;
+    the others get dte = inf, zero forces and keep their previous-step S and E).
 
     dte = L / c with c = sqrt(M / rho) the longitudinal wave speed (s, rows W_DTE);
     internal forces V0 P B_a with P = F S (N); hourglass forces -c_hg sum_alpha q_alpha
     gamma_a,alpha with c_hg = Q_hg rho c V0^(2/3) / 4, c from the isochoric (hgwave 0) or full
-    modulus (wk rows W_FN + 6 a + c); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
+    modulus (:func:`corner_forces`); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
     E = (C - I) / 2 (J, rows W_WORK)."""
     for i in range(n):
         ok = wk[W_ST * BLOCK + i] == 0.0
@@ -523,15 +526,36 @@ def forces_block(wk, ed, rho, hg, hgwave, n):
         wk[(W_P + 8) * BLOCK + i] = p22 if ok else 0.0
         wk[W_CHG * BLOCK + i] = chg if ok else 0.0
         cg = chg if ok else 0.0
-        for k in range(3):
-            hx0 = ed[(ED_HX + k) * BLOCK + i] * cg
-            hx1 = ed[(ED_HX + 3 + k) * BLOCK + i] * cg
-            hx2 = ed[(ED_HX + 6 + k) * BLOCK + i] * cg
-            hx3 = ed[(ED_HX + 9 + k) * BLOCK + i] * cg
-            for c in range(3):
-                wk[(W_HR + 3 * k + c) * BLOCK + i] = (hx0 * wk[(W_Q + c) * BLOCK + i] + hx1 * wk[(W_Q + 3 + c) * BLOCK + i]
-                                                      + hx2 * wk[(W_Q + 6 + c) * BLOCK + i]
-                                                      + hx3 * wk[(W_Q + 9 + c) * BLOCK + i])
+        q00 = wk[W_Q * BLOCK + i] * cg
+        q01 = wk[(W_Q + 1) * BLOCK + i] * cg
+        q02 = wk[(W_Q + 2) * BLOCK + i] * cg
+        q10 = wk[(W_Q + 3) * BLOCK + i] * cg
+        q11 = wk[(W_Q + 4) * BLOCK + i] * cg
+        q12 = wk[(W_Q + 5) * BLOCK + i] * cg
+        q20 = wk[(W_Q + 6) * BLOCK + i] * cg
+        q21 = wk[(W_Q + 7) * BLOCK + i] * cg
+        q22 = wk[(W_Q + 8) * BLOCK + i] * cg
+        q30 = wk[(W_Q + 9) * BLOCK + i] * cg
+        q31 = wk[(W_Q + 10) * BLOCK + i] * cg
+        q32 = wk[(W_Q + 11) * BLOCK + i] * cg
+        wk[W_HR * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q00 + ed[(ED_HX + 3) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q20 + ed[(ED_HX + 9) * BLOCK + i] * q30)
+        wk[(W_HR + 1) * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q01 + ed[(ED_HX + 3) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q21 + ed[(ED_HX + 9) * BLOCK + i] * q31)
+        wk[(W_HR + 2) * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q02 + ed[(ED_HX + 3) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q22 + ed[(ED_HX + 9) * BLOCK + i] * q32)
+        wk[(W_HR + 3) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q00 + ed[(ED_HX + 4) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q20 + ed[(ED_HX + 10) * BLOCK + i] * q30)
+        wk[(W_HR + 4) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q01 + ed[(ED_HX + 4) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q21 + ed[(ED_HX + 10) * BLOCK + i] * q31)
+        wk[(W_HR + 5) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q02 + ed[(ED_HX + 4) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q22 + ed[(ED_HX + 10) * BLOCK + i] * q32)
+        wk[(W_HR + 6) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q00 + ed[(ED_HX + 5) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q20 + ed[(ED_HX + 11) * BLOCK + i] * q30)
+        wk[(W_HR + 7) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q01 + ed[(ED_HX + 5) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q21 + ed[(ED_HX + 11) * BLOCK + i] * q31)
+        wk[(W_HR + 8) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q02 + ed[(ED_HX + 5) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q22 + ed[(ED_HX + 11) * BLOCK + i] * q32)
         e00 = 0.5 * (wk[W_C * BLOCK + i] - 1.0)
         e11 = 0.5 * (wk[(W_C + 1) * BLOCK + i] - 1.0)
         e22 = 0.5 * (wk[(W_C + 2) * BLOCK + i] - 1.0)
@@ -566,37 +590,46 @@ def forces_block(wk, ed, rho, hg, hgwave, n):
         ed[(ED_EO + 4) * BLOCK + i] = e12 if ok else eo4
         ed[(ED_EO + 5) * BLOCK + i] = e02 if ok else eo5
 
-    # nodal forces: corners outside, elements inside (vectorised); zero for failed elements.
-    # Hourglass: -c_hg sum_alpha q_alpha gamma_a,alpha = -c_hg sum_alpha h_alpha,a q_alpha - sum_k B_a,k (W_HR row k)
-    for a in range(8):
-        h0 = H0[a]
-        h1 = H1[a]
-        h2 = H2[a]
-        h3 = H3[a]
-        for i in range(n):
-            vol = ed[ED_V0 * BLOCK + i]
-            bb0 = ed[(ED_B + 3 * a) * BLOCK + i]
-            bb1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
-            bb2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
-            b0 = bb0 * vol
-            b1 = bb1 * vol
-            b2 = bb2 * vol
-            chg = wk[W_CHG * BLOCK + i]
-            g0 = h0 * chg
-            g1 = h1 * chg
-            g2 = h2 * chg
-            g3 = h3 * chg
-            r = (W_FN + 6 * a) * BLOCK + i
-            wk[r] = wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1 + wk[(W_P + 2) * BLOCK + i] * b2
-            wk[r + BLOCK] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
-                             + wk[(W_P + 5) * BLOCK + i] * b2)
-            wk[r + 2 * BLOCK] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
-                                 + wk[(W_P + 8) * BLOCK + i] * b2)
-            for c in range(3):
-                wk[r + (3 + c) * BLOCK] = (wk[(W_Q + c) * BLOCK + i] * g0 + wk[(W_Q + 3 + c) * BLOCK + i] * g1
-                                           + wk[(W_Q + 6 + c) * BLOCK + i] * g2 + wk[(W_Q + 9 + c) * BLOCK + i] * g3
-                                           - (bb0 * wk[(W_HR + c) * BLOCK + i] + bb1 * wk[(W_HR + 3 + c) * BLOCK + i]
-                                              + bb2 * wk[(W_HR + 6 + c) * BLOCK + i]))
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def corner_forces(wk, ed, a, n):
+    """Nodal forces at corner a of the block's elements (wk rows W_FN + c, N; zero for failed
+    elements): internal V0 P B_a, hourglass -c_hg sum_alpha q_alpha gamma_a,alpha = -c_hg
+    sum_alpha h_alpha,a q_alpha - sum_k B_a,k (rows W_HR + 3 k). Vectorised across elements;
+    one corner at a time keeps the block's scratch within the L1 cache."""
+    h0 = H0[a]
+    h1 = H1[a]
+    h2 = H2[a]
+    h3 = H3[a]
+    for i in range(n):
+        vol = ed[ED_V0 * BLOCK + i]
+        bb0 = ed[(ED_B + 3 * a) * BLOCK + i]
+        bb1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+        bb2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
+        b0 = bb0 * vol
+        b1 = bb1 * vol
+        b2 = bb2 * vol
+        chg = wk[W_CHG * BLOCK + i]
+        g0 = h0 * chg
+        g1 = h1 * chg
+        g2 = h2 * chg
+        g3 = h3 * chg
+        wk[W_FN * BLOCK + i] = (wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1
+                                + wk[(W_P + 2) * BLOCK + i] * b2)
+        wk[(W_FN + 1) * BLOCK + i] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
+                                      + wk[(W_P + 5) * BLOCK + i] * b2)
+        wk[(W_FN + 2) * BLOCK + i] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
+                                      + wk[(W_P + 8) * BLOCK + i] * b2)
+        hq = wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1 + wk[(W_Q + 6) * BLOCK + i] * g2
+        hr = bb0 * wk[W_HR * BLOCK + i] + bb1 * wk[(W_HR + 3) * BLOCK + i] + bb2 * wk[(W_HR + 6) * BLOCK + i]
+        wk[(W_FN + 3) * BLOCK + i] = hq + wk[(W_Q + 9) * BLOCK + i] * g3 - hr
+        hq = wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1 + wk[(W_Q + 7) * BLOCK + i] * g2
+        hr = bb0 * wk[(W_HR + 1) * BLOCK + i] + bb1 * wk[(W_HR + 4) * BLOCK + i] + bb2 * wk[(W_HR + 7) * BLOCK + i]
+        wk[(W_FN + 4) * BLOCK + i] = hq + wk[(W_Q + 10) * BLOCK + i] * g3 - hr
+        hq = wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1 + wk[(W_Q + 8) * BLOCK + i] * g2
+        hr = bb0 * wk[(W_HR + 2) * BLOCK + i] + bb1 * wk[(W_HR + 5) * BLOCK + i] + bb2 * wk[(W_HR + 8) * BLOCK + i]
+        wk[(W_FN + 5) * BLOCK + i] = hq + wk[(W_Q + 11) * BLOCK + i] * g3 - hr
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")

@@ -97,8 +97,8 @@ R_STATE = 13        # non-finite kinematic state
 # Elements are processed in blocks of BLOCK; each block's data is one stretch of the flat array
 # ``ed`` (ED_N rows of BLOCK values, element i of the block in column i), its Prony state one
 # stretch of ``eh`` (6 k rows, row 6 j + c), and the per-step intermediate values a scratch
-# array of W_N rows (rows W_FN + 6 a + c: internal force c = 0..2, hourglass force 3..5 at
-# corner a, N), from which the block adds its forces onto the nodes (scatter, see element.py).
+# array of W_N rows (rows W_FN + c: internal force c = 0..2, hourglass force 3..5 at one corner,
+# N, from which the block adds its forces onto the nodes corner by corner; see element.py).
 # Row offsets are compile-time constants: LLVM then proves that a stage's stores never overlap
 # its loads and vectorises the loops over the columns (with 2-D arrays or one array per quantity
 # it would need a run-time overlap check per pair and gives up).
@@ -137,6 +137,6 @@ W_DTE = 74          # L / c (s)
 W_WORK = 75         # stress work of the step (J)
 W_P = 76            # P = F S (Pa), 9 rows (row-major); 0 for failed elements
 W_CHG = 85          # hourglass damping -c_hg (kg/s); 0 for failed elements
-W_FN = 86           # nodal forces of the block's elements (N), 48 rows, row 6 a + c
-W_HR = 134          # -c_hg sum_alpha (h_alpha . X_k) q_alpha,i (N), 9 rows, row 3 k + i
-W_N = 143
+W_HR = 86           # -c_hg sum_alpha (h_alpha . X_k) q_alpha,i (N), 9 rows, row 3 k + i
+W_FN = 95           # nodal forces of one corner of the block's elements (N), 6 rows
+W_N = 101           # (wk + the block's ed and eh: ~45 kB, within a 48 kB L1 data cache)
