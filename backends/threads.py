@@ -4,11 +4,115 @@ numba and torch keep one process-wide count of worker threads (``get_num_threads
 ``set_num_threads``); a backend sets the count its options ask for around its time loop and gives
 the caller back the count it had, also when the run raises. Neither library is imported here:
 the backend passes the module it uses.
+
+Without a count from the user, a run takes the cores actually free to this process
+(:func:`free_cores`): the cores it may run on (affinity), less those other processes keep busy
+(measured over a few milliseconds from /proc/stat), and inside a Dask worker its share of the
+worker's cores. A parallel step waits for its slowest thread at every barrier: one thread on a
+core that another process holds makes every step wait for the scheduler, so on a shared machine
+more threads than free cores made runs several times slower than one thread.
 """
 
 from __future__ import annotations
 
+import math
+import os
+import sys
+import time
 from contextlib import contextmanager
+
+SAMPLE_S = 0.03      # how long /proc/stat is watched for idle time (s)
+REUSE_S = 2.0        # a measurement is reused this long (s): a sweep's runs do not each wait for one
+IDLE_SLACK = 0.15    # a core counts as free when at least 85 % of it was idle
+
+_last: tuple[float, int] | None = None
+
+
+def allowed_cpus() -> list[int]:
+    """The CPUs this process may run on (its affinity; all CPUs where the OS cannot tell)."""
+    try:
+        return sorted(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return list(range(os.cpu_count() or 1))
+
+
+def _cpu_times(cpus: list[int]) -> tuple[float, float] | None:
+    """(idle, total) jiffies summed over ``cpus`` from /proc/stat, or None where unreadable."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    want = {f"cpu{c}" for c in cpus}
+    idle = total = 0.0
+    for line in lines:
+        parts = line.split()
+        if parts and parts[0] in want:
+            v = [float(x) for x in parts[1:]]
+            idle += v[3] + (v[4] if len(v) > 4 else 0.0)       # idle + iowait
+            total += sum(v[:8])                                # guest time is counted in user already
+    return (idle, total) if total > 0 else None
+
+
+def idle_cores(cpus: list[int], sample: float = SAMPLE_S) -> float | None:
+    """Cores of ``cpus`` left idle by every process over ``sample`` seconds (None where /proc/stat
+    cannot be read); this process sleeps meanwhile."""
+    a = _cpu_times(cpus)
+    if a is None:
+        return None
+    time.sleep(sample)
+    b = _cpu_times(cpus)
+    if b is None or b[1] <= a[1]:
+        return None
+    return len(cpus) * (b[0] - a[0]) / (b[1] - a[1])
+
+
+def dask_worker_threads() -> int | None:
+    """The thread count of the Dask worker this code runs in, or None outside a worker (only
+    looked up where ``distributed`` is already imported: a worker has imported it)."""
+    if "distributed" not in sys.modules:
+        return None
+    try:
+        worker = sys.modules["distributed"].get_worker()
+    except (ValueError, AttributeError):
+        return None
+    state = getattr(worker, "state", worker)
+    n = getattr(state, "nthreads", None) or getattr(worker, "nthreads", None)
+    return int(n) if n else None
+
+
+def free_cores() -> int:
+    """Threads a run should use by default: the cores actually free to this process, at least 1.
+
+    The allowed cores (affinity) less those busy with other processes (idle time over
+    ``SAMPLE_S`` from /proc/stat, a core free when at least 85 % idle; the 1-minute load average
+    where /proc/stat is unreadable), divided among the task threads of a Dask worker (each of its
+    concurrent tasks gets an equal share, never more than one core's worth less). A measurement
+    is reused for ``REUSE_S`` seconds.
+
+    Returns
+    -------
+    int
+        1 <= threads <= the allowed cores.
+    """
+    global _last
+    now = time.monotonic()
+    cpus = allowed_cpus()
+    if _last is not None and now - _last[0] < REUSE_S:
+        n = _last[1]
+    else:
+        idle = idle_cores(cpus) if len(cpus) > 1 else float(len(cpus))
+        if idle is None:
+            try:
+                idle = len(cpus) - os.getloadavg()[0]
+            except OSError:
+                idle = float(len(cpus))
+        n = int(max(1, min(len(cpus), math.floor(idle + IDLE_SLACK))))
+        _last = (now, n)
+    tasks = dask_worker_threads()
+    if tasks:
+        n = max(1, min(n, len(cpus) // tasks))
+    return n
 
 
 @contextmanager
@@ -21,7 +125,7 @@ def num_threads(lib, threads: int | None, serial: bool = False):
         numba or torch (anything with ``get_num_threads()`` and ``set_num_threads(n)``).
     threads : int or None
         Threads for the block (>= 1, the backend option ``threads``); None: 1 if ``serial``,
-        else the library's current count is left as it is.
+        else :func:`free_cores` (never more than the library has).
     serial : bool
         Whether the run is too small to gain from threads (start-up costs more than it saves),
         so that ``threads=None`` means one thread.
@@ -32,10 +136,9 @@ def num_threads(lib, threads: int | None, serial: bool = False):
         The block runs with the count set.
     """
     old = lib.get_num_threads()
-    if threads is None and serial:
-        threads = 1
-    if threads is not None:
-        lib.set_num_threads(int(threads))
+    if threads is None:
+        threads = 1 if serial else min(free_cores(), max(old, 1))
+    lib.set_num_threads(int(threads))
     try:
         yield
     finally:

@@ -16,14 +16,15 @@ prescribed motion and gravity. The force works balance the kinetic energy exactl
 ``Result.energy_error()`` measures the stress work against the nodal-force work: it is exact
 for a linear elastic model and O(dt^2) otherwise.
 
-Threads: the element, node and energy loops run in parallel (numba prange, OpenMP). On a shared
-machine, ``OMP_WAIT_POLICY=PASSIVE`` (set by default unless already set, before numba starts
-its threads) keeps an occupied core from stalling every parallel loop.
+Threads: the element, node and energy loops run in parallel (numba prange; chunks of element
+blocks, see ``kernels/element.py``). The default thread count is the cores free to this process
+(``cfm_backends.threads.free_cores``); with numba's OpenMP layer, ``OMP_WAIT_POLICY=PASSIVE``
+(set unless already set, before numba starts its threads) keeps threads from spinning.
 
 Options of :meth:`NumbaExplicitBackend.run`: :class:`.options.NumbaOptions` (declared once with unit,
 default and allowed values; listed by ``cfm backends --options`` and in the method's docstring):
 the shared explicit-solver options (``cfm_backends.explicit.options``) and ``threads`` (default:
-numba's, or 1 for models under 1000 elements, where starting threads costs more than it saves).
+the free cores, or 1 for models under 1000 elements, where starting threads costs more than it saves).
 """
 
 from __future__ import annotations

@@ -17,4 +17,5 @@ class NumbaOptions(ExplicitOptions):
 
     owner = "numba backend"
     threads: int = option(None, "-", "numba threads for this run", kind="int", low=1,
-                          none=f"numba's default, 1 below {PARALLEL_MIN} elements")
+                          none=f"the cores free to this process (affinity, less cores busy with other processes, a "
+                          f"Dask worker's share), 1 below {PARALLEL_MIN} elements")

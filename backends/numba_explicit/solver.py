@@ -5,6 +5,11 @@ Python prepares the arrays (geometry, masses, constraints), then calls the compi
 progress between chunks and turns failure codes into :class:`cfm_core.errors.NumericalError`.
 Histories are recorded at every step. Forces, impulses and energies in the Result are for the
 full model (times ``model.symmetry_factor``); SI units throughout.
+
+The solver runs a renumbered copy of the model (``cfm_backends.explicit.renumber``, option
+``renumber``): elements along a space-filling curve, nodes in first-touch order, so that each
+block of elements touches a compact range of nodes. Frames, the physics checks and every node or
+element named in an error are in the user's numbering.
 """
 
 from __future__ import annotations
@@ -16,15 +21,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cfm_backends.explicit import errors, geometry, history
+from cfm_backends.explicit import errors, geometry, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity
 from cfm_backends.threads import num_threads
+from cfm_core.errors import InputError
 from cfm_core.material.prony import gamma_inf
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
-from . import codegen
+from . import codegen, scatter
 from .frames import frame_state
 from .kernels import layout as K
 from .options import PARALLEL_MIN, NumbaOptions
@@ -42,16 +48,20 @@ class Prepared:
     cnt: tuple
     presc: tuple
     nodes: np.ndarray
+    ren: renumber.Renumbering
 
 
 def prepare(model, o: NumbaOptions) -> Prepared:
-    """Build all arrays of a run from the model and checked options."""
-    nodes, hexes = check_model(model)
+    """Build all arrays of a run from the model and checked options (in the solver's numbering:
+    ``Prepared.ren`` maps it to the user's)."""
+    user_nodes, user_hexes = check_model(model)
+    ren = renumber.plan(user_nodes, user_hexes, o.renumber)
+    model = ren.model(model)
+    nodes, hexes = model.nodes, model.hexes
     n, ne = nodes.shape[0], hexes.shape[0]
     rho = float(model.density)
     V0, B, G, L = geometry.hex_geometry(nodes, hexes)
     mass, free, pmask, pnodes = geometry.constraints(model, nodes, hexes, V0)
-    ptr, inc = geometry.incidence(hexes, n)
     pr = model.prescribed
     if pr is not None:
         presc = (pnodes, np.ascontiguousarray(nodes[pnodes, pr.dof]),
@@ -95,59 +105,62 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     sc[K.S_DTMIN] = math.inf
     sc[K.S_DTMAX] = 0.0
 
-    v0 = initial_velocity(o, n, free, "numba")
+    v0 = initial_velocity(o, n, np.ones((n, 3)), "numba")
+    v0 = None if v0 is None else ren.to_internal_nodes(v0) * free
     v = np.zeros((n, 3)) if v0 is None else v0
     snodes = np.ascontiguousarray(model.sphere_nodes if sph is not None else [], dtype=np.int64)
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
-    ed, foff = block_arrays(B, G, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0, inc)
+    hx = np.einsum("sa,eaj->esj", geometry.HG_BASE, nodes[hexes])    # h_alpha . X_k (m), (e, 4, 3)
+    ed = block_arrays(B, hx, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0)
     nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
-    bg = np.ascontiguousarray(np.concatenate([B, G], axis=2).reshape(ne, 56))
-    geo = (hexes, bg, mass, free, pmask, ptr, foff)
+    sp = scatter.plan(hexes, n, K.BLOCK)
+    if sp.rows >= 2 ** 31:
+        raise InputError(f"numba backend: the mesh has {n} nodes; at most {2 ** 31 - 1 - (sp.rows - n)} are "
+                         f"supported (32-bit node indices).")
+    # 32-bit corner indices: half the index traffic of the element pass (meshes up to 2^31 nodes)
+    geo = (np.ascontiguousarray(hexes, dtype=np.int32), np.ascontiguousarray(sp.slot, dtype=np.int32), sp.chunks,
+           mass, free.astype(np.int8), pmask.astype(np.int8), sp.hptr, sp.hrow)   # 0/1 masks: 1 byte per dof
     st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
-          np.zeros(nblk * K.EF_N * K.BLOCK), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
-          np.zeros(ne), np.zeros(ne, dtype=np.int64), np.zeros((ne, 4)))
+          np.zeros(sp.rows * K.NF), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+          np.full(nblk, np.inf), np.zeros(nblk, dtype=np.int64), np.zeros(ne, dtype=np.int8), np.zeros((nblk, 4)))
     cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 9)))
-    return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes)
+    return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes, ren)
 
 
-def block_arrays(B, G, V0, L, hgfac, inc):
-    """The block array of the element kernels (kernels/layout.py, rows ED_*) and the offsets of
-    the incidence in the force block array ``ef``.
+def block_arrays(B, hx, V0, L, hgfac):
+    """The block array of the element kernels (kernels/layout.py, rows ED_*).
 
-    B (e, 8, 3) (1/m), G (e, 8, 4) (-), V0, L, hgfac (e,): per element; inc: the incidence rows
-    e * 8 + a. Returns (ed (nblk * ED_N * BLOCK,), foff (len(inc),)): in block b = e // BLOCK,
-    column i = e % BLOCK, row r holds ed[(b * ED_N + r) * BLOCK + i]; foff: the offset in ef of
-    corner a's internal-force x-component, row 6 a of block b. The state rows start at zero (undeformed,
-    relaxed); columns beyond the last element are never used.
+    B (e, 8, 3) (1/m), hx (e, 4, 3) = h_alpha . X_k (m; the hourglass vectors are gamma_a,alpha
+    = h_alpha,a - sum_k hx_alpha,k B_a,k), V0, L, hgfac (e,): per element. Returns ed (nblk * ED_N
+    * BLOCK,): in block b = e // BLOCK, column i = e % BLOCK, row r holds ed[(b * ED_N + r) *
+    BLOCK + i]. The state rows start at zero (undeformed, relaxed); columns beyond the last
+    element are never used.
     """
     ne = V0.shape[0]
     nblk = -(-ne // K.BLOCK)
     rows = np.zeros((nblk * K.BLOCK, K.ED_N))
     rows[:ne, K.ED_B:K.ED_B + 24] = B.reshape(ne, 24)
-    rows[:ne, K.ED_G:K.ED_G + 32] = G.reshape(ne, 32)
+    rows[:ne, K.ED_HX:K.ED_HX + 12] = hx.reshape(ne, 12)
     rows[:ne, K.ED_V0] = V0
     rows[:ne, K.ED_L] = L
     rows[:ne, K.ED_HGF] = hgfac
-    ed = np.ascontiguousarray(rows.reshape(nblk, K.BLOCK, K.ED_N).transpose(0, 2, 1)).ravel()
-    e, a = np.divmod(np.asarray(inc, dtype=np.int64), 8)
-    foff = (e // K.BLOCK * K.EF_N + 6 * a) * K.BLOCK + e % K.BLOCK
-    return ed, np.ascontiguousarray(foff, dtype=np.int64)
+    return np.ascontiguousarray(rows.reshape(nblk, K.BLOCK, K.ED_N).transpose(0, 2, 1)).ravel()
 
 
 def per_element(block: np.ndarray, n_rows: int, first: int, count: int, ne: int) -> np.ndarray:
     """Rows first .. first + count of a block array (n_rows rows per block, :func:`block_arrays`)
     as a per-element array (ne, count): e.g. the previous-step S, ``per_element(ed, K.ED_N,
-    K.ED_SO, 6, ne)`` (Pa), or the nodal forces, ``per_element(ef, K.EF_N, 0, 48, ne)`` (N,
-    corner-major: column 6 a + c)."""
+    K.ED_SO, 6, ne)`` (Pa), in the solver's element order."""
     nblk = block.shape[0] // (n_rows * K.BLOCK)
     rows = block.reshape(nblk, n_rows, K.BLOCK)[:, first:first + count, :]
     return rows.transpose(0, 2, 1).reshape(nblk * K.BLOCK, count)[:ne].copy()
 
 
 def _error(code: int, prep: Prepared, model):
-    """The NumericalError of a failure code of the compiled loop."""
+    """The NumericalError of a failure code of the compiled loop (``model``: the user's; the
+    element named in the user's numbering)."""
     sc = prep.sc
-    t, e = float(sc[K.S_T]), int(sc[K.S_ERRE])
+    t, e = float(sc[K.S_T]), prep.ren.user_element(int(sc[K.S_ERRE]))
     if code == K.R_INVERTED:
         return errors.inverted(model, e, t, sc[K.S_ERRV])
     if code == K.R_NONFINITE:
@@ -215,15 +228,17 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     next_progress = tick
     fi = o.frame_interval
     frames = [(0.0, np.zeros_like(prep.nodes))] if fi else []
-    states = [frame_state(prep, model.n_elements, prep.mat[1].shape[0])] if fi else []  # velocity, Prony state
+    states = [prep.ren.frame_state_to_user(frame_state(prep, model.n_elements, prep.mat[1].shape[0]))] if fi else []  # velocity, Prony state
     next_frame = fi if fi else math.inf
     chunks = []
     hist = np.zeros((4096, K.H_N))
     stop = "end_time"
     reported = 0.0
-    conn = prep.geo[0]
+    conn = np.ascontiguousarray(model.hexes, dtype=np.int64)
     vols = np.empty((conn.shape[0], 8))
-    # physics checks (cfm_core.simulation.checks), every ~1 % of the end time; the fold check compiled
+    ren = prep.ren
+    # physics checks (cfm_core.simulation.checks), every ~1 % of the end time, on the user's
+    # numbering (the positions renumbered back); the fold check compiled
     monitor = Monitor(model, corner_volumes=lambda x, hexes: mod.corner_volumes(x, conn, vols))
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     start = time.perf_counter()
@@ -234,10 +249,10 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
             raise _error(code, prep, model)
         t = float(prep.sc[K.S_T])
         if monitor.due(t):
-            monitor.check(t, prep.st[0], z())
+            monitor.check(t, ren.to_user_nodes(prep.st[0]), z())
         if fi and t >= next_frame:
-            frames.append((t, prep.st[0] - prep.nodes))
-            states.append(frame_state(prep, model.n_elements, prep.mat[1].shape[0]))
+            frames.append((t, ren.to_user_nodes(prep.st[0] - prep.nodes)))
+            states.append(ren.frame_state_to_user(frame_state(prep, model.n_elements, prep.mat[1].shape[0])))
             next_frame = (math.floor(t / fi) + 1) * fi
         if t >= next_progress:
             if progress is not None and min(t, end) > reported:
@@ -252,7 +267,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
         if prep.sc[K.S_STEPS] >= o.max_steps:
             raise errors.max_steps(model, int(prep.sc[K.S_STEPS]), t)
     wall = time.perf_counter() - start
-    monitor.final(t, prep.st[0], z())
+    monitor.final(t, ren.to_user_nodes(prep.st[0]), z())
     h = np.concatenate(chunks)
     res = _result(model, prep, h, wall, compile_time, threads, frames, stop, o)
     res.info["checks"] = monitor.report()

@@ -22,10 +22,12 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
-from cfm_backends.explicit import errors, history
+from cfm_backends.explicit import errors, history, renumber
+from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.history import COLUMNS
 from cfm_backends.threads import num_threads
 from cfm_core.simulation.checks import Monitor
@@ -48,18 +50,24 @@ def run_model(model, progress=None, **options) -> Result:
         from .batch import run_parsed
 
         return run_parsed([model], o, progress, True, True, device, dtype)[0]
+    # the run uses a renumbered copy of the model for locality (cfm_backends.explicit.renumber);
+    # frames, checks and errors are in the user's numbering
+    ren = renumber.plan(*check_model(model), o.renumber)
+    if o.initial_velocity is not None and np.shape(o.initial_velocity) == (model.n_nodes, 3):
+        o = replace(o, initial_velocity=ren.to_internal_nodes(np.asarray(o.initial_velocity, dtype=np.float64)))
     with num_threads(torch, o.threads, serial=device.type == "cpu" and model.n_elements < PARALLEL_MIN):
         with torch.inference_mode():
-            return _Run(model, o, device, dtype, progress).loop()
+            return _Run(ren.model(model), o, device, dtype, progress, model, ren).loop()
 
 
 class _Run:
-    def __init__(self, model, o, device, dtype, progress):
+    def __init__(self, model, o, device, dtype, progress, user, ren):
         import torch
 
         from . import element
 
         self.model, self.o, self.device, self.dtype, self.progress = model, o, device, dtype, progress
+        self.user, self.ren = user, ren       # the user's model, the renumbering (model is ren.model(user))
         t0 = time.perf_counter()
         self.ghd = mat.grad_hess_diag(model.material)
         self.p = mat.parameters(model.material)
@@ -134,15 +142,17 @@ class _Run:
         next_progress = tick
         fi = o.frame_interval
         frames = [(0.0, np.zeros((a.n, 3)))] if fi else []
-        states = [frame_state(v, self.state, 0.0, a.ne)] if fi else []  # velocity, Prony state
+        to_user = self.ren.to_user_nodes
+        states = [self.ren.frame_state_to_user(frame_state(v, self.state, 0.0, a.ne))] if fi else []  # velocity, Prony state
         next_frame = fi if fi else math.inf
         reported = 0.0
         stop = "end_time"
         zero = torch.zeros((), dtype=self.dtype, device=self.device)
         self.syncs = 0
-        monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
-        nodes0 = np.asarray(model.nodes, dtype=np.float64)
-        positions = lambda: nodes0 + u.T.to("cpu", torch.float64).numpy()  # noqa: E731
+        # physics checks (cfm_core.simulation.checks), every ~1 % of the end time, in the user's numbering
+        monitor = Monitor(self.user)
+        nodes0 = np.asarray(self.user.nodes, dtype=np.float64)
+        positions = lambda: nodes0 + to_user(u.T.to("cpu", torch.float64).numpy())  # noqa: E731
         start = time.perf_counter()
         while True:
             # 1. elements at x^n (Prony factors of the previous step)
@@ -234,8 +244,8 @@ class _Run:
                 else:
                     SEPT = 0.0
             if fi and t >= next_frame:
-                frames.append((t, u.T.to("cpu", torch.float64).numpy().copy()))
-                states.append(frame_state(v, self.state, dtp, a.ne))
+                frames.append((t, to_user(u.T.to("cpu", torch.float64).numpy())))
+                states.append(self.ren.frame_state_to_user(frame_state(v, self.state, dtp, a.ne)))
                 next_frame = (math.floor(t / fi) + 1) * fi
             if t >= next_progress:
                 if self.progress is not None and min(t, end) > reported:
@@ -262,16 +272,17 @@ class _Run:
 
         from .element import inverted
 
-        e = int(torch.nonzero(resp.failed)[0, 0])      # the first failed element
+        e = int(torch.nonzero(resp.failed)[0, 0])      # the first failed element (solver's numbering)
         J = float(kin.J[e])
-        if bool(inverted(kin.J[e])):
-            return errors.inverted(self.model, e, t, J)
         m = [float(x) for x in kin.m[:, e].tolist()]
-        return errors.nonfinite(self.model.material, f"element {e} at t = {t:.6g} s", m, J, t, e,
+        eu = self.ren.user_element(e)
+        if bool(inverted(kin.J[e])):
+            return errors.inverted(self.user, eu, t, J)
+        return errors.nonfinite(self.user.material, f"element {eu} at t = {t:.6g} s", m, J, t, eu,
                                 float32=self.dtype == torch.float32)
 
     def _collapse_error(self, t: float, e: int, dtc: float, dt0: float):
-        return errors.collapse(self.model, t, e, dtc, dt0, self.o.collapse)
+        return errors.collapse(self.user, t, self.ren.user_element(e), dtc, dt0, self.o.collapse)
 
     # ---- result ----
     def _result(self, h, wall, steps, dt0, dtmin, dtmax, maxpen, frames, stop) -> Result:

@@ -1,7 +1,11 @@
 """cfm_backends.threads.num_threads: the count set for the block, the caller's restored after it."""
 
+import sys
+import types
+
 import pytest
 
+from cfm_backends import threads as T
 from cfm_backends.threads import num_threads
 
 
@@ -19,8 +23,19 @@ class Lib:
         self.n = n
 
 
+@pytest.fixture
+def machine(monkeypatch):
+    """A fake machine: set ``cpus`` (allowed) and ``idle`` (idle cores measured, None: unreadable)."""
+    state = types.SimpleNamespace(cpus=list(range(8)), idle=8.0, load=0.0)
+    monkeypatch.setattr(T, "_last", None)
+    monkeypatch.setattr(T, "allowed_cpus", lambda: state.cpus)
+    monkeypatch.setattr(T, "idle_cores", lambda cpus, sample=T.SAMPLE_S: state.idle)
+    monkeypatch.setattr(T.os, "getloadavg", lambda: (state.load, state.load, state.load))
+    return state
+
+
 @pytest.mark.parametrize("threads, serial, inside", [(3, False, 3), (3, True, 3), (None, True, 1), (None, False, 8)])
-def test_count_inside_and_restored_after(threads, serial, inside):
+def test_count_inside_and_restored_after(threads, serial, inside, machine):
     lib = Lib(8)
     with num_threads(lib, threads, serial=serial):
         assert lib.n == inside
@@ -42,3 +57,49 @@ def test_numba_count_restored():
     with num_threads(numba, 1):
         assert numba.get_num_threads() == 1
     assert numba.get_num_threads() == before
+
+
+@pytest.mark.parametrize("cpus, idle, expect", [
+    (8, 8.0, 8),      # idle machine: every allowed core
+    (8, 6.95, 7),     # one core busy elsewhere
+    (2, 1.02, 1),     # the 2-core case of issue 23: the other core is held by another process
+    (2, 1.5, 1),      # a half-busy core is not free: a barrier would wait for it
+    (2, 0.1, 1),      # everything busy: still one thread
+    (4, None, 3),     # /proc/stat unreadable: the load average (1.0) instead
+])
+def test_default_count_is_the_free_cores(machine, cpus, idle, expect):
+    machine.cpus, machine.idle, machine.load = list(range(cpus)), idle, 1.0
+    assert T.free_cores() == expect
+    lib = Lib(cpus)
+    with num_threads(lib, None):
+        assert lib.n == expect
+    assert lib.n == cpus
+
+
+def test_default_never_exceeds_the_librarys_threads(machine):
+    lib = Lib(2)
+    with num_threads(lib, None):
+        assert lib.n == 2
+
+
+def test_a_dask_workers_tasks_share_its_cores(machine, monkeypatch):
+    """Inside a Dask worker running 4 tasks at once on 8 free cores, each run takes 2 threads."""
+    worker = types.SimpleNamespace(state=types.SimpleNamespace(nthreads=4))
+    fake = types.SimpleNamespace(get_worker=lambda: worker)
+    monkeypatch.setitem(sys.modules, "distributed", fake)
+    assert T.free_cores() == 2
+    worker.state.nthreads = 16
+    assert T.free_cores() == 1
+
+
+def test_outside_a_dask_worker(machine, monkeypatch):
+    def not_in_worker():
+        raise ValueError("No worker found")
+    monkeypatch.setitem(sys.modules, "distributed", types.SimpleNamespace(get_worker=not_in_worker))
+    assert T.free_cores() == 8
+
+
+def test_idle_cores_on_this_machine():
+    cpus = T.allowed_cpus()
+    idle = T.idle_cores(cpus, 0.02)
+    assert idle is None or 0.0 <= idle <= len(cpus) + 1e-9

@@ -1,6 +1,7 @@
 """Benchmark of the numba backend on the paper's drop test (8 mm, 1 mm hexahedra, quarter model).
 
     python -m cfm_verification.benchmarks.numba [--thickness 0.008] [--size 0.001] [--no-cold]
+    python -m cfm_verification.benchmarks.numba --scale    (cost against mesh size and threads: .scale)
 
 Prints the cold time (a fresh process with an empty kernel cache: code generation, compilation,
 run), a warm ``cfm drop-test`` end to end in fresh processes with its phases next to the 2 s target
@@ -87,9 +88,9 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         while prep.sc[K.S_T] < t_state:
             solver.advance(mod, prep, hist, t_state)
         ne = model.n_elements
-        conn, bg, mass, free, pmask, ptr, foff = prep.geo
+        conn, slot, chunks, mass, free, pmask, hptr, hrow = prep.geo
         p, gam, tau = prep.mat
-        x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = prep.st
+        x, v, vold, ed, eh, fb, fint, fhg, dvc, bdt, bemin, status, errv = prep.st
         decay, gain = np.zeros(gam.size), np.zeros(gam.size)
         mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
 
@@ -108,23 +109,24 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
         xs, vs = x.copy(), v.copy()
         # repeated passes at one state: the Prony and previous-step state they update stay finite
-        element = cpu(lambda: mod.element_pass(xs, vs, conn, bg, ed, eh, ef, p, decay, gain, prep.par[K.P_GINF],
-                                               dte, status, errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0))
-        gather = cpu(lambda: mod.gather_update(ef, ptr, foff, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
+        element = cpu(lambda: mod.element_pass(xs, vs, conn, slot, chunks, ed, eh, fb, p, decay, gain,
+                                               prep.par[K.P_GINF], bdt, bemin, status, errv, prep.par[K.P_RHO],
+                                               prep.par[K.P_HG], 0))
+        gather = cpu(lambda: mod.gather_update(fb, hptr, hrow, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
         energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
         out = {"step": step, "element_pass": element, "gather_update": gather, "energy": energy,
                "serial_rest": step - element - gather - energy}
-        out.update(_stages(mod, x, v, conn, bg, ed.copy(), eh.copy(), ef.copy(), p, decay, gain,
+        out.update(_stages(mod, x, v, conn, slot, ed.copy(), eh.copy(), fb.copy(), p, decay, gain,
                            prep.par[K.P_GINF], prep.par[K.P_RHO], prep.par[K.P_HG], cpu))
         return out
     finally:
         numba.set_num_threads(old)
 
 
-STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces")
+STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces", "corners_scatter")
 
 
-def _stages(mod, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, rho, hg, cpu) -> dict:
+def _stages(mod, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, rho, hg, cpu) -> dict:
     """CPU time per element (ns) of each stage of the element blocks (kernels/element.py), each
     stage run over all blocks by a small compiled driver (compiled here, ~10 s)."""
     import numpy as np
@@ -133,12 +135,12 @@ def _stages(mod, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, rho, hg, cpu)
     from cfm_backends.numba_explicit.kernels import layout as K
 
     fns = (mod.kinematics_block, mod.eigen_block, mod.eigen_fallback, mod.material_block, mod.stress_block,
-           mod.prony_block, mod.forces_block)
-    kin, eig, fb, mat, st, pr, fo = fns
-    B, EDN, EFN, WN = K.BLOCK, K.ED_N, K.EF_N, K.W_N
+           mod.prony_block, mod.forces_block, mod.corner_forces, mod.scatter_corner)
+    kin, eig, fbk, mat, st, pr, fo, cor, sca = fns
+    B, EDN, WN = K.BLOCK, K.ED_N, K.W_N
 
     @njit
-    def drive(stage, x, v, conn, bg, ed, eh, ef, wk, p, decay, gain, ginf, rho, hg):
+    def drive(stage, x, v, conn, slot, ed, eh, fb, wk, p, decay, gain, ginf, rho, hg):
         ne = conn.shape[0]
         k6 = 6 * decay.shape[0] * B
         for b in range((ne + B - 1) // B):
@@ -147,25 +149,29 @@ def _stages(mod, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, rho, hg, cpu)
             w = wk[b * WN * B:(b + 1) * WN * B]
             edb = ed[b * EDN * B:(b + 1) * EDN * B]
             if stage == 0:
-                kin(w, bg, x, v, conn, e0, n)
+                kin(w, edb, x, v, conn, e0, n)
             elif stage == 1:
                 eig(w, n)
             elif stage == 2:
-                fb(w, n)
+                fbk(w, n)
             elif stage == 3:
                 mat(w, p, n)
             elif stage == 4:
                 st(w, n)
             elif stage == 5:
                 pr(w, edb, eh[b * k6:(b + 1) * k6], decay, gain, ginf, n)
+            elif stage == 6:
+                fo(w, edb, rho, hg, 0, n)
             else:
-                fo(w, edb, ef[b * EFN * B:(b + 1) * EFN * B], rho, hg, 0, n)
+                for a in range(8):
+                    cor(w, edb, a, n)
+                    sca(w, fb, slot, e0, a, n)
 
     nblk = -(-conn.shape[0] // B)
     wk = np.zeros(nblk * WN * B)
     out = {}
     for i, name in enumerate(STAGES):  # in order: each stage reads what the previous ones wrote
-        args = (i, x, v, conn, bg, ed, eh, ef, wk, p, decay, gain, ginf, rho, hg)
+        args = (i, x, v, conn, slot, ed, eh, fb, wk, p, decay, gain, ginf, rho, hg)
         drive(*args)
         out[name] = cpu(lambda: drive(*args))
     return out
@@ -178,7 +184,21 @@ def main(argv=None) -> None:
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (fresh cache) run")
     ap.add_argument("--repeat", type=int, default=2, help="warm runs per thread count (best is kept)")
     ap.add_argument("--no-end-to-end", action="store_true", help="skip the warm cfm drop-test phases")
+    ap.add_argument("--scale", action="store_true", help="only the cost against mesh size, threads and a busy "
+                    "core (module scale)")
+    ap.add_argument("--scale-sizes", default="0.001,0.0005,0.00033", help="element sizes of --scale (m)")
+    ap.add_argument("--block", type=int, default=100, help="--scale: edge of the synthetic block in elements "
+                    "(100: 10^6 hexahedra; 0 skips it)")
+    ap.add_argument("--no-torch", action="store_true", help="--scale: skip torch's ratio to numba")
+    ap.add_argument("--no-threads", action="store_true", help="--scale: skip 2 threads against 1")
+    ap.add_argument("--no-busy", action="store_true", help="--scale: skip the busy-core row")
     args = ap.parse_args(argv)
+    if args.scale:
+        from . import scale
+
+        scale.report([float(s) for s in args.scale_sizes.split(",")], args.block, max(args.repeat, 1),
+                     not args.no_torch, not args.no_threads, not args.no_busy)
+        return
 
     model = drop_test(args.thickness, args.size)
     ne = model.n_elements

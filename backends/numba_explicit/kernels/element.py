@@ -20,9 +20,15 @@ instead), in a function of its own so that LLVM vectorises it across elements (8
 AVX-512 instruction): kinematics (F, hourglass modes), eigen-decomposition of C, the material's
 derivatives, principal stresses and moduli, Prony update, forces and stress work. The rare
 cases the branch-free eigen-decomposition does not cover (isotropic C, e.g. the undeformed
-state) go through the scalar :func:`eig3` one by one. Element forces stay in a block array
-(``ef``); a node-parallel gather through the node -> element incidence sums them without
-write conflicts.
+state) go through the scalar :func:`eig3` one by one.
+
+Scatter: the elements (renumbered for locality before the run, ``cfm_backends.explicit.renumber``)
+are split into chunks of consecutive blocks, one parallel task each. A chunk adds its element
+forces straight onto a force buffer: onto the rows of the nodes it touches first (its own, a
+contiguous range: nodes are numbered in first-touch order) and onto private halo rows for the
+nodes an earlier chunk owns. No two chunks write the same row, so no atomics, no per-element
+force array and no serial pass; the node loop then adds each node's halo rows (few: only nodes
+on a chunk boundary have any) to its own row.
 """
 
 # >>> standalone (removed when the kernels are concatenated into a generated module)
@@ -42,69 +48,112 @@ key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
+def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave):
     """Stresses, nodal forces, stable steps and the stress work of all elements at one state.
 
-    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8); bg (e, 56): B_a,k and
-    gamma_a,alpha of each element, row 7 a + (k | 3 + alpha) (per element, for the
-    element-by-element kinematics; the block array ed holds them again by rows); ed, eh, ef: the block
-    arrays (layout.py: geometry and state of each element; Prony state; nodal forces); decay,
-    gain: Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
-    isochoric, 1 full modulus. Writes the element forces (ef, N), dte (e,) = L / c
-    (s), status (e,), errv (e, 4) = (J, m0, m1, m2) at failures; updates the Prony state and the
-    previous-step S and E. Returns (stress work increment (J), number of failures).
+    x, v: (n, 3) positions x^n and velocities v^{n-1/2}; conn (e, 8) the corner nodes; slot (e, 8)
+    the row of the force buffer fb that each corner adds to (``forces.scatter_plan``); chunks
+    (c + 1, 3): per chunk of consecutive blocks, its first block, the first buffer row of the nodes
+    it owns, the first buffer row of its halo (the last row ends each range); ed, eh: the block
+    arrays (layout.py: geometry and state of each element; Prony state); fb (rows * NF,): the
+    force buffer (N), each chunk's rows zeroed and summed into by that chunk alone; decay, gain:
+    Prony factors of the step since the previous call (``prony_step``); hg: Q_hg; hgwave: 0
+    isochoric, 1 full modulus. Writes bdt, bemin (nblk,): the smallest L / c of each block (s)
+    and its element, status (e,) at failures (1 inverted, 2 non-finite) and errv (nblk, 4) =
+    (J, m0, m1, m2) of the block's first failure; updates the Prony state and the previous-step
+    S and E. Returns (stress work increment (J), number of failures).
+
+    Parallel over the chunks (one task each): no two chunks write the same buffer row, so the
+    scatter needs no atomics and no serial pass, and the sums do not depend on the thread count.
     """
     ne = conn.shape[0]
-    nblk = (ne + BLOCK - 1) // BLOCK
     k6 = 6 * decay.shape[0] * BLOCK
     work = 0.0
     nbad = 0
-    for blk in prange(nblk):
-        e0 = blk * BLOCK
-        wb, nb = element_block(e0, min(BLOCK, ne - e0), x, v, conn, bg, ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK],
-                               eh[blk * k6:(blk + 1) * k6], ef[blk * EF_N * BLOCK:(blk + 1) * EF_N * BLOCK],
-                               p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave)
-        work += wb
-        nbad += nb
+    for c in prange(chunks.shape[0] - 1):
+        for r in range(chunks[c, 1] * NF, chunks[c + 1, 1] * NF):
+            fb[r] = 0.0
+        for r in range(chunks[c, 2] * NF, chunks[c + 1, 2] * NF):
+            fb[r] = 0.0
+        wc = 0.0
+        nc = 0
+        for blk in range(chunks[c, 0], chunks[c + 1, 0]):
+            e0 = blk * BLOCK
+            wb, nb = element_block(e0, min(BLOCK, ne - e0), blk, x, v, conn, slot,
+                                   ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK], eh[blk * k6:(blk + 1) * k6],
+                                   fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave)
+            wc += wb
+            nc += nb
+        work += wc
+        nbad += nc
     return work, nbad
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_block(e0, n, x, v, conn, bg, ed, eh, ef, p, decay, gain, ginf, dte, status, errv, rho, hg, hgwave):
-    """:func:`element_pass` for the n elements from e0 (one block, its stretches ed, eh, ef of
-    the block arrays); returns (stress work (J), number of failures)."""
+def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv,
+                  rho, hg, hgwave):
+    """:func:`element_pass` for the n elements from e0 (block blk, its stretches ed, eh of the
+    block arrays), the forces added onto fb; returns (stress work (J), number of failures)."""
     wk = np.empty(W_N * BLOCK)
-    kinematics_block(wk, bg, x, v, conn, e0, n)
+    kinematics_block(wk, ed, x, v, conn, e0, n)
     eigen_block(wk, n)
     eigen_fallback(wk, n)
     material_block(wk, p, n)
     stress_block(wk, n)
     prony_block(wk, ed, eh, decay, gain, ginf, n)
-    forces_block(wk, ed, ef, rho, hg, hgwave, n)
+    forces_block(wk, ed, rho, hg, hgwave, n)
+    for a in range(8):
+        corner_forces(wk, ed, a, n)
+        scatter_corner(wk, fb, slot, e0, a, n)
     wb = 0.0
     nb = 0
+    dmin = np.inf
+    emin = e0
     for i in range(n):
         e = e0 + i
-        dte[e] = wk[W_DTE * BLOCK + i]
+        d = wk[W_DTE * BLOCK + i]
+        if d < dmin:
+            dmin = d
+            emin = e
         st = wk[W_ST * BLOCK + i]
         if st != 0.0:
             status[e] = 1 if st == 1.0 else 2
-            errv[e, 0] = wk[W_J * BLOCK + i]
-            for r in range(3):
-                errv[e, 1 + r] = 0.0 if st == 1.0 else wk[(W_M + r) * BLOCK + i]
+            if nb == 0:
+                errv[blk, 0] = wk[W_J * BLOCK + i]
+                for r in range(3):
+                    errv[blk, 1 + r] = 0.0 if st == 1.0 else wk[(W_M + r) * BLOCK + i]
             nb += 1
         else:
             wb += wk[W_WORK * BLOCK + i]
+    bdt[blk] = dmin
+    bemin[blk] = emin
     return wb, nb
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def kinematics_block(wk, bg, x, v, conn, e0, n):
+def scatter_corner(wk, fb, slot, e0, a, n):
+    """Add corner a's forces of the block's elements (wk rows W_FN + c, N) onto the force buffer
+    rows slot[e, a] (value NF row + c), element by element in order."""
+    for i in range(n):
+        r = slot[e0 + i, a] * NF
+        fb[r] += wk[W_FN * BLOCK + i]
+        fb[r + 1] += wk[(W_FN + 1) * BLOCK + i]
+        fb[r + 2] += wk[(W_FN + 2) * BLOCK + i]
+        fb[r + 3] += wk[(W_FN + 3) * BLOCK + i]
+        fb[r + 4] += wk[(W_FN + 4) * BLOCK + i]
+        fb[r + 5] += wk[(W_FN + 5) * BLOCK + i]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def kinematics_block(wk, ed, x, v, conn, e0, n):
     """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
-    (rows W_Q, m/s) of the block's n elements from e0. Element by element, with B and gamma read
-    per element from bg (not vectorised: an indexed load x[conn] in a vectorised loop needs a
-    bounds proof LLVM cannot make, and gathering the corners into rows first costs more than it
-    saves; read by rows from the block array, B and gamma cost twice as much here)."""
+    (rows W_Q, m/s) of the block's n elements from e0, with gamma_a,alpha = h_alpha,a - sum_k
+    (h_alpha . X_k) B_a,k: q_alpha = sum_a h_alpha,a v_a - sum_k (h_alpha . X_k) L_:k (L the
+    velocity gradient sum_a v_a (x) B_a), from 12 stored values per element instead of 32. Element by element (not vectorised: an
+    indexed load x[conn] in a vectorised loop needs a bounds proof LLVM cannot make, and
+    gathering the corners into rows first costs more than it saves), B and gamma read from the
+    block's rows of ed (in cache: the block's stretch is 20 kB; a second per-element copy of B
+    and gamma was faster on a small mesh but doubled their memory traffic on a large one)."""
     for i in range(n):
         e = e0 + i
         f00 = 0.0
@@ -116,26 +165,35 @@ def kinematics_block(wk, bg, x, v, conn, e0, n):
         f20 = 0.0
         f21 = 0.0
         f22 = 0.0
-        q00 = 0.0
-        q01 = 0.0
-        q02 = 0.0
-        q10 = 0.0
-        q11 = 0.0
-        q12 = 0.0
-        q20 = 0.0
-        q21 = 0.0
-        q22 = 0.0
-        q30 = 0.0
-        q31 = 0.0
-        q32 = 0.0
+        l00 = 0.0
+        l01 = 0.0
+        l02 = 0.0
+        l10 = 0.0
+        l11 = 0.0
+        l12 = 0.0
+        l20 = 0.0
+        l21 = 0.0
+        l22 = 0.0
+        s00 = 0.0
+        s01 = 0.0
+        s02 = 0.0
+        s10 = 0.0
+        s11 = 0.0
+        s12 = 0.0
+        s20 = 0.0
+        s21 = 0.0
+        s22 = 0.0
+        s30 = 0.0
+        s31 = 0.0
+        s32 = 0.0
         for a in range(8):
             nd = conn[e, a]
             x0 = x[nd, 0]
             x1 = x[nd, 1]
             x2 = x[nd, 2]
-            b0 = bg[e, 7 * a]
-            b1 = bg[e, 7 * a + 1]
-            b2 = bg[e, 7 * a + 2]
+            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
+            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
             f00 += x0 * b0
             f01 += x0 * b1
             f02 += x0 * b2
@@ -148,22 +206,56 @@ def kinematics_block(wk, bg, x, v, conn, e0, n):
             v0 = v[nd, 0]
             v1 = v[nd, 1]
             v2 = v[nd, 2]
-            g0 = bg[e, 7 * a + 3]
-            g1 = bg[e, 7 * a + 4]
-            g2 = bg[e, 7 * a + 5]
-            g3 = bg[e, 7 * a + 6]
-            q00 += v0 * g0
-            q01 += v1 * g0
-            q02 += v2 * g0
-            q10 += v0 * g1
-            q11 += v1 * g1
-            q12 += v2 * g1
-            q20 += v0 * g2
-            q21 += v1 * g2
-            q22 += v2 * g2
-            q30 += v0 * g3
-            q31 += v1 * g3
-            q32 += v2 * g3
+            l00 += v0 * b0
+            l01 += v0 * b1
+            l02 += v0 * b2
+            l10 += v1 * b0
+            l11 += v1 * b1
+            l12 += v1 * b2
+            l20 += v2 * b0
+            l21 += v2 * b1
+            l22 += v2 * b2
+            h0 = H0[a]
+            h1 = H1[a]
+            h2 = H2[a]
+            h3 = H3[a]
+            s00 += v0 * h0
+            s01 += v1 * h0
+            s02 += v2 * h0
+            s10 += v0 * h1
+            s11 += v1 * h1
+            s12 += v2 * h1
+            s20 += v0 * h2
+            s21 += v1 * h2
+            s22 += v2 * h2
+            s30 += v0 * h3
+            s31 += v1 * h3
+            s32 += v2 * h3
+        # q_alpha,i = sum_a v_a,i gamma_a,alpha = s_alpha,i - sum_k (h_alpha . X_k) L_ik, L_ik = sum_a v_a,i B_a,k
+        x00 = ed[ED_HX * BLOCK + i]
+        x01 = ed[(ED_HX + 1) * BLOCK + i]
+        x02 = ed[(ED_HX + 2) * BLOCK + i]
+        x10 = ed[(ED_HX + 3) * BLOCK + i]
+        x11 = ed[(ED_HX + 4) * BLOCK + i]
+        x12 = ed[(ED_HX + 5) * BLOCK + i]
+        x20 = ed[(ED_HX + 6) * BLOCK + i]
+        x21 = ed[(ED_HX + 7) * BLOCK + i]
+        x22 = ed[(ED_HX + 8) * BLOCK + i]
+        x30 = ed[(ED_HX + 9) * BLOCK + i]
+        x31 = ed[(ED_HX + 10) * BLOCK + i]
+        x32 = ed[(ED_HX + 11) * BLOCK + i]
+        q00 = s00 - (x00 * l00 + x01 * l01 + x02 * l02)
+        q01 = s01 - (x00 * l10 + x01 * l11 + x02 * l12)
+        q02 = s02 - (x00 * l20 + x01 * l21 + x02 * l22)
+        q10 = s10 - (x10 * l00 + x11 * l01 + x12 * l02)
+        q11 = s11 - (x10 * l10 + x11 * l11 + x12 * l12)
+        q12 = s12 - (x10 * l20 + x11 * l21 + x12 * l22)
+        q20 = s20 - (x20 * l00 + x21 * l01 + x22 * l02)
+        q21 = s21 - (x20 * l10 + x21 * l11 + x22 * l12)
+        q22 = s22 - (x20 * l20 + x21 * l21 + x22 * l22)
+        q30 = s30 - (x30 * l00 + x31 * l01 + x32 * l02)
+        q31 = s31 - (x30 * l10 + x31 * l11 + x32 * l12)
+        q32 = s32 - (x30 * l20 + x31 * l21 + x32 * l22)
         wk[W_F * BLOCK + i] = f00
         wk[(W_F + 1) * BLOCK + i] = f01
         wk[(W_F + 2) * BLOCK + i] = f02
@@ -397,14 +489,14 @@ def prony_block(wk, ed, eh, decay, gain, ginf, n):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def forces_block(wk, ed, ef, rho, hg, hgwave, n):
-    """Stable step, nodal forces and stress work of the block's elements (status 0; the others
-    get dte = inf, zero forces and keep their previous-step S and E).
+def forces_block(wk, ed, rho, hg, hgwave, n):
+    """Stable step, P, c_hg and stress work of the block's elements for :func:`corner_forces` (status 0;
+    the others get dte = inf, zero forces and keep their previous-step S and E).
 
     dte = L / c with c = sqrt(M / rho) the longitudinal wave speed (s, rows W_DTE);
     internal forces V0 P B_a with P = F S (N); hourglass forces -c_hg sum_alpha q_alpha
     gamma_a,alpha with c_hg = Q_hg rho c V0^(2/3) / 4, c from the isochoric (hgwave 0) or full
-    modulus (ef rows 6 a + c); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
+    modulus (:func:`corner_forces`); stress work, trapezoid in time: V0 (S_old + S) / 2 : (E - E_old),
     E = (C - I) / 2 (J, rows W_WORK)."""
     for i in range(n):
         ok = wk[W_ST * BLOCK + i] == 0.0
@@ -436,6 +528,37 @@ def forces_block(wk, ed, ef, rho, hg, hgwave, n):
         wk[(W_P + 7) * BLOCK + i] = p21 if ok else 0.0
         wk[(W_P + 8) * BLOCK + i] = p22 if ok else 0.0
         wk[W_CHG * BLOCK + i] = chg if ok else 0.0
+        cg = chg if ok else 0.0
+        q00 = wk[W_Q * BLOCK + i] * cg
+        q01 = wk[(W_Q + 1) * BLOCK + i] * cg
+        q02 = wk[(W_Q + 2) * BLOCK + i] * cg
+        q10 = wk[(W_Q + 3) * BLOCK + i] * cg
+        q11 = wk[(W_Q + 4) * BLOCK + i] * cg
+        q12 = wk[(W_Q + 5) * BLOCK + i] * cg
+        q20 = wk[(W_Q + 6) * BLOCK + i] * cg
+        q21 = wk[(W_Q + 7) * BLOCK + i] * cg
+        q22 = wk[(W_Q + 8) * BLOCK + i] * cg
+        q30 = wk[(W_Q + 9) * BLOCK + i] * cg
+        q31 = wk[(W_Q + 10) * BLOCK + i] * cg
+        q32 = wk[(W_Q + 11) * BLOCK + i] * cg
+        wk[W_HR * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q00 + ed[(ED_HX + 3) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q20 + ed[(ED_HX + 9) * BLOCK + i] * q30)
+        wk[(W_HR + 1) * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q01 + ed[(ED_HX + 3) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q21 + ed[(ED_HX + 9) * BLOCK + i] * q31)
+        wk[(W_HR + 2) * BLOCK + i] = (ed[ED_HX * BLOCK + i] * q02 + ed[(ED_HX + 3) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 6) * BLOCK + i] * q22 + ed[(ED_HX + 9) * BLOCK + i] * q32)
+        wk[(W_HR + 3) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q00 + ed[(ED_HX + 4) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q20 + ed[(ED_HX + 10) * BLOCK + i] * q30)
+        wk[(W_HR + 4) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q01 + ed[(ED_HX + 4) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q21 + ed[(ED_HX + 10) * BLOCK + i] * q31)
+        wk[(W_HR + 5) * BLOCK + i] = (ed[(ED_HX + 1) * BLOCK + i] * q02 + ed[(ED_HX + 4) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 7) * BLOCK + i] * q22 + ed[(ED_HX + 10) * BLOCK + i] * q32)
+        wk[(W_HR + 6) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q00 + ed[(ED_HX + 5) * BLOCK + i] * q10
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q20 + ed[(ED_HX + 11) * BLOCK + i] * q30)
+        wk[(W_HR + 7) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q01 + ed[(ED_HX + 5) * BLOCK + i] * q11
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q21 + ed[(ED_HX + 11) * BLOCK + i] * q31)
+        wk[(W_HR + 8) * BLOCK + i] = (ed[(ED_HX + 2) * BLOCK + i] * q02 + ed[(ED_HX + 5) * BLOCK + i] * q12
+                                    + ed[(ED_HX + 8) * BLOCK + i] * q22 + ed[(ED_HX + 11) * BLOCK + i] * q32)
         e00 = 0.5 * (wk[W_C * BLOCK + i] - 1.0)
         e11 = 0.5 * (wk[(W_C + 1) * BLOCK + i] - 1.0)
         e22 = 0.5 * (wk[(W_C + 2) * BLOCK + i] - 1.0)
@@ -470,59 +593,75 @@ def forces_block(wk, ed, ef, rho, hg, hgwave, n):
         ed[(ED_EO + 4) * BLOCK + i] = e12 if ok else eo4
         ed[(ED_EO + 5) * BLOCK + i] = e02 if ok else eo5
 
-    # nodal forces: corners outside, elements inside (vectorised); zero for failed elements
-    for a in range(8):
-        for i in range(n):
-            vol = ed[ED_V0 * BLOCK + i]
-            b0 = ed[(ED_B + 3 * a) * BLOCK + i] * vol
-            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i] * vol
-            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i] * vol
-            chg = wk[W_CHG * BLOCK + i]
-            g0 = ed[(ED_G + 4 * a) * BLOCK + i] * chg
-            g1 = ed[(ED_G + 4 * a + 1) * BLOCK + i] * chg
-            g2 = ed[(ED_G + 4 * a + 2) * BLOCK + i] * chg
-            g3 = ed[(ED_G + 4 * a + 3) * BLOCK + i] * chg
-            r = 6 * a * BLOCK + i
-            ef[r] = wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1 + wk[(W_P + 2) * BLOCK + i] * b2
-            ef[r + BLOCK] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
-                             + wk[(W_P + 5) * BLOCK + i] * b2)
-            ef[r + 2 * BLOCK] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
-                                 + wk[(W_P + 8) * BLOCK + i] * b2)
-            ef[r + 3 * BLOCK] = (wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1
-                                 + wk[(W_Q + 6) * BLOCK + i] * g2 + wk[(W_Q + 9) * BLOCK + i] * g3)
-            ef[r + 4 * BLOCK] = (wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1
-                                 + wk[(W_Q + 7) * BLOCK + i] * g2 + wk[(W_Q + 10) * BLOCK + i] * g3)
-            ef[r + 5 * BLOCK] = (wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1
-                                 + wk[(W_Q + 8) * BLOCK + i] * g2 + wk[(W_Q + 11) * BLOCK + i] * g3)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def corner_forces(wk, ed, a, n):
+    """Nodal forces at corner a of the block's elements (wk rows W_FN + c, N; zero for failed
+    elements): internal V0 P B_a, hourglass -c_hg sum_alpha q_alpha gamma_a,alpha = -c_hg
+    sum_alpha h_alpha,a q_alpha - sum_k B_a,k (rows W_HR + 3 k). Vectorised across elements;
+    one corner at a time keeps the block's scratch within the L1 cache."""
+    h0 = H0[a]
+    h1 = H1[a]
+    h2 = H2[a]
+    h3 = H3[a]
+    for i in range(n):
+        vol = ed[ED_V0 * BLOCK + i]
+        bb0 = ed[(ED_B + 3 * a) * BLOCK + i]
+        bb1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+        bb2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
+        b0 = bb0 * vol
+        b1 = bb1 * vol
+        b2 = bb2 * vol
+        chg = wk[W_CHG * BLOCK + i]
+        g0 = h0 * chg
+        g1 = h1 * chg
+        g2 = h2 * chg
+        g3 = h3 * chg
+        wk[W_FN * BLOCK + i] = (wk[W_P * BLOCK + i] * b0 + wk[(W_P + 1) * BLOCK + i] * b1
+                                + wk[(W_P + 2) * BLOCK + i] * b2)
+        wk[(W_FN + 1) * BLOCK + i] = (wk[(W_P + 3) * BLOCK + i] * b0 + wk[(W_P + 4) * BLOCK + i] * b1
+                                      + wk[(W_P + 5) * BLOCK + i] * b2)
+        wk[(W_FN + 2) * BLOCK + i] = (wk[(W_P + 6) * BLOCK + i] * b0 + wk[(W_P + 7) * BLOCK + i] * b1
+                                      + wk[(W_P + 8) * BLOCK + i] * b2)
+        hq = wk[W_Q * BLOCK + i] * g0 + wk[(W_Q + 3) * BLOCK + i] * g1 + wk[(W_Q + 6) * BLOCK + i] * g2
+        hr = bb0 * wk[W_HR * BLOCK + i] + bb1 * wk[(W_HR + 3) * BLOCK + i] + bb2 * wk[(W_HR + 6) * BLOCK + i]
+        wk[(W_FN + 3) * BLOCK + i] = hq + wk[(W_Q + 9) * BLOCK + i] * g3 - hr
+        hq = wk[(W_Q + 1) * BLOCK + i] * g0 + wk[(W_Q + 4) * BLOCK + i] * g1 + wk[(W_Q + 7) * BLOCK + i] * g2
+        hr = bb0 * wk[(W_HR + 1) * BLOCK + i] + bb1 * wk[(W_HR + 4) * BLOCK + i] + bb2 * wk[(W_HR + 7) * BLOCK + i]
+        wk[(W_FN + 4) * BLOCK + i] = hq + wk[(W_Q + 10) * BLOCK + i] * g3 - hr
+        hq = wk[(W_Q + 2) * BLOCK + i] * g0 + wk[(W_Q + 5) * BLOCK + i] * g1 + wk[(W_Q + 8) * BLOCK + i] * g2
+        hr = bb0 * wk[(W_HR + 2) * BLOCK + i] + bb1 * wk[(W_HR + 5) * BLOCK + i] + bb2 * wk[(W_HR + 8) * BLOCK + i]
+        wk[(W_FN + 5) * BLOCK + i] = hq + wk[(W_Q + 11) * BLOCK + i] * g3 - hr
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def gather_update(ef, ptr, foff, mass, free, fint, fhg, x, v, vold, dtn, dt):
-    """Sum element forces per node, then central differences on the free dofs.
+def gather_update(fb, hptr, hrow, mass, free, fint, fhg, x, v, vold, dtn, dt):
+    """Sum each node's force rows, then central differences on the free dofs.
 
-    ef: the block array of the element nodal forces; ptr, foff: CSR incidence of node ->
-    (element, corner) as the offset in ef of that corner's internal force x-component (the
-    others follow every BLOCK values). fint, fhg (n, 3) receive the nodal
-    internal and hourglass forces (N); vold the velocities v^{n-1/2}; v becomes v^{n+1/2} =
+    fb: the force buffer (:func:`element_pass`): row j < n the node's own, rows hrow[hptr[j]:
+    hptr[j + 1]] its halo rows in other chunks (in chunk order). fint, fhg (n, 3) receive the
+    nodal internal and hourglass forces (N); vold the velocities v^{n-1/2}; v becomes v^{n+1/2} =
     v^{n-1/2} + dtn (f^hg - f^int) / m on free dofs (0 on fixed and prescribed ones); x becomes
     the trial x^{n+1} = x^n + dt v^{n+1/2}.
     """
     nn = x.shape[0]
     for n in prange(nn):
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        h0 = 0.0
-        h1 = 0.0
-        h2 = 0.0
-        for k in range(ptr[n], ptr[n + 1]):
-            r = foff[k]
-            s0 += ef[r]
-            s1 += ef[r + BLOCK]
-            s2 += ef[r + 2 * BLOCK]
-            h0 += ef[r + 3 * BLOCK]
-            h1 += ef[r + 4 * BLOCK]
-            h2 += ef[r + 5 * BLOCK]
+        r = n * NF
+        s0 = fb[r]
+        s1 = fb[r + 1]
+        s2 = fb[r + 2]
+        h0 = fb[r + 3]
+        h1 = fb[r + 4]
+        h2 = fb[r + 5]
+        for k in range(hptr[n], hptr[n + 1]):
+            r = hrow[k] * NF
+            s0 += fb[r]
+            s1 += fb[r + 1]
+            s2 += fb[r + 2]
+            h0 += fb[r + 3]
+            h1 += fb[r + 4]
+            h2 += fb[r + 5]
         fint[n, 0] = s0
         fint[n, 1] = s1
         fint[n, 2] = s2

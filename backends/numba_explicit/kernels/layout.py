@@ -96,23 +96,29 @@ R_STATE = 13        # non-finite kinematic state
 # ---- element blocks (kernels/element.py) ----
 # Elements are processed in blocks of BLOCK; each block's data is one stretch of the flat array
 # ``ed`` (ED_N rows of BLOCK values, element i of the block in column i), its Prony state one
-# stretch of ``eh`` (6 k rows, row 6 j + c), its nodal forces one stretch of ``ef`` (EF_N rows,
-# row 6 a + c: internal force c = 0..2, hourglass force 3..5 at corner a, N) and the per-step
-# intermediate values a scratch array of W_N rows.
+# stretch of ``eh`` (6 k rows, row 6 j + c), and the per-step intermediate values a scratch
+# array of W_N rows (rows W_FN + c: internal force c = 0..2, hourglass force 3..5 at one corner,
+# N, from which the block adds its forces onto the nodes corner by corner; see element.py).
 # Row offsets are compile-time constants: LLVM then proves that a stage's stores never overlap
 # its loads and vectorises the loops over the columns (with 2-D arrays or one array per quantity
 # it would need a run-time overlap check per pair and gives up).
 BLOCK = 32
 ED_B = 0            # B_a,k (1/m), 24 rows, row 3 a + k
-ED_G = 24           # hourglass vectors gamma_a,alpha (-), 32 rows, row 4 a + alpha
-ED_V0 = 56          # reference volume (m^3)
-ED_L = 57           # characteristic length (m)
-ED_HGF = 58         # rho V0^(2/3) / 4 (kg / m)
-ED_S0 = 59          # isochoric S0 of the previous step (Pa), 6 rows (11, 22, 33, 12, 23, 13)
-ED_SO = 65          # S of the previous step (Pa), 6 rows
-ED_EO = 71          # E = (C - I) / 2 of the previous step (-), 6 rows
-ED_N = 77
-EF_N = 48
+ED_HX = 24          # h_alpha . X_k (m), 12 rows, row 3 alpha + k: the hourglass vectors are
+                    # gamma_a,alpha = h_alpha,a - sum_k (h_alpha . X_k) B_a,k (12 values, not 32)
+ED_V0 = 36          # reference volume (m^3)
+ED_L = 37           # characteristic length (m)
+ED_HGF = 38         # rho V0^(2/3) / 4 (kg / m)
+ED_S0 = 39          # isochoric S0 of the previous step (Pa), 6 rows (11, 22, 33, 12, 23, 13)
+ED_SO = 45          # S of the previous step (Pa), 6 rows
+ED_EO = 51          # E = (C - I) / 2 of the previous step (-), 6 rows
+ED_N = 57
+# hourglass base vectors h_alpha at the 8 corners (xi eta, eta zeta, zeta xi, xi eta zeta; VTK order)
+H0 = (1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0)
+H1 = (1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0)
+H2 = (1.0, -1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0)
+H3 = (-1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0, -1.0)
+NF = 6              # values per node in the force buffer: internal force x, y, z, hourglass x, y, z (N)
 W_F = 0             # F, 9 rows (row-major)
 W_Q = 9             # hourglass modes q_alpha,i (m/s), 12 rows, row 3 alpha + i
 W_C = 21            # C = F^T F, 6 rows
@@ -131,4 +137,6 @@ W_DTE = 74          # L / c (s)
 W_WORK = 75         # stress work of the step (J)
 W_P = 76            # P = F S (Pa), 9 rows (row-major); 0 for failed elements
 W_CHG = 85          # hourglass damping -c_hg (kg/s); 0 for failed elements
-W_N = 86
+W_HR = 86           # -c_hg sum_alpha (h_alpha . X_k) q_alpha,i (N), 9 rows, row 3 k + i
+W_FN = 95           # nodal forces of one corner of the block's elements (N), 6 rows
+W_N = 101           # (wk + the block's ed and eh: ~45 kB, within a 48 kB L1 data cache)

@@ -36,9 +36,9 @@ key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
     """Advance the model; see the module docstring. All arrays are modified in place."""
-    conn, bg, mass, free, pmask, ptr, foff = geo
+    conn, slot, chunks, mass, free, pmask, hptr, hrow = geo
     p, gam, tau = mat
-    x, v, vold, ed, eh, ef, fint, fhg, dvc, dte, status, errv = st
+    x, v, vold, ed, eh, fb, fint, fhg, dvc, bdt, bemin, status, errv = st
     snodes, plnodes, scr = cnt
     pnodes, px0, ptimes, pvals = presc
     sym = par[P_SYM]
@@ -53,21 +53,23 @@ def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
         dtp = sc[S_DTPREV]
         # 1. elements
         prony_step(dtp, gam, tau, decay, gain)
-        work, nbad = element_pass(x, v, conn, bg, ed, eh, ef, p, decay, gain, par[P_GINF], dte, status, errv,
-                                  par[P_RHO], par[P_HG], ipar[I_HGWAVE])
+        work, nbad = element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, par[P_GINF], bdt, bemin,
+                                  status, errv, par[P_RHO], par[P_HG], ipar[I_HGWAVE])
         if nbad > 0:
             for e in range(status.shape[0]):
                 if status[e] != 0:
+                    b = e // BLOCK
                     sc[S_ERRE] = e
-                    sc[S_ERRV] = errv[e, 0]
-                    sc[S_ERRM0] = errv[e, 1]
-                    sc[S_ERRM1] = errv[e, 2]
-                    sc[S_ERRM2] = errv[e, 3]
+                    sc[S_ERRV] = errv[b, 0]
+                    sc[S_ERRM0] = errv[b, 1]
+                    sc[S_ERRM1] = errv[b, 2]
+                    sc[S_ERRM2] = errv[b, 3]
                     return rows, R_INVERTED if status[e] == 1 else R_NONFINITE
         sc[S_IE] += work
         # 2. stable step
-        emin = np.argmin(dte)
-        dtc = par[P_SAFETY] * dte[emin]
+        bmin = np.argmin(bdt)
+        emin = bemin[bmin]
+        dtc = par[P_SAFETY] * bdt[bmin]
         if sc[S_DT0] == 0.0 and math.isfinite(dtc):
             sc[S_DT0] = dtc
         dt = min(dtc, par[P_DTMAX])
@@ -87,7 +89,7 @@ def advance(geo, mat, par, ipar, sc, st, cnt, presc, hist, t_stop):
             dvc[I, 0] = 0.0
             dvc[I, 1] = 0.0
             dvc[I, 2] = 0.0
-        gather_update(ef, ptr, foff, mass, free, fint, fhg, x, v, vold, dtn, dt)
+        gather_update(fb, hptr, hrow, mass, free, fint, fhg, x, v, vold, dtn, dt)
         reaction = 0.0
         if ipar[I_PRESC] != 0:
             d = ipar[I_PDOF]

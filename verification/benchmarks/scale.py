@@ -1,0 +1,188 @@
+"""Cost per element-cycle of the numba backend against mesh size, threads, and a busy core.
+
+    python -m cfm_verification.benchmarks.numba --scale [--scale-sizes 0.001,0.0005,0.00033]
+        [--block 100] [--repeat 3] [--no-torch] [--no-threads] [--no-busy]
+
+One process, one machine; the load average is printed with every row (timings on a loaded
+machine are not meaningful: compare rows of one run, not runs of different days).
+
+1. ns per element-cycle, one thread: the built-in drop test (quarter, 8 mm) at each element
+   size, run to t = 0.8 ms (set-up, compilation and the start of the impact drop out), then
+   ``segments`` stretches of steps timed with the process's CPU time (much less disturbed by
+   other processes than wall time), the best kept; and a synthetic block of ``block``^3
+   hexahedra (1 000 000 for 100) under a homogeneous finite strain with a velocity field (every
+   element deformed, so every element takes the vectorised eigen path), a few steps. Then the
+   largest / smallest ratio and the solver's memory per element (float64; every array of the
+   run, nodes included, divided by the elements).
+2. torch (eager float64, one thread) / numba at each drop-test size, both run end to end for
+   the same short end time (few steps: torch eager is slow), wall time per element-cycle.
+3. Threads at the largest drop-test size: 2 threads against 1 (wall time, alternating, best of
+   ``repeat``); then with one core kept busy by a second process this benchmark starts (a
+   bounded busy loop, killed at the end), the default thread count (``threads=None``) against
+   one thread and two.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+
+def load() -> str:
+    """The 1-minute load average and the core count, for a row."""
+    return f"load {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
+
+
+def drop_model(size: float, end_time: float = 0.03):
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    return build_model(builtin_scene("drop-test").with_overrides(element_size=size, end_time=end_time))
+
+
+def block_model(n: int):
+    """A cube of n^3 hexahedra (edge 1 mm each), the CFM material, no contact."""
+    from cfm_core.material.registry import make_material
+    from cfm_core.scene.mesh import structured_hex_mesh
+    from cfm_core.scene.model import Model
+
+    h = 1e-3
+    nodes, hexes = structured_hex_mesh(n * h, n * h, n * h, n, n, n)
+    return Model(name="block", nodes=nodes, hexes=hexes, density=950.0, material=make_material("cfm"),
+                 end_time=1.0, output_interval=1.0)
+
+
+def memory_per_element(prep, ne: int) -> float:
+    """Bytes per element of every array a run keeps (float64 state, index arrays, nodes)."""
+    total = 0
+    for group in (prep.geo, prep.mat, prep.st, prep.cnt, prep.presc, (prep.par, prep.ipar, prep.sc, prep.nodes)):
+        total += sum(a.nbytes for a in group if isinstance(a, np.ndarray))
+    return total / ne
+
+
+def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0.4, deform=None) -> dict:
+    """ns per element-cycle (CPU time, one thread) of the compiled loop after t_state (s)."""
+    import numba
+
+    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_backends.numba_explicit.kernels import layout as K
+    from cfm_backends.numba_explicit.options import NumbaOptions
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        mod = codegen.load(model.material)
+        solver.warm_up(mod, model.material)
+        prep = solver.prepare(model, NumbaOptions())
+        if deform is not None:
+            deform(prep)
+        hist = np.zeros((4096, K.H_N))
+        if t_state:
+            while prep.sc[K.S_T] < t_state:
+                solver.advance(mod, prep, hist, t_state)
+        ne = model.n_elements
+        steps = 1
+        best = math.inf
+        for _ in range(segments):
+            s0 = prep.sc[K.S_STEPS]
+            c0 = time.process_time()
+            rows, code = solver.advance(mod, prep, hist[:steps], math.inf)
+            dt = time.process_time() - c0
+            n = prep.sc[K.S_STEPS] - s0
+            if code >= K.R_INVERTED or n < 1:
+                raise RuntimeError(f"scale benchmark: the run failed (code {code})")
+            best = min(best, dt / n / ne * 1e9)
+            steps = int(max(1, min(4000, budget / max(dt / n, 1e-9))))
+        return {"ns": best, "bytes": memory_per_element(prep, ne), "ne": ne}
+    finally:
+        numba.set_num_threads(old)
+
+
+def prestrain(model):
+    """A deform hook for :func:`per_cycle`: positions F0 X, velocities L0 X (every element deformed)."""
+    F0 = np.array([[1.05, 0.03, 0.01], [-0.02, 0.97, 0.02], [0.01, 0.03, 0.98]])
+    L0 = np.array([[3.0, -1.0, 2.0], [0.5, 1.0, -2.0], [1.0, 0.0, -4.0]])
+
+    def hook(prep):
+        x = prep.st[0]
+        x[:] = prep.nodes @ F0.T
+        prep.st[1][:] = prep.nodes @ L0.T
+    return hook
+
+
+def torch_ratio(model, end_time: float) -> tuple[float, float]:
+    """(numba, torch eager float64) wall ns per element-cycle, one thread, run to ``end_time``."""
+    from dataclasses import replace
+
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+
+    m = replace(model, end_time=end_time)
+    n = min(NumbaExplicitBackend().run(m, threads=1).info["ns_per_element_cycle"] for _ in range(2))
+    t = TorchExplicitBackend().run(m, threads=1, dtype="float64").info["ns_per_element_cycle"]
+    return n, t
+
+
+def busy_core(seconds: float) -> subprocess.Popen:
+    """A second process keeping one core busy for ``seconds`` (a bounded busy loop)."""
+    code = f"import time\nend = time.perf_counter() + {seconds!r}\nwhile time.perf_counter() < end:\n    pass\n"
+    return subprocess.Popen([sys.executable, "-c", code])
+
+
+def wall(model, threads, repeat: int) -> dict:
+    """Best solver wall time (s) of ``repeat`` runs per thread setting, alternating settings."""
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    be = NumbaExplicitBackend()
+    best: dict = {}
+    used: dict = {}
+    for _ in range(repeat):
+        for th in threads:
+            r = be.run(model, threads=th)
+            best[th] = min(best.get(th, math.inf), r.wall_time)
+            used[th] = r.info["threads"]
+    return {"best": best, "used": used}
+
+
+def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: bool, say=print) -> None:
+    say(f"numba, one thread, CPU time per element-cycle ({load()}):")
+    rows = {}
+    for h in sizes:
+        r = per_cycle(drop_model(h), 0.8e-3)
+        rows[r["ne"]] = r
+        say(f"  drop test {h * 1e3:g} mm: {r['ne']:>8} hexahedra  {r['ns']:6.0f} ns  {r['bytes']:6.0f} B/element"
+            f"  ({load()})")
+    if block:
+        r = per_cycle(block_model(block), None, deform=prestrain(None))
+        rows[r["ne"]] = r
+        say(f"  block {block}^3:      {r['ne']:>8} hexahedra  {r['ns']:6.0f} ns  {r['bytes']:6.0f} B/element  ({load()})")
+    ns = [r["ns"] for r in rows.values()]
+    say(f"  largest / smallest: {max(ns) / min(ns):.2f} (target <= 1.3); at most {max(ns):.0f} ns (target <= 150); "
+        f"memory at most {max(r['bytes'] for r in rows.values()):.0f} B/element (target <= 1000)")
+    if torch:
+        for h in sizes:
+            n, t = torch_ratio(drop_model(h), 0.2e-3)
+            say(f"  torch eager float64 / numba, one thread, {h * 1e3:g} mm: {t:.0f} / {n:.0f} ns = {t / n:.2f}  ({load()})")
+    big = drop_model(min(sizes), end_time=1.6e-3)
+    if threads:
+        w = wall(big, (1, 2), repeat)
+        b = w["best"]
+        say(f"  threads, {big.n_elements} hexahedra to 1.6 ms: 1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s, "
+            f"speed-up {b[1] / b[2]:.2f} (target >= 1.8 on an idle 2-core machine)  ({load()})")
+    if busy:
+        proc = busy_core(3600.0)
+        try:
+            time.sleep(1.0)
+            w = wall(big, (None, 1, 2), repeat)
+            b = w["best"]
+            say(f"  one core busy (second process): default ({w['used'][None]} threads) {b[None]:.2f} s, "
+                f"1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s; 1 thread / default {b[1] / b[None]:.2f} "
+                f"(target >= 1: never slower)  ({load()})")
+        finally:
+            proc.kill()
+            proc.wait()
