@@ -27,7 +27,8 @@ def test_frame_stress_is_the_stress_of_the_solvers_next_pass():
     ne, k = model.n_elements, prep.mat[1].shape[0]
     assert k == 3
     state = frame_state(prep, ne, k)
-    F = deformation_gradients(mean_gradients(model.nodes, model.hexes), model.hexes, prep.st[0].copy())
+    internal = prep.ren.model(model)  # the solver's own (renumbered) mesh: prep holds its arrays
+    F = deformation_gradients(mean_gradients(internal.nodes, internal.hexes), internal.hexes, prep.st[0].copy())
     sigma, exact = element_stress(model.material, F, state)
     assert exact
     solver.advance(mod, prep, hist[:1], 1.0)                   # one more step: its element pass
