@@ -31,8 +31,9 @@ def _available(name):
     pytest.importorskip({"numba": "numba", "torch": "torch", "skfem": "skfem"}[name])
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", [pytest.param(b, marks=pytest.mark.slow) if b == "skfem" else b for b in BACKENDS])
 def test_an_impactor_of_220_kg_stops_the_run_on_every_backend(backend):
+    """skfem's run (~2 min: the implicit solver bottoming out step by step) is a --runslow study."""
     _available(backend)
     with pytest.raises(NumericalError) as err:
         run_model(build_model(coarse(mass=220.0, end_time=0.006)), backend)

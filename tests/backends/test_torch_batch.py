@@ -114,6 +114,7 @@ def test_float32_batch_keeps_the_run_scalars_in_float64():
         assert f.steps == alone.steps and rel_l2(f, alone, m) < 5e-6
 
 
+@pytest.mark.slow  # ~100 s; the run checks of single runs are tested on every backend by default
 def test_batch_runs_get_the_physics_checks_each_on_its_own(models):
     """A 220 kg impactor (grams written as kg) in a batch stops with the penetration check, naming
     node and time, like the run alone; the other run of the batch completes with its check report."""
