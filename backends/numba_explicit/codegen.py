@@ -203,4 +203,4 @@ def announce(material, kernel: str = "advance", stream=None):
     manager): :func:`cfm_core.material.compile_notice.announce_compile`, the notice the skfem
     backend prints too. Silent when the cache has them."""
     return compile_notice.announce_compile(source_of(material), "cfm_numba", "numba", material.name, kernel,
-                                           stream, "about 30 s on a free core" if kernel == "advance" else "some seconds")
+                                           stream, "30-60 s on a free core" if kernel == "advance" else "some seconds")

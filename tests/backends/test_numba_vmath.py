@@ -132,6 +132,7 @@ def test_vector_source_rewrites_powers_and_calls():
     assert "**" not in out
 
 
+@pytest.mark.slow  # compiles cfm-septa's kernels (~40 s of CPU)
 def test_materials_too_large_to_inline_call_their_scalar_functions():
     """cfm-septa's source (110 directions) is beyond VECTOR_MAX_SOURCE: its block loop calls the
     scalar functions (compile time); cfm's is inlined in its vectorisable variant."""
