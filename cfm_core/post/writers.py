@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..tables import unit_header
 from .histories import _finite
+from .staging import check_folder_target
 
 #: Units of the acceleration.csv columns, merged into summary.json["units"]; the CSV header writes
 #: them as ``name [unit]`` (:func:`cfm_core.tables.unit_header`), as sweep.csv does.
@@ -111,11 +112,10 @@ def output_folder(out, marker: str | None = None, create: bool = True, what: str
     Raises
     ------
     InputError
-        ``out`` exists and is not a directory.
+        ``out`` exists and is not a directory, or cannot be written
+        (:func:`cfm_core.post.staging.check_folder_target`).
     """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{what} {out} exists and is not a directory.")
+    out = check_folder_target(out, what)  # the one check of output folders (kinds, writability)
     if create:
         out.mkdir(parents=True, exist_ok=True)
     if marker is not None:
