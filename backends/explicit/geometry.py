@@ -88,8 +88,9 @@ def incidence(hexes: np.ndarray, n_nodes: int):
     return ptr, order.astype(np.int64)
 
 
-def lumped_mass(hexes: np.ndarray, V0: np.ndarray, rho: float, n_nodes: int) -> np.ndarray:
-    """Nodal masses (kg): rho V0 / 8 from every element a node belongs to."""
+def lumped_mass(hexes: np.ndarray, V0: np.ndarray, rho, n_nodes: int) -> np.ndarray:
+    """Nodal masses (kg): rho V0 / 8 from every element a node belongs to (rho: kg/m^3, a number
+    or one per element, shape (e,))."""
     return np.bincount(np.asarray(hexes).ravel(), weights=np.repeat(rho * V0 / 8.0, 8),
                        minlength=n_nodes)
 
@@ -100,7 +101,7 @@ def constraints(model, nodes: np.ndarray, hexes: np.ndarray, V0: np.ndarray):
     Parameters
     ----------
     model : cfm_core.scene.model.Model
-        The model (density kg/m^3, fixed dofs, prescribed motion).
+        The model (density kg/m^3, per part when it has parts; fixed dofs, prescribed motion).
     nodes : (n, 3) ndarray
         Reference coordinates (m).
     hexes : (e, 8) ndarray of int
@@ -120,7 +121,8 @@ def constraints(model, nodes: np.ndarray, hexes: np.ndarray, V0: np.ndarray):
         The prescribed nodes (empty when none).
     """
     n = nodes.shape[0]
-    mass = lumped_mass(hexes, V0, float(model.density), n)
+    rho = float(model.density) if not model.parts else model.element_density()
+    mass = lumped_mass(hexes, V0, rho, n)
     free = np.ones((n, 3))
     free[mass <= 0.0] = 0.0
     mass = np.where(mass > 0.0, mass, 1.0)

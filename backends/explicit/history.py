@@ -13,12 +13,18 @@ import numpy as np
 from cfm_core.simulation.result import Result
 
 COLUMNS = ("t", "force", "impulse", "z", "v", "reaction", "kinetic", "internal", "hourglass", "contact",
-           "external", "internal_force_work", "dt", "penetration", "momentum_z")
+           "external", "internal_force_work", "dt", "penetration", "momentum_z",
+           "force_x", "force_y", "x", "y", "vx", "vy", "momentum_x", "momentum_y")
 """History columns: t^n (s); contact force on the impactor, + decelerating (N); impulse (N s);
 impactor centre z (m) and velocity (m/s); reaction at prescribed nodes (N); kinetic, internal,
 hourglass, contact energy and external work (J); work of the internal nodal forces (J, diagnostic);
 the step dt_{n+1/2} taken from t^n (s); largest sphere penetration after correction (m); z momentum
-of nodes and impactor (kg m/s)."""
+of nodes and impactor (kg m/s); then the impactor's in-plane contact force (N), reference point
+(m) and velocity (m/s), and the x and y momentum of nodes and impactor (kg m/s). A backend may
+record only the first 15 (an impactor held in x and y)."""
+
+#: The first columns every explicit history has; the in-plane ones follow.
+BASE_COLUMNS = 15
 
 COL = {name: i for i, name in enumerate(COLUMNS)}
 ENERGIES = ("kinetic", "internal", "hourglass", "contact", "external")
@@ -32,8 +38,9 @@ def assemble(model, h: np.ndarray, *, backend: str, steps: int, wall: float, dt0
     ----------
     model : cfm_core.scene.model.Model
         The model that was run.
-    h : (steps, 15) ndarray
-        History rows in :data:`COLUMNS` order.
+    h : (steps, 15) or (steps, 23) ndarray
+        History rows in :data:`COLUMNS` order (the in-plane columns may be left out when the
+        impactor moves along z only).
     backend : str
         Backend name.
     steps : int
@@ -62,7 +69,7 @@ def assemble(model, h: np.ndarray, *, backend: str, steps: int, wall: float, dt0
     ne = model.n_elements
     sphere = model.sphere is not None
     mass_full = model.mass_full if model.mass_full else (model.sphere.mass * model.symmetry_factor if sphere else None)
-    col = {name: h[:, i] for i, name in enumerate(COLUMNS)}
+    col = {name: h[:, i] for i, name in enumerate(COLUMNS[:h.shape[1]])}
     duration = float(col["t"][-1]) if len(h) else 0.0
     pz = col["momentum_z"]
     res = Result(
@@ -86,6 +93,11 @@ def assemble(model, h: np.ndarray, *, backend: str, steps: int, wall: float, dt0
             "prony_terms": int(np.asarray(model.material.prony_arrays()[0]).size),
         },
     )
+    lateral = sphere and model.sphere.lateral and "force_x" in col
+    if lateral:
+        res.impactor_lateral = {k: col[k] for k in ("force_x", "force_y", "x", "y", "vx", "vy")}
+        for k in ("momentum_x", "momentum_y"):
+            res.info[f"{k}_drift"] = float(np.max(np.abs(col[k] - col[k][0]))) if len(h) else 0.0
     res.info["energy_error"] = res.energy_error()
     res.info["hourglass_ratio"] = res.hourglass_ratio()
     return res

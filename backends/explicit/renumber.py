@@ -90,7 +90,7 @@ class Renumbering:
 
     def model(self, model):
         """The renumbered copy of ``model`` (a :class:`cfm_core.scene.model.Model`): nodes,
-        connectivity, fixed dofs, prescribed nodes and contact nodes in internal numbering; the
+        connectivity, fixed dofs, prescribed nodes, contact nodes and part elements in internal numbering; the
         rest shared with ``model``."""
         idx = self.node_index
         hexes = idx[np.asarray(model.hexes, dtype=np.int64)[self.elements]]
@@ -99,14 +99,20 @@ class Renumbering:
         pr = model.prescribed
         if pr is not None:
             pr = dataclasses.replace(pr, nodes=idx[np.asarray(pr.nodes, dtype=np.int64)])
+        parts = model.parts
+        if parts:
+            inv = np.empty_like(self.elements)
+            inv[self.elements] = np.arange(self.elements.size, dtype=np.int64)
+            parts = tuple(dataclasses.replace(p, elements=np.sort(inv[np.asarray(p.elements, dtype=np.int64)]))
+                          for p in parts)
         return dataclasses.replace(
-            model, nodes=np.ascontiguousarray(np.asarray(model.nodes, dtype=np.float64)[self.nodes]),
+            model, parts=parts, nodes=np.ascontiguousarray(np.asarray(model.nodes, dtype=np.float64)[self.nodes]),
             hexes=np.ascontiguousarray(hexes), fixed_dofs=fixed, prescribed=pr,
             sphere_nodes=idx[np.asarray(model.sphere_nodes, dtype=np.int64)],
             plane_nodes=idx[np.asarray(model.plane_nodes, dtype=np.int64)])
 
 
-def plan(nodes: np.ndarray, hexes: np.ndarray, method: str = "morton") -> Renumbering:
+def plan(nodes: np.ndarray, hexes: np.ndarray, method: str = "morton", groups: np.ndarray | None = None) -> Renumbering:
     """The renumbering of a mesh for locality; see the module docstring.
 
     Parameters
@@ -119,6 +125,10 @@ def plan(nodes: np.ndarray, hexes: np.ndarray, method: str = "morton") -> Renumb
         Element order: Z-order curve over the centroids, reverse Cuthill-McKee of the element
         adjacency (elements sharing a node), or the user's (the nodes are renumbered in
         first-touch order all the same).
+    groups : (e,) ndarray of int, optional
+        Part index of each element (:meth:`cfm_core.scene.model.Model.element_part`): the
+        internal order is sorted by part first (stable), so that each part's elements form one
+        contiguous range; the method orders the elements within a part.
 
     Returns
     -------
@@ -141,6 +151,10 @@ def plan(nodes: np.ndarray, hexes: np.ndarray, method: str = "morton") -> Renumb
         order = rcm_order(hexes, n)
     else:
         raise ValueError(f"renumbering method {method!r} is not one of {METHODS}")
+    if groups is not None and ne:
+        g = np.asarray(groups, dtype=np.int64)
+        if g.max(initial=0) > 0:
+            order = order[np.argsort(g[order], kind="stable")]
     return Renumbering(order.astype(np.int64), first_touch(hexes[order], n))
 
 

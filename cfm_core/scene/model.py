@@ -26,26 +26,93 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..material.material import Material
 
 
+IMPACTOR_SHAPES = ("hemisphere", "sphere", "flat", "plane")
+
+
 @dataclass(frozen=True)
 class RigidSphere:
-    """Rigid spherical impactor moving along z only (one translational degree of freedom).
+    """Rigid impactor that translates without rotating (a guided drop-tower carriage).
+
+    The name is historical: the shape is ``shape``. Its surface and outward normal are given by
+    :func:`cfm_core.scene.impactor.gap` (one formula per shape).
 
     Parameters
     ----------
     radius : float
-        Sphere radius (m).
+        Sphere or hemisphere radius; for ``"flat"`` the radius of the cylinder; unused for
+        ``"plane"`` (m).
     mass : float
         Mass of the *modelled part* (kg): a quarter model carries a quarter of the mass.
     center : tuple of float, shape (3,)
-        Centre at t = 0 (m).
+        Reference point at t = 0 (m): the centre of the sphere / hemisphere; the centre of the
+        flat bottom face of ``"flat"``; a point of the plane (its height) for ``"plane"``.
     velocity : float
         Velocity along z at t = 0 (m/s); negative: moving down onto the specimen.
+    shape : str
+        ``"hemisphere"`` (only the lower half, n_z < 0, can touch: the paper's impactor),
+        ``"sphere"``, ``"flat"`` (cylinder of radius ``radius`` with axis z, bottom face down, its
+        rim rounded with ``edge_radius``), ``"plane"`` (infinite rigid plane z = centre z, the
+        specimen below it).
+    edge_radius : float
+        Radius of the rounded rim of ``"flat"`` (m), 0 <= edge_radius < radius; 0 otherwise.
+    velocity_xy : tuple of float, shape (2,)
+        In-plane velocity components (vx, vy) at t = 0 (m/s), oblique impacts.
+    moves : tuple of bool, shape (3,)
+        Which translations the modelled impactor has (x, y, z): a symmetry plane x = 0 holds x,
+        y = 0 holds y. Default z only.
     """
 
     radius: float
     mass: float
     center: tuple[float, float, float]
     velocity: float
+    shape: str = "hemisphere"
+    edge_radius: float = 0.0
+    velocity_xy: tuple[float, float] = (0.0, 0.0)
+    moves: tuple[bool, bool, bool] = (False, False, True)
+
+    @property
+    def velocity_vector(self) -> np.ndarray:
+        """(3,) initial velocity (m/s)."""
+        return np.array([float(self.velocity_xy[0]), float(self.velocity_xy[1]), float(self.velocity)])
+
+    @property
+    def lateral(self) -> bool:
+        """True when the impactor may move in x or y (no symmetry plane holds it)."""
+        return bool(self.moves[0] or self.moves[1])
+
+    @property
+    def bottom(self) -> float:
+        """Offset (m) of the lowest point below the reference point's z: radius for a sphere or
+        hemisphere, 0 for ``"flat"`` and ``"plane"``."""
+        return float(self.radius) if self.shape in ("sphere", "hemisphere") else 0.0
+
+
+#: The general name of the rigid impactor (the same class).
+RigidImpactor = RigidSphere
+
+
+@dataclass(frozen=True)
+class Part:
+    """One region of the specimen with its own material and density.
+
+    Parameters
+    ----------
+    name : str
+        Part name (a layer's or a mesh cell set's), for messages and outputs.
+    material : Material
+        A bound :class:`cfm_core.material.Material`.
+    density : float
+        Mass density (kg/m^3).
+    elements : ndarray, shape (k,)
+        Indices of the part's hexahedra in ``Model.hexes`` (int64, sorted, disjoint from the
+        other parts'; together the parts cover every element).
+    """
+
+    name: str
+    material: "Material"
+    density: float
+    elements: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -161,6 +228,10 @@ class Model:
         End the run once the impactor has left the specimen.
     meta : dict
         The scene's values for summaries (scene_type, thickness in m, ...; ``quasi_static``).
+    parts : tuple of Part
+        Regions with their own material and density; empty for a one-material model, whose one
+        part is ``material`` and ``density`` on every element (:meth:`part_list`). When given,
+        ``material`` and ``density`` are those of the first part.
     """
 
     name: str
@@ -182,6 +253,32 @@ class Model:
     gravity: float = 0.0
     stop_after_separation: bool = True
     meta: dict = field(default_factory=dict)
+    parts: tuple = ()
+
+    def part_list(self) -> tuple[Part, ...]:
+        """The parts of the model; one part named after the material on every element when
+        ``parts`` is empty."""
+        if self.parts:
+            return tuple(self.parts)
+        return (Part(self.material.name, self.material, float(self.density),
+                     np.arange(self.n_elements, dtype=np.int64)),)
+
+    @property
+    def multi_material(self) -> bool:
+        """True when more than one part (the backends group elements by part)."""
+        return len(self.parts) > 1
+
+    def element_part(self) -> np.ndarray:
+        """(e,) int64: the index in :meth:`part_list` of each element's part."""
+        out = np.zeros(self.n_elements, dtype=np.int64)
+        for i, p in enumerate(self.part_list()):
+            out[np.asarray(p.elements, dtype=np.int64)] = i
+        return out
+
+    def element_density(self) -> np.ndarray:
+        """(e,) mass density of each element (kg/m^3)."""
+        rho = np.array([float(p.density) for p in self.part_list()])
+        return rho[self.element_part()]
 
     @property
     def n_nodes(self) -> int:

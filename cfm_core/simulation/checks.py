@@ -47,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene.impactor import impactor_gap
 from ..errors import NumericalError
 from ..scene.mesh import HEX_REFERENCE
 
@@ -282,8 +283,9 @@ class Monitor:
             Simulated time (s).
         x : ndarray, shape (n, 3)
             Current nodal positions (m) of the modelled part.
-        impactor_z : float, optional
-            Current z of the impactor's centre (m), for models with a sphere.
+        impactor_z : float or array_like of shape (3,), optional
+            Current z of the impactor's reference point (m), or the whole point for an impactor
+            that moves in x or y, for models with an impactor.
 
         Raises
         ------
@@ -325,16 +327,17 @@ class Monitor:
                                   "penetration of the rigid plate", node=i)
         sph = m.sphere
         if sph is not None and impactor_z is not None:
-            c = np.array([sph.center[0], sph.center[1], float(impactor_z)])
-            depth = float(sph.radius) - np.linalg.norm(x - c, axis=1)
+            c = impactor_position(sph, impactor_z)
+            depth = -impactor_gap(sph, c, x)[0]
             i = int(np.argmax(depth))
             self.worst["sphere"] = max(self.worst["sphere"], float(depth[i]))
             if depth[i] > tol:
-                raise self._error(t, f"node {i} is {_mm(depth[i])} inside the rigid impactor (radius "
-                                     f"{sph.radius:g} m, centre z = {impactor_z:.6g} m; node now at {_pos(x[i])})",
+                size = f"radius {sph.radius:g} m" if sph.shape != "plane" else "a plane"
+                raise self._error(t, f"node {i} is {_mm(depth[i])} inside the rigid impactor ({sph.shape}, {size}, "
+                                     f"reference point {_pos(c)}; node now at {_pos(x[i])})",
                                   "penetration of the rigid impactor", node=i)
             if plane is not None:
-                self._bottoming(t, float(impactor_z))
+                self._bottoming(t, float(c[2]))
         for axis, c, side in self.planes:
             depth = -(x[:, axis] - c) * side
             i = int(np.argmax(depth))
@@ -387,7 +390,7 @@ class Monitor:
 
     def _bottoming(self, t: float, z: float) -> None:
         m = self.model
-        gap = z - float(m.sphere.radius) - float(m.plane.z)
+        gap = z - m.sphere.bottom - float(m.plane.z)
         if gap <= self.tol:
             raise NumericalError(
                 f"the impactor reached the rigid plate at t = {t:.6g} s: its lowest point is {_mm(gap)} above "
@@ -402,6 +405,15 @@ class Monitor:
             f"kg, velocity in m/s, moduli in Pa), or the mesh too coarse.", time=t, quantity=quantity)
         err.node = node
         return err
+
+
+def impactor_position(sph, z) -> np.ndarray:
+    """(3,) current reference point (m) of the impactor ``sph`` from its z (m; x and y its
+    initial ones) or from the whole point (array_like (3,))."""
+    z = np.asarray(z, dtype=np.float64)
+    if z.size == 3:
+        return z.reshape(3)
+    return np.array([sph.center[0], sph.center[1], float(z)])
 
 
 def _mm(x: float) -> str:
@@ -438,7 +450,7 @@ def check_result(model, result) -> list[str]:
     t = np.asarray(result.t, dtype=np.float64)
     sph, plane = model.sphere, model.plane
     if sph is not None and plane is not None and result.impactor_z is not None and t.size:
-        low = np.asarray(result.impactor_z) - float(sph.radius) - float(plane.z)
+        low = np.asarray(result.impactor_z) - sph.bottom - float(plane.z)
         i = int(np.argmin(low))
         if low[i] <= tolerance(model, limits):
             raise NumericalError(

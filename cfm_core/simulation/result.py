@@ -54,6 +54,10 @@ class Result:
         from which :mod:`cfm_core.post.fields` recovers the solver's stress at the frame.
     info : dict
         Free-form diagnostics (str -> JSON-able value).
+    impactor_lateral : dict of str to ndarray, shape (m,), optional
+        For an impactor free to move in x or y (no symmetry plane holds it): ``"force_x"``,
+        ``"force_y"`` (N, force of the specimen on the impactor, full model), ``"x"``, ``"y"``
+        (m, reference point) and ``"vx"``, ``"vy"`` (m/s); None otherwise.
     """
 
     t: np.ndarray
@@ -72,6 +76,7 @@ class Result:
     frames: list = field(default_factory=list)
     frame_state: list = field(default_factory=list)
     info: dict = field(default_factory=dict)
+    impactor_lateral: dict | None = None
 
     def energy_error(self) -> float:
         """Largest relative energy-balance error over the run (-).
