@@ -27,6 +27,7 @@ from ..material import kinematics as kin
 from ..material import prony
 from ..material import reference as ref
 from ..scene.mesh import _shape_gradients
+from .part_state import part_prony_state, part_prony_states  # the frame_state structure of parts
 
 
 @dataclass(frozen=True)
@@ -54,14 +55,20 @@ FIELDS = {f.key: f for f in (
     FieldInfo("max_shear_strain", "cell", 1, "-", "maximum logarithmic shear strain (e_max - e_min) / 2"),
     FieldInfo("energy_density", "cell", 1, "J/m^3", "instantaneous strain energy psi per reference volume"),
     FieldInfo("fibre_switch", "cell", 3, "-", "1 where the fibre family of the isochoric principal stretch "
-              "pair (1,2), (2,3), (1,3) (stretches descending) is stretched, x_ab >= 1, else 0"),
-    FieldInfo("material_id", "cell", 1, "-", "material (part) index, 0 for the single-material specimen"),
+              "pair (1,2), (2,3), (1,3) (stretches descending) is stretched, x_ab >= 1, else 0; NaN in "
+              "elements whose material has no fibre families (no circular-fibers term)"),
+    FieldInfo("part", "cell", 1, "-", "part index in the scene's part order, 0 for a one-part specimen (names: "
+              "the VTU header note and fields.json 'parts')"),
+    FieldInfo("material_id", "cell", 1, "-", "index of the element's material among the run's distinct materials "
+              "(name, parameters, moduli, elastic), in part order; 0 for one material (names: fields.json 'parts')"),
     FieldInfo("displacement", "point", 3, "m", "nodal displacement x - X (points are written deformed)"),
     FieldInfo("velocity", "point", 3, "m/s", "nodal velocity (explicit backends: the half-step v^(n+1/2))"),
 )}
 STRESS_FIELDS = ("cauchy_stress", "pressure", "von_mises")
 DEFAULT_FIELDS = ("cauchy_stress", "pressure", "von_mises", "J", "log_strain", "max_shear_strain",
-                  "energy_density", "fibre_switch", "material_id", "displacement", "velocity")
+                  "energy_density", "fibre_switch", "part", "material_id", "displacement", "velocity")
+#: The energy term whose three circular fibre families ``fibre_switch`` describes.
+FIBRE_TERM = "circular-fibers"
 
 
 def parse_fields(text) -> tuple[str, ...]:
@@ -166,6 +173,12 @@ def element_stress(material, F, state=None, principal=None):
     return F @ S @ np.swapaxes(F, 1, 2) / J[:, None, None], exact
 
 
+def has_fibre_families(material) -> bool:
+    """True when the material has the circular fibre families :data:`FIBRE_TERM` (``fibre_switch``
+    is defined for its elements; NaN elsewhere)."""
+    return any(t.name == FIBRE_TERM for t in material.spec.isochoric)
+
+
 def _fibre_switch(m, J) -> np.ndarray:
     """(e, 3) 0/1: x_ab >= 1 for the isochoric principal stretch pairs (1,2), (2,3), (1,3), descending."""
     mb = np.sort(m, axis=1)[:, ::-1] * J[:, None] ** (-2.0 / 3.0)      # isochoric squared stretches
@@ -173,8 +186,8 @@ def _fibre_switch(m, J) -> np.ndarray:
     return np.stack([((mb[:, a] + mb[:, b]) / 2.0 >= 1.0).astype(np.float64) for a, b in pairs], axis=1)
 
 
-def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, bool]:
-    """The element fields ``keys`` at deformation gradients F.
+def cell_fields(material, F, keys, state=None, material_id=None, principal=None) -> tuple[dict, bool]:
+    """The element fields ``keys`` of elements of one material at deformation gradients F.
 
     Parameters
     ----------
@@ -185,20 +198,27 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
     keys : sequence of str
         Keys of :data:`FIELDS` (point fields are ignored here).
     state : dict, optional
-        Prony state of the frame (:func:`element_stress`).
+        Prony state of the frame for these elements (:func:`element_stress`).
     material_id : ndarray, shape (e,), optional
-        Material index per element; zeros when None.
+        Material index per element; zeros when None (also ``part``: zeros).
+    principal : tuple, optional
+        ``(m, Q, J)``: eigenvalues (e, 3) and eigenvectors (e, 3, 3) of C = F^T F and det F,
+        when already known.
 
     Returns
     -------
     fields : dict of str to ndarray
-        Key -> (e,) or (e, components) array in the unit of :data:`FIELDS`.
+        Key -> (e,) or (e, components) array in the unit of :data:`FIELDS`; ``fibre_switch`` is
+        NaN when the material has no fibre families (:func:`has_fibre_families`).
     exact : bool
         Whether the stress fields are the solver's (see :func:`element_stress`).
     """
     out, exact = {}, True
-    J = np.linalg.det(F)
-    m, Q = np.linalg.eigh(np.swapaxes(F, 1, 2) @ F)         # as kinematics.principal, with matmul
+    if principal is None:
+        J = np.linalg.det(F)
+        m, Q = np.linalg.eigh(np.swapaxes(F, 1, 2) @ F)     # as kinematics.principal, with matmul
+    else:
+        m, Q, J = principal
     if any(k in keys for k in STRESS_FIELDS):
         sigma, exact = element_stress(material, F, state, principal=(m, Q, J))
         if "cauchy_stress" in keys:
@@ -220,12 +240,95 @@ def cell_fields(material, F, keys, state=None, material_id=None) -> tuple[dict, 
         (e,) = ref.principal_response(material, m, "psi_energy")
         out["energy_density"] = e[:, 0] + e[:, 1]
     if "fibre_switch" in keys:
-        out["fibre_switch"] = _fibre_switch(m, J)
+        out["fibre_switch"] = (_fibre_switch(m, J) if has_fibre_families(material)
+                               else np.full((len(F), 3), np.nan))
+    if "part" in keys:
+        out["part"] = np.zeros(len(F))
     if "material_id" in keys:
         out["material_id"] = (np.zeros(len(F)) if material_id is None
                               else np.asarray(material_id, dtype=np.float64))
     return out, exact
 
 
-__all__ = ["FIELDS", "DEFAULT_FIELDS", "STRESS_FIELDS", "FieldInfo", "parse_fields", "mean_gradients",
-           "deformation_gradients", "element_stress", "cell_fields"]
+def model_cell_fields(model, F, keys, state=None) -> tuple[dict, bool]:
+    """The element fields ``keys`` of a model: each element with its own part's material.
+
+    Parameters
+    ----------
+    model : Model
+        The model that ran (:meth:`~cfm_core.scene.model.Model.part_list`).
+    F : ndarray, shape (e, 3, 3)
+        Element deformation gradients (-), all elements of the model.
+    keys : sequence of str
+        Keys of :data:`FIELDS`.
+    state : dict, optional
+        The frame's ``Result.frame_state`` entry; its Prony state in either structure of
+        :func:`part_prony_states`.
+
+    Returns
+    -------
+    fields : dict of str to ndarray
+        As :func:`cell_fields`, every element filled by its part; ``part`` the part index and
+        ``material_id`` the index in :func:`distinct_materials` (float arrays).
+    exact : bool
+        True when the stress of every part is the solver's.
+
+    Raises
+    ------
+    ValueError
+        A Prony state whose structure does not match the parts (:func:`part_prony_states`).
+    """
+    parts = model.part_list()
+    if len(parts) == 1:  # one material: the single-material path, unchanged
+        return cell_fields(parts[0].material, F, keys, state)
+    states = part_prony_states(model, state)
+    J = np.linalg.det(F)
+    m, Q = np.linalg.eigh(np.swapaxes(F, 1, 2) @ F)
+    out, exact = {}, True
+    for part, st in zip(parts, states):
+        idx = np.asarray(part.elements, dtype=np.int64)
+        sub, ex = cell_fields(part.material, F[idx], keys, st, principal=(m[idx], Q[idx], J[idx]))
+        exact = exact and ex
+        for k, a in sub.items():
+            if k not in out:
+                out[k] = np.empty((len(F),) + a.shape[1:])
+            out[k][idx] = a
+    if "part" in keys:
+        out["part"] = model.element_part().astype(np.float64)
+    if "material_id" in keys:
+        _, of_part = distinct_materials(parts)
+        out["material_id"] = np.asarray(of_part, dtype=np.float64)[model.element_part()]
+    return out, exact
+
+
+def _material_key(material) -> tuple:
+    return (material.name, material.moduli, bool(material.elastic), tuple(sorted(material.values.items())))
+
+
+def distinct_materials(parts) -> tuple[list, list[int]]:
+    """The distinct materials of parts (same name, parameter values, moduli and elastic flag:
+    one), in order of first use, and each part's index among them.
+
+    Parameters
+    ----------
+    parts : sequence of Part
+
+    Returns
+    -------
+    materials : list of Material
+    of_part : list of int
+        ``materials[of_part[i]]`` is part i's material (the ``material_id`` field).
+    """
+    keys, materials, of_part = [], [], []
+    for p in parts:
+        key = _material_key(p.material)
+        if key not in keys:
+            keys.append(key)
+            materials.append(p.material)
+        of_part.append(keys.index(key))
+    return materials, of_part
+
+
+__all__ = ["FIELDS", "DEFAULT_FIELDS", "STRESS_FIELDS", "FIBRE_TERM", "FieldInfo", "parse_fields",
+           "mean_gradients", "deformation_gradients", "element_stress", "cell_fields", "model_cell_fields",
+           "distinct_materials", "has_fibre_families", "part_prony_state", "part_prony_states"]
