@@ -16,7 +16,7 @@ def add_vtu_options(p) -> None:
     p.add_argument("--fields", metavar="A,B,...",
                    help=f"fields of --vtu, comma-separated or 'all' (default: all): {', '.join(FIELDS)}")
     p.add_argument("--full", action="store_true",
-                   help="with --vtu: mirror the quarter model into the whole specimen (shear components "
+                   help="with --vtu: mirror a quarter (or half) model into the whole specimen (shear components "
                         "change sign across the mirror planes)")
 
 
@@ -26,8 +26,8 @@ def check_vtu_options(args, scene) -> tuple:
     Raises
     ------
     InputError
-        --fields or --full without --vtu, an unknown field, --full for a specimen that is not a
-        quarter model, or --vtu for a scene that is not a drop test.
+        --fields or --full without --vtu, an unknown field, --full for a specimen modelled whole
+        (``symmetry = "none"``), or --vtu for a scene that is not a drop test.
     """
     vtu, fields, full = getattr(args, "vtu", False), getattr(args, "fields", None), getattr(args, "full", False)
     if not vtu:
@@ -37,9 +37,9 @@ def check_vtu_options(args, scene) -> tuple:
     if scene.type != "drop-test":
         raise InputError(f"--vtu writes the specimen of a drop test; scene type {scene.type!r} has none "
                          f"(its reaction.csv holds the response).")
-    if full and scene.specimen.symmetry != "quarter":
-        raise InputError(f"--full mirrors a quarter model; this specimen's symmetry is "
-                         f"{scene.specimen.symmetry!r}, already the whole specimen.")
+    if full and getattr(scene.specimen, "symmetry", None) == "none":
+        raise InputError("--full mirrors a quarter or half model; this specimen's symmetry is 'none', already "
+                         "the whole specimen.")
     return parse_fields(fields), full
 
 

@@ -3,7 +3,7 @@
 Reads ``specimen.pvd`` and the frame nearest the time asked for; the elements the plane y = y_cut
 passes through are drawn as their faces nearest the plane (deformed coordinates, x-z plane), coloured
 by the element value; a quarter model is shown mirrored about x = 0 (scalars are symmetric); the
-impactor's cap is drawn as its outline. Units: mm on the axes, the field's unit (kPa for stresses)
+impactor's section is drawn as its outline (every shape). Units: mm on the axes, the field's unit (kPa for stresses)
 on the colour bar.
 """
 
@@ -22,7 +22,7 @@ _PVD = re.compile(r'<DataSet timestep="([^"]+)" group="[^"]*" part="(\d+)" file=
 #: Scalar views of multi-component fields: name -> (field key, component or None for the value).
 SCALARS = {"von_mises": ("von_mises", None), "pressure": ("pressure", None), "J": ("J", None),
            "max_shear_strain": ("max_shear_strain", None), "energy_density": ("energy_density", None),
-           "material_id": ("material_id", None),
+           "material_id": ("material_id", None), "part": ("part", None),
            **{f"cauchy_stress_{c}": ("cauchy_stress", i) for i, c in enumerate(("11", "22", "33", "12", "23", "13"))},
            **{f"log_strain_{i + 1}": ("log_strain", i) for i in range(3)},
            **{f"fibre_switch_{p}": ("fibre_switch", i) for i, p in enumerate(("12", "23", "13"))},
@@ -142,13 +142,9 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     pc = PolyCollection(faces, array=v * scale, cmap="viridis", edgecolors="face", linewidths=0.2)
     ax.add_collection(pc)
     if imp_file is not None:
-        cap = meshio.read(imp_file).points
-        ring = cap[np.abs(cap[:, 1] - y_cut) <= 1e-9 + 1e-6 * np.ptp(cap)]
-        if len(ring):
-            ring = ring[np.argsort(ring[:, 0])] * 1e3
-            xs = np.concatenate([-ring[::-1, 0], ring[:, 0]]) if quarter else ring[:, 0]
-            zs = np.concatenate([ring[::-1, 2], ring[:, 2]]) if quarter else ring[:, 2]
-            ax.plot(xs, zs, color="0.3", lw=1.0, label="impactor")
+        xs, zs = _outline(meshio.read(imp_file).points, y_cut, quarter, notes.get("impactor_shape"))
+        if len(xs):
+            ax.plot(xs * 1e3, zs * 1e3, color="0.3", lw=1.0, label="impactor")
     pts = np.concatenate(faces)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     pad = 0.05 * (hi[0] - lo[0])
@@ -162,4 +158,27 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     ax.set_title(f"{label}, cut y = {1e3 * y_cut:g} mm, t = {1e3 * t:.3f} ms", fontsize=9)
     fig.colorbar(pc, ax=ax, label=f"{field} ({shown})", shrink=0.8)
     _save(fig, png)
-    return {"t": t, "file": spec_file.name, "min": float(v.min()), "max": float(v.max()), "unit": unit}
+    return {"t": t, "file": spec_file.name, "min": float(np.nanmin(v)), "max": float(np.nanmax(v)), "unit": unit}
+
+
+def _outline(points, y_cut: float, quarter: bool, shape) -> tuple[np.ndarray, np.ndarray]:
+    """x, z (m) of the impactor surface's section with the plane y = y_cut, as one polyline.
+
+    The surfaces of :mod:`cfm_core.post.impactor_mesh` list their vertices meridian by meridian,
+    so the vertices on the plane come in meridian order on each side of the axis; a quarter
+    surface is mirrored about its axis. A plane's patch is drawn as the line at its height.
+    """
+    tol = 1e-9 + 1e-6 * float(np.ptp(points))
+    ring = points[np.abs(points[:, 1] - y_cut) <= tol]
+    if shape == "plane" or not len(ring):
+        if shape == "plane" and len(points):
+            return np.array([points[:, 0].min(), points[:, 0].max()]), np.full(2, points[0, 2])
+        return np.zeros(0), np.zeros(0)
+    axis = float(points[:, 0].min()) if quarter else 0.5 * float(points[:, 0].min() + points[:, 0].max())
+    right, left = ring[ring[:, 0] >= axis], ring[ring[:, 0] < axis]
+    if quarter:
+        left = right[right[:, 0] > axis] * np.array([-1.0, 1.0, 1.0]) + np.array([2.0 * axis, 0.0, 0.0])
+    line = np.concatenate([left[::-1], right])
+    if shape == "sphere":
+        line = np.concatenate([line, line[:1]])
+    return line[:, 0], line[:, 2]

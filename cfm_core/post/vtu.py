@@ -262,6 +262,7 @@ def write_field_series(out_dir, model, result, keys, full: bool = False) -> list
                                     "components": FIELDS[k_].components, "description": FIELDS[k_].description}
                         for k_ in names},
              "parts": part_rows,
+             "impactor_shape": sph.shape if sph is not None else None,
              "impactor": (f"impactor_*.vtu: surface of the rigid {sph.shape} impactor (m) at its position, part 1 "
                           f"of specimen.pvd" + (" (a square patch of the plane over the specimen)"
                                                 if sph.shape == "plane" else "")) if sph is not None else None}

@@ -367,11 +367,13 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
                 per_frame = 0
         else:
             h = spec.element_size
-            n = max(1, round(spec.width / h / (2 if spec.symmetry == "quarter" else 1)))
+            sym = getattr(spec, "symmetry", "quarter")
+            nx = max(1, round(spec.width / h / (2 if sym == "quarter" else 1)))
+            ny = max(1, round(spec.width / h / (2 if sym in ("quarter", "half") else 1)))
             nz = max(1, round(spec.thickness / h))
-            nodes, cells = (n + 1) ** 2 * (nz + 1), n * n * nz
+            nodes, cells = (nx + 1) * (ny + 1) * (nz + 1), nx * ny * nz
             # points, displacement, velocity (9 per node); connectivity, offsets, types and every
-            # default field (28 per cell); the impactor's cap (about 60 kB)
-            per_frame = (9 * nodes + 28 * cells) * _VTU_BYTES + 60_000
+            # default field (29 per cell); the impactor's surface (at most about 120 kB)
+            per_frame = (9 * nodes + 29 * cells) * _VTU_BYTES + 120_000
         total += frames * per_frame
     return total

@@ -24,6 +24,7 @@ from ..simulation import checks
 from ..simulation.registry import backend_for
 from .outcomes import DropTestOutcome, ReactionOutcome
 from .progress import FALLBACK_SIZE, _progress, bar_size  # noqa: F401 (bar_size, FALLBACK_SIZE: this module's API before)
+from .parts import describe_model, parts_info
 from .provenance import json_ready, provenance, scene_files
 from .settings import RunPlan, plan_run, run_record
 
@@ -120,8 +121,11 @@ def check_output_rate(scene: Scene, cfc: float = 600.0) -> None:
             f"Use output_rate >= {MIN_RATE_OVER_CFC * cfc:g} Hz (the paper's 50 000 Hz is the default).")
 
 
-def _run(scene: Scene, backend: str, progress, label: str, options: dict):
+def _run(scene: Scene, backend: str, progress, label: str, options: dict, say_model: bool = False):
     model = build_model(scene)
+    if say_model and (model.multi_material or (model.meta or {}).get("symmetry", "quarter") != "quarter"
+                      or (model.sphere is not None and model.sphere.shape != "hemisphere")):
+        print(f"note: {describe_model(model)}", file=sys.stderr)  # the paper's set-up: printed as before
     callback = _progress(progress, scene, label)
     try:
         result = run_model(model, backend, callback, **options)
@@ -203,7 +207,7 @@ def run_planned(scene: Scene, plan: RunPlan, progress=None):
     notes = [*plan.warnings, *check_plausible(scene)]  # unit slips (220 for 0.220 kg): warned before running
     report_warnings({"warnings": notes})
     label = f"drop test {1e3 * scene.specimen.thickness:.1f} mm ({plan.backend})"
-    model, result = _run(scene, plan.backend, progress, label, plan.options)
+    model, result = _run(scene, plan.backend, progress, label, plan.options, say_model=True)
     return drop_test_outcome(scene, model, result, notes, options=plan.options)
 
 
@@ -247,6 +251,7 @@ def drop_test_outcome(scene: Scene, model, result, notes=(), options: dict | Non
                   "impactor_radius": "m", "density": "kg/m^3", "friction": "-", "parameters": "SI (Pa, s, -)",
                   "scene": "SI (as in scene.toml)"},
     }
+    info.update(parts_info(model))
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
     info["warnings"] = [*notes, *result.info.get("warnings", [])]
     extra = _provenance(scene, model, result.backend, options)
@@ -277,7 +282,8 @@ def resolved(scene: Scene, model, backend: str | None = None, options: dict | No
         The same scene with ``[material.parameters]`` complete (a relative mesh path made
         absolute, so that the scene reads the same file from any folder) and its [run] section.
     """
-    over = {"parameters": dict(model.material.values)}
+    # several parts: [material] is not what each part ran (their values are in summary.json "parts")
+    over = {} if model.multi_material else {"parameters": dict(model.material.values)}
     mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
     if mesh and not Path(mesh).is_absolute():
         spec = scene.specimen
@@ -289,7 +295,7 @@ def resolved(scene: Scene, model, backend: str | None = None, options: dict | No
 
 def _provenance(scene: Scene, model, backend: str, options: dict | None) -> dict:
     """Summary entries naming how the run was made: dtype, device and the provenance record."""
-    record = json_ready(provenance(backend, options, model.material, scene_files(scene)))
+    record = json_ready(provenance(backend, options, model.material, scene_files(scene), parts=model.part_list()))
     return {"dtype": record["backend"]["dtype"], "device": record["backend"]["device"], "provenance": record,
             "units": {"provenance": "record of what produced this output (code, backend with resolved options in SI, "
                                     "material, input-file digests)"}}
@@ -318,6 +324,13 @@ def batch_key(model) -> str:
                    model.stop_after_separation, sph.radius if sph else None, tuple(sph.center[:2]) if sph else None,
                    model.prescribed is None, model.material.spec.name,
                    len(model.material.prony_arrays()[0]))).encode())
+    if model.multi_material:  # every part's elements, density and material definition (one material: as before)
+        for p in model.part_list():
+            arr = np.ascontiguousarray(np.asarray(p.elements, dtype=np.int64))
+            h.update(repr((p.name, float(p.density), p.material.spec.name, len(p.material.prony_arrays()[0]))).encode()
+                     + arr.tobytes())
+    if sph is not None and (sph.shape != "hemisphere" or sph.lateral):  # the paper's impactor: key as before
+        h.update(repr((sph.shape, sph.edge_radius, tuple(sph.moves))).encode())
     return h.hexdigest()
 
 
@@ -476,8 +489,11 @@ def _reaction_test(scene: Scene, plan: RunPlan, progress) -> ReactionOutcome:
     info.update(scene_name=scene.settings.name or "", material=model.material.name, moduli=model.material.moduli,
                 elastic=model.material.elastic, parameters=dict(model.material.values), elements=model.n_elements,
                 scene=json_ready(scene_to_dict(scene)))
+    extra_parts = parts_info(model)
+    units = extra_parts.pop("units", {})
+    info.update(extra_parts)
     info.update(_provenance(scene, model, result.backend, options))
-    info["units"] = {**info["units"], "parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
+    info["units"] = {**info["units"], **units, "parameters": "SI (Pa, s, -)", "scene": "SI (as in scene.toml)"}
     info["warnings"] = [*notes, *result.info.get("warnings", [])]
     summary = post.summarize_reaction(result, t, force, info)
     report_warnings({"warnings": result.info.get("warnings", [])})

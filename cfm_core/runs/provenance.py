@@ -104,6 +104,25 @@ def material_record(material) -> dict:
             "moduli": material.moduli, "elastic": bool(material.elastic)}
 
 
+def part_records(parts) -> list[dict]:
+    """The parts of a model with several materials, for a provenance record and summary.json.
+
+    Parameters
+    ----------
+    parts : sequence of Part
+        ``Model.part_list()`` (name, bound material, density kg/m^3, element indices).
+
+    Returns
+    -------
+    list of dict
+        One per part in order: ``name``, ``density`` (kg/m^3), ``elements`` (modelled elements,
+        count) and ``material`` (:func:`material_record`: name, definition digest, every
+        parameter value in SI, overrides, moduli, elastic).
+    """
+    return [{"name": p.name, "density": float(p.density), "elements": int(len(p.elements)),
+             "material": material_record(p.material)} for p in parts]
+
+
 def _origin(kind: str, name: str) -> dict:
     """:func:`cfm_core.plugins.origin`, or Nones for a name not registered (composed in Python)."""
     try:
@@ -183,7 +202,7 @@ def scene_files(scene) -> dict:
 
 
 def provenance(backend: str | None = None, options: dict | None = None, material=None, files: dict | None = None,
-               **extra) -> dict:
+               parts=None, **extra) -> dict:
     """A provenance record: code, machine, backend, material and input files.
 
     Parameters
@@ -196,6 +215,10 @@ def provenance(backend: str | None = None, options: dict | None = None, material
         The bound material.
     files : dict, optional
         ``path -> digest`` from :func:`input_files` / :func:`scene_files`.
+    parts : sequence of Part, optional
+        The parts of a model with several materials (``Model.parts``); recorded under ``parts``
+        (:func:`part_records`) when there are two or more, so that a one-material record is as
+        before. ``material`` is then the first part's (as ``Model.material``).
     **extra
         Further JSON-able entries (e.g. ``overrides``: what the command line changed).
 
@@ -204,7 +227,8 @@ def provenance(backend: str | None = None, options: dict | None = None, material
     dict
         ``code`` (:func:`cfm_core.fingerprint.code_state`), ``python``, ``platform``,
         ``cpu_count`` (usable cores), ``backend`` (:func:`backend_record`), ``material``
-        (:func:`material_record`), ``input_files`` and ``extra``'s entries.
+        (:func:`material_record`), ``parts`` (with several parts), ``input_files`` and
+        ``extra``'s entries.
     """
     try:
         cores = len(os.sched_getaffinity(0))
@@ -216,6 +240,8 @@ def provenance(backend: str | None = None, options: dict | None = None, material
         record["backend"] = backend_record(backend, options)
     if material is not None:
         record["material"] = material_record(material)
+    if parts is not None and len(parts) > 1:
+        record["parts"] = part_records(parts)
     record["input_files"] = dict(files or {})
     record.update(extra)
     return json_ready(record)  # strict JSON: an option such as dt_max = inf is written as "inf"
@@ -242,10 +268,15 @@ def describe_differences(records: dict) -> list[str]:
 
     def flat(r: dict) -> dict:
         b, m = r.get("backend") or {}, r.get("material") or {}
-        out = {"backend": b.get("name"), "dtype": b.get("dtype"), "device": b.get("device"),
-               "material": m.get("name"), "moduli": m.get("moduli"), "elastic": m.get("elastic")}
+        out = {"backend": b.get("name"), "dtype": b.get("dtype"), "device": b.get("device")}
+        for prefix, pm in _materials(r, m):
+            out.update({f"{prefix}material": pm.get("name"), f"{prefix}moduli": pm.get("moduli"),
+                        f"{prefix}elastic": pm.get("elastic")})
         out.update({f"option {k}": v for k, v in (b.get("options") or {}).items() if k not in ("dtype", "device")})
-        out.update({k: v for k, v in (m.get("parameters") or {}).items()})
+        for prefix, pm in _materials(r, m):
+            out.update({f"{prefix}{k}": v for k, v in (pm.get("parameters") or {}).items()})
+        for p in r.get("parts") or ():
+            out.update({f"{p.get('name')} density": p.get("density"), f"{p.get('name')} elements": p.get("elements")})
         files = r.get("input_files") or {}
         out["input files"] = ", ".join(f"{Path(k).name}:{v.split(':')[-1][:8]}" for k, v in sorted(files.items())) or None
         out.update({k: v for k, v in (r.get("scene_values") or {}).items()})
@@ -323,6 +354,16 @@ def describe_run(record: dict) -> list[str]:
         for k, v in (b.get("options") or {}).items():
             if k in defaults and k not in ("dtype", "device", *OUTPUT_ONLY) and defaults[k] != v:
                 out.append(f"{k} {_fmt(v)}")
-    for k, d in (m.get("overrides") or {}).items():
-        out.append(f"{k} = {_fmt(d.get('value'))} (default {_fmt(d.get('default'))})")
+    for prefix, pm in _materials(record, m):
+        for k, d in (pm.get("overrides") or {}).items():
+            out.append(f"{prefix}{k} = {_fmt(d.get('value'))} (default {_fmt(d.get('default'))})")
     return out
+
+
+def _materials(record: dict, material: dict) -> list[tuple[str, dict]]:
+    """``[("", material)]`` for a one-material record; ``[("skin: ", ...), ("fat: ", ...)]``, each
+    part's material record prefixed by the part's name, for a record with ``parts``."""
+    parts = record.get("parts")
+    if not parts:
+        return [("", material)]
+    return [(f"{p.get('name')}: ", p.get("material") or {}) for p in parts]
