@@ -287,6 +287,8 @@ def model_cell_fields(model, F, keys, state=None) -> tuple[dict, bool]:
     out, exact = {}, True
     for part, st in zip(parts, states):
         idx = np.asarray(part.elements, dtype=np.int64)
+        if idx.size == 0:
+            continue
         sub, ex = cell_fields(part.material, F[idx], keys, st, principal=(m[idx], Q[idx], J[idx]))
         exact = exact and ex
         for k, a in sub.items():
