@@ -252,6 +252,10 @@ def drop_test_outcome(scene: Scene, model, result, notes=(), options: dict | Non
                   "scene": "SI (as in scene.toml)"},
     }
     info.update(parts_info(model))
+    sph = model.sphere
+    if sph is not None and sph.shape != "hemisphere":  # the paper's hemisphere: summary as before
+        info.update(impactor_shape=sph.shape, impactor_edge_radius=float(sph.edge_radius))
+        info["units"]["impactor_edge_radius"] = "m"
     info.update({key: result.info[key] for key in _RESULT_INFO if key in result.info})
     info["warnings"] = [*notes, *result.info.get("warnings", [])]
     extra = _provenance(scene, model, result.backend, options)

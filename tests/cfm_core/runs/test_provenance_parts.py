@@ -87,6 +87,10 @@ def test_summary_lists_the_parts_and_one_material_summary_is_unchanged():
     assert [p["name"] for p in summary["provenance"]["parts"]] == ["skin", "fat"]
     # the peak is that of the pulse, whatever the parts: the summary's physics is untouched
     assert summary["peak_g"] == pytest.approx(single["peak_g"], rel=1e-12)
+    assert "impactor_shape" not in single and "impactor_shape" not in summary
+    flat = dataclasses.replace(two, sphere=dataclasses.replace(two.sphere, shape="flat", edge_radius=1e-3))
+    flat_summary = drop_test_outcome(scene, flat, _result(flat)).summary
+    assert (flat_summary["impactor_shape"], flat_summary["impactor_edge_radius"]) == ("flat", 1e-3)
     # the scene's [material] is left as given, not overwritten with one part's values
     assert summary["scene"]["material"] == {"name": "cfm", "moduli": "long-term", "elastic": False}
 
