@@ -74,13 +74,15 @@ class Renumbering:
 
     def frame_state_to_user(self, state: dict) -> dict:
         """A frame's stored state (``Result.frame_state`` entry: ``velocity`` (n, 3), ``prony_H``
-        (k, e, 6), ``prony_S0`` (e, 6), scalars) in the user's node and element order."""
+        (k, e, 6), ``prony_S0`` (e, 6), scalars) in the user's node and element order. Per-part
+        Prony state (lists, :func:`cfm_core.post.fields.part_prony_state`) is already in the user's
+        order and passes through."""
         out = dict(state)
         if "velocity" in out:
             out["velocity"] = self.to_user_nodes(out["velocity"])
-        if "prony_H" in out:
+        if isinstance(out.get("prony_H"), np.ndarray):
             out["prony_H"] = self.to_user_elements(out["prony_H"], axis=1)
-        if "prony_S0" in out:
+        if isinstance(out.get("prony_S0"), np.ndarray):
             out["prony_S0"] = self.to_user_elements(out["prony_S0"])
         return out
 
