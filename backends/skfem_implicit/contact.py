@@ -101,11 +101,14 @@ def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, p
 
 
 def plane_contact(x: np.ndarray, plane, plane_nodes: np.ndarray, k: float, lam_plane: np.ndarray,
-                  tangent: bool, grad: list, hess: list) -> tuple[np.ndarray, float, int]:
+                  tangent: bool, grad: list, hess: list, share: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, float, int]:
     """The rigid plate's contribution: penetration g = z_p - x_z (m) of the candidates ``plane_nodes``.
 
     Appends the gradient (N) and Hessian (N/m) entries to ``grad`` / ``hess``; returns the nodal
-    forces (np,) (N), the largest penetration (m) and the number of active nodes.
+    forces (np,) (N, per whole node: the multipliers), the largest penetration (m) and the number
+    of active nodes. ``share`` (np,): the fraction of each node in the modelled part (1/2 on a
+    symmetry plane, see :func:`.impactor.symmetry_share`), which scales its contribution; None: 1.
     """
     p_p = np.zeros(len(plane_nodes))
     pen_p, n_active = 0.0, 0
@@ -119,7 +122,12 @@ def plane_contact(x: np.ndarray, plane, plane_nodes: np.ndarray, k: float, lam_p
             nodes = plane_nodes[act]
             n_active += nodes.size
             dofs = 3 * nodes + 2
-            grad.append((dofs, -trial[act]))
-            if tangent:
-                hess.append((dofs, dofs, np.full(nodes.size, k)))
+            if share is None:
+                grad.append((dofs, -trial[act]))
+                if tangent:
+                    hess.append((dofs, dofs, np.full(nodes.size, k)))
+            else:
+                grad.append((dofs, -share[act] * trial[act]))
+                if tangent:
+                    hess.append((dofs, dofs, k * share[act]))
     return p_p, pen_p, n_active

@@ -22,7 +22,11 @@ vectors, s the distance to the rim circle of a flat impactor):
 * rounded rim of "flat" (distance s to the circle of radius R - r at height c_z + r):
   H_g = (e_r e_r^T + e_z e_z^T - n n^T) / s + (n . e_r / rho) e_phi e_phi^T.
 
-This is the exact generalised Hessian (tests compare it with finite differences of the force).
+On a symmetry plane (x = c_x or y = c_y when the impactor is held along that axis, the node's
+dof along it fixed) a node belongs half to the modelled part (a quarter on the axis):
+its contribution, plate included, is scaled by that share (:func:`symmetry_share`), so that the
+quarter or half model is the exact restriction of the full one (a node's multiplier stays the
+force on the whole node). This is the exact generalised Hessian (tests compare it with finite differences of the force).
 The force on the impactor is -sum p n (N, modelled part); its z component is the contact force
 of the Result (+ decelerating a downward-moving impactor). Frictionless (the solver rejects a
 friction coefficient).
@@ -72,6 +76,30 @@ def check(imp, model_name: str) -> list[str]:
     return []
 
 
+def symmetry_share(model, nodes: np.ndarray) -> np.ndarray:
+    """Fraction (-) of each of ``nodes`` (k,) in the modelled part: x 1/2 per symmetry plane it lies on.
+
+    A symmetry plane is x = c_x (y = c_y) of the impactor's reference point c when the impactor is
+    held along x (y); a node lies on it when its coordinate is within 1e-9 of the mesh extent and
+    its dof along that axis is fixed.
+    """
+    nodes = np.asarray(nodes, dtype=np.int64)
+    share = np.ones(nodes.size)
+    imp = model.sphere
+    if imp is None or nodes.size == 0:
+        return share
+    X = np.asarray(model.nodes, dtype=np.float64)
+    tol = 1e-9 * float(np.ptp(X, axis=0).max())
+    fixed = np.zeros((X.shape[0], 3), dtype=bool)
+    f = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
+    fixed[f[:, 0], f[:, 1]] = True
+    for j in (0, 1):
+        if not imp.moves[j]:
+            on = (np.abs(X[nodes, j] - float(imp.center[j])) <= tol) & fixed[nodes, j]
+            share[on] *= 0.5
+    return share
+
+
 def gap_hessian(imp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
     """H_g (k, 3, 3) (1/m): the Hessian of the gap at points p = x - c (k, 3) (m) with normals n (k, 3)."""
     k = p.shape[0]
@@ -106,12 +134,14 @@ def gap_hessian(imp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 def evaluate(x: np.ndarray, W: np.ndarray, imp, imp_nodes: np.ndarray, plane, plane_nodes: np.ndarray,
              k: float, imp_dofs: np.ndarray, axes: np.ndarray, lam_imp: np.ndarray, lam_plane: np.ndarray,
-             tangent: bool = True) -> ContactState:
+             tangent: bool = True, share_imp: np.ndarray | None = None,
+             share_plane: np.ndarray | None = None) -> ContactState:
     """Contact contributions at current positions x (n, 3) (m) and impactor displacement W (3,) (m).
 
     imp_dofs (m,): the system dofs of the impactor's free axes ``axes`` (m,) (0, 1, 2 for x, y, z);
     k: augmentation stiffness (N/m per node); lam_imp (ni,), lam_plane (np,): multipliers (N) of the
-    candidate nodes ``imp_nodes`` / ``plane_nodes``. The plate is :func:`.contact.plane_contact`.
+    candidate nodes ``imp_nodes`` / ``plane_nodes``; share_imp, share_plane: their
+    :func:`symmetry_share` (None: 1). The plate is :func:`.contact.plane_contact`.
     """
     grad, hess = [], []
     force = np.zeros(3)
@@ -129,6 +159,8 @@ def evaluate(x: np.ndarray, W: np.ndarray, imp, imp_nodes: np.ndarray, plane, pl
         if act.any():
             p_i[act] = trial[act]
             nodes, p, n, rel = imp_nodes[act], trial[act], n[act], xs[act] - c
+            if share_imp is not None:
+                p = p * share_imp[act]  # the modelled part of each node's force
             m = nodes.size
             na = axes.size
             n_active += m
@@ -142,10 +174,11 @@ def evaluate(x: np.ndarray, W: np.ndarray, imp, imp_nodes: np.ndarray, plane, pl
                 Bm[:, :3] = np.eye(3)
                 Bm[axes, 3 + np.arange(na)] = -1.0
                 d2pen = -np.einsum("ji,mjk,kl->mil", Bm, gap_hessian(imp, rel, n), Bm)
-                H = k * a[:, :, None] * a[:, None, :] + p[:, None, None] * d2pen
+                kw = k if share_imp is None else k * share_imp[act][:, None, None]
+                H = kw * a[:, :, None] * a[:, None, :] + p[:, None, None] * d2pen
                 rows = np.broadcast_to(dofs[:, :, None], H.shape)
                 cols = np.broadcast_to(dofs[:, None, :], H.shape)
                 hess.append((rows.ravel(), cols.ravel(), H.ravel()))
-    p_p, pen_p, n_plane = plane_contact(x, plane, plane_nodes, k, lam_plane, tangent, grad, hess)
+    p_p, pen_p, n_plane = plane_contact(x, plane, plane_nodes, k, lam_plane, tangent, grad, hess, share_plane)
     return ContactState(p_i, p_p, float(force[2]), pen_i, pen_p, grad, hess, n_active + n_plane,
                         force_vector=force)

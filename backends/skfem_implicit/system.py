@@ -110,6 +110,10 @@ class System:
         self.pattern = Pattern(self.disc.edofs, self.n, extra)
         self.plane = model.plane
         self.plane_nodes = np.asarray(model.plane_nodes, dtype=np.int64) if self.plane is not None else np.zeros(0, np.int64)
+        self.share_imp = self.share_plane = None
+        if self.general_contact:  # each node's share of the modelled part (symmetry planes)
+            self.share_imp = impactor.symmetry_share(model, self.sphere_nodes)
+            self.share_plane = impactor.symmetry_share(model, self.plane_nodes)
         if self.parts is not None:
             self.kappa0 = self.parts.kappa0()  # the largest small-strain bulk modulus of the parts (Pa)
         else:
@@ -160,7 +164,8 @@ class System:
             if self.general_contact:
                 cs = impactor.evaluate(self.disc.nodes + u, self.impactor_displacement(q), self.sphere,
                                        self.sphere_nodes, self.plane, self.plane_nodes, kk, self.imp_dofs,
-                                       self.axes, lam_s, lam_p, tangent=tangent)
+                                       self.axes, lam_s, lam_p, tangent=tangent, share_imp=self.share_imp,
+                                       share_plane=self.share_plane)
             else:
                 w = float(q[self.w_dof]) if self.has_w else 0.0
                 cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
