@@ -10,6 +10,10 @@ force of the specimen on the impactor), x, y (m, reference point), vx, vy (m/s);
 ``info["momentum_x_drift"]`` / ``["momentum_y_drift"]`` the largest change of the total
 momentum (specimen and impactor, kg m/s) along x and y, which no external force changes when
 nothing holds the specimen laterally (a frictionless plate).
+
+For a model with several parts, ``info["part_energies"]`` gives, per part name, the internal
+energy (the work of that part's internal forces, J, full model) at the end ("internal") and its
+largest value ("internal_max"); the parts' energies sum to the internal energy.
 """
 
 from __future__ import annotations
@@ -39,6 +43,9 @@ class Recorder:
         self.diss = 0.0
         self.pen_s = 0.0
         self.pen_p = 0.0
+        self.part_names = sys_.parts.names if sys_.parts is not None else []
+        self.w_parts = np.zeros(len(self.part_names))
+        self.part_rows = []
         self.with_lateral = sys_.has_w and bool(sys_.sphere.lateral)
         if self.with_lateral:
             n3 = 3 * sys_.n_nodes
@@ -59,6 +66,8 @@ class Recorder:
                 m_s = float(sys_.mass[sys_.w_dof])
                 self.impulse += m_s * float(s.v[sys_.w_dof] - prev.v[sys_.w_dof]) - float(sys_.f_ext[sys_.w_dof]) * dt
             self.w_int += 0.5 * dot(prev.f_int + s.f_int, dq)
+            if self.part_names:
+                self.w_parts = self.w_parts + 0.5 * ((prev.f_parts + s.f_parts) @ dq)
             self.w_c += 0.5 * dot(prev.f_c + s.f_c, dq)
             self.diss += s.dissipation
             self.w_ext += 0.5 * dot(sys_.f_ext + sys_.f_ext, dq)
@@ -73,6 +82,8 @@ class Recorder:
         vz = s.v[sys_.w_dof] if sys_.has_w else 0.0
         self.rows.append((s.t, s.fz, self.impulse, zc, vz, self.reaction(s), ke, self.w_int,
                           self.w_c, self.w_ext, dt, self.diss))
+        if self.part_names:
+            self.part_rows.append(self.w_parts)
         if self.with_lateral:
             c = sys_.impactor_point(s.q)
             v = np.zeros(3)
@@ -108,6 +119,10 @@ class Recorder:
                                     "vx": g[:, 4], "vy": g[:, 5]}
             for j, name in ((6, "momentum_x_drift"), (7, "momentum_y_drift")):
                 res.info[name] = float(f * np.max(np.abs(g[:, j] - g[0, j])))
+        if self.part_names:
+            w = f * np.array(self.part_rows, dtype=np.float64)
+            res.info["part_energies"] = {name: {"internal": float(w[-1, i]), "internal_max": float(w[:, i].max())}
+                                         for i, name in enumerate(self.part_names)}
         if model.prescribed is not None:
             res.reaction_force = f * h[:, 5]
         return res

@@ -34,7 +34,11 @@ def subset(disc: Discretization, elements: np.ndarray) -> Discretization:
 
 
 def check_parts(model) -> None:
-    """InputError unless the model's parts cover every element exactly once with a density >= 0 (kg/m^3)."""
+    """InputError unless the model's parts have distinct names and cover every element exactly once
+    with a density >= 0 (kg/m^3)."""
+    names = [p.name for p in model.part_list()]
+    if len(set(names)) != len(names):
+        raise InputError(f"model '{model.name}': part names must differ; got {names}.")
     count = np.zeros(model.n_elements, dtype=np.int64)
     for p in model.part_list():
         idx = np.asarray(p.elements, dtype=np.int64).reshape(-1)
@@ -106,6 +110,15 @@ class PartElements:
             else:
                 out.append(History.relaxed(m.k, self.subs[i].w.size))
         return tuple(out)
+
+    def nodal_forces(self, n: int) -> np.ndarray:
+        """(parts, n) internal forces (N) of each part's elements from the last :meth:`evaluate`,
+        assembled into vectors of n dofs (the nodes' first): the rows sum to f_int."""
+        out = np.zeros((len(self.index), n))
+        for i, idx in enumerate(self.index):
+            m = 3 * self.disc.n_nodes
+            out[i, :m] = np.bincount(self.disc.edofs[idx].ravel(), weights=self.fe[idx].ravel(), minlength=m)
+        return out
 
     def evaluate(self, u: np.ndarray, hist: tuple | None, dt: float, *, tangent: bool = True) -> ElementState:
         """Element forces (E, 24) in N and stiffness (E, 24, 24) in N/m of every part at u (n, 3) in m.

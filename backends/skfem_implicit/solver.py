@@ -261,7 +261,7 @@ def _initial_state(sys_: System, stepper: Stepper) -> State:
     cs = ev.contact
     lam_s, lam_p = sys_.zero_multipliers()
     return State(0.0, q, v, a, hist, ev.f_int, ev.f_c, fz=cs.force_on_impactor if cs else 0.0,
-                 fxy=lateral_force(cs),
+                 fxy=lateral_force(cs), f_parts=sys_.parts.nodal_forces(sys_.n) if sys_.parts is not None else None,
                  lam_sphere=lam_s, lam_plane=lam_p)
 
 

@@ -52,7 +52,8 @@ class State:
 
     fz, fxy: the contact force on the impactor (N; z, and x and y for a laterally moving one);
     lam_sphere, lam_plane: contact multipliers (N) of the candidate nodes (see :mod:`.contact`);
-    dissipation (J): the integrator's numerical dissipation in the step that led here.
+    dissipation (J): the integrator's numerical dissipation in the step that led here;
+    f_parts (parts, n): the internal forces of each part (N; None for one material).
     """
 
     t: float
@@ -69,6 +70,7 @@ class State:
     pen_sphere: float = 0.0
     pen_plane: float = 0.0
     dissipation: float = 0.0
+    f_parts: np.ndarray | None = None
 
 
 class StepFailure(Exception):
@@ -263,7 +265,8 @@ class Stepper:
                     lam_plane=(cs.p_plane if augment else s.lam_plane) if cs is not None else None,
                     pen_sphere=cs.max_pen_sphere if cs is not None else 0.0,
                     pen_plane=cs.max_pen_plane if cs is not None else 0.0,
-                    dissipation=diss)
+                    dissipation=diss,
+                    f_parts=sys.parts.nodal_forces(sys.n) if sys.parts is not None else None)
         return new, info
 
 
