@@ -164,7 +164,7 @@ def test_centred_impact_full_specimen_equals_quarter_model():
 
 
 # ----------------------------------------------------------------------------- uniaxial strain
-@pytest.mark.parametrize("shape,edge", [("plane", 0.0), ("flat", 1e-3)])
+@pytest.mark.parametrize("shape,edge", [("plane", 0.0), ("flat", 1e-3), ("flat", 0.0)])
 def test_flat_punch_on_a_thin_layer_in_uniaxial_strain(shape, edge):
     """Neo-Hookean mu/2 (I1bar - 3) + kappa/2 (J - 1)^2 at F = diag(1, 1, lam): the axial Cauchy stress
     sigma = 2 mu / 3 lam^(-5/3) (lam^2 - 1) + kappa (lam - 1) on the undeformed area (Pa)."""
@@ -185,6 +185,8 @@ def test_flat_punch_on_a_thin_layer_in_uniaxial_strain(shape, edge):
         sigma = 2.0 * mu / 3.0 * lam ** (-5.0 / 3.0) * (lam * lam - 1.0) + kappa * (lam - 1.0)
         errors.append(r.contact_force[np.searchsorted(r.t, t)] / (-sigma * w * w) - 1.0)
     assert lam < 0.86
+    sharp = [w for w in r.info["solver_warnings"] if "sharp rim" in w]
+    assert len(sharp) == (shape == "flat" and edge == 0.0)
     print(f"{shape}: largest relative force error {np.abs(errors).max():.1e}")
     assert np.abs(errors).max() < 1e-3
 

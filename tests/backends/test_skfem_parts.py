@@ -190,3 +190,18 @@ def test_two_layer_column_against_series_closed_form():
     assert energies["bottom"]["internal"] > 10 * energies["top"]["internal"]  # the soft layer takes the work
     print(f"two-layer column: largest relative force error {err.max():.2e}, layer energy error {worst:.2e}")
     assert err.max() < 0.01 and worst < 0.01
+
+
+def test_bad_parts_are_input_errors():
+    from cfm_core.errors import InputError
+
+    m = _two_part_model()
+    skfem = get_backend("skfem")
+    a, b = m.parts
+    overlap = dataclasses.replace(m, parts=(a, dataclasses.replace(b, elements=np.concatenate([b.elements, a.elements[:1]]))))
+    with pytest.raises(InputError, match="belongs to 2 parts"):
+        skfem.run(overlap)
+    with pytest.raises(InputError, match="part names must differ"):
+        skfem.run(dataclasses.replace(m, parts=(a, dataclasses.replace(b, name=a.name))))
+    with pytest.raises(InputError, match="part 'top' .*density = 0.0 kg/m\\^3 must be > 0"):
+        skfem.run(dataclasses.replace(m, parts=(a, dataclasses.replace(b, density=0.0))))
