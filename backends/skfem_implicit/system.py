@@ -2,12 +2,13 @@
 
 Unknowns q (m): nodal displacements (3 n, dof 3 node + axis) and, with a rigid impactor, the
 displacements of its reference point along its free axes (``RigidSphere.moves``; z only by
-default, then its z displacement w is the last dof). :meth:`System.evaluate` gives f_int(q), the contact forces
-dPhi_c/dq and their tangent K_int + d2Phi_c/dq2 (contact: :mod:`.contact` for the paper's
-hemisphere moving along z only, :mod:`.impactor` for every other shape or motion); with several
-parts each part's material acts on its own elements (:mod:`.parts`); the time integrator (:mod:`.stepper`) adds the
-inertia M a(q). M is the lumped (row-sum) mass of the nodes (per-element density with
-parts) and the impactor's mass on each of its dofs (modelled part), zero in quasi-static runs; f_ext is gravity on the impactor (|model.gravity| downwards,
+default, then its z displacement w is the last dof). :meth:`System.evaluate` gives f_int(q),
+the contact forces dPhi_c/dq and their tangent K_int + d2Phi_c/dq2 (contact: :mod:`.contact` for
+the paper's hemisphere moving along z only, :mod:`.impactor` for every other shape or motion);
+with several parts each part's material acts on its own elements (:mod:`.parts`). The time
+integrator (:mod:`.stepper`) adds the inertia M a(q). M is the lumped (row-sum) mass of the nodes
+(per-element density with parts) and the impactor's mass on each of its dofs (modelled part),
+zero in quasi-static runs; f_ext is gravity on the impactor (|model.gravity| downwards,
 as in the numba backend).
 """
 
@@ -74,7 +75,8 @@ class System:
         self.has_w = self.sphere is not None
         self.warnings = impactor.check(self.sphere, model.name) if self.has_w else []
         #: the impactor's free axes (0, 1, 2 for x, y, z) and their dofs, after the nodes'
-        self.axes = np.flatnonzero(np.asarray(self.sphere.moves, dtype=bool)) if self.has_w else np.zeros(0, np.int64)
+        self.axes = (np.flatnonzero(np.asarray(self.sphere.moves, dtype=bool)) if self.has_w
+                     else np.zeros(0, np.int64))
         self.imp_dofs = 3 * nn + np.arange(self.axes.size)
         self.n = 3 * nn + self.axes.size
         self.w_dof = int(self.imp_dofs[list(self.axes).index(2)]) if self.has_w else -1

@@ -198,7 +198,8 @@ def test_bad_parts_are_input_errors():
     m = _two_part_model()
     skfem = get_backend("skfem")
     a, b = m.parts
-    overlap = dataclasses.replace(m, parts=(a, dataclasses.replace(b, elements=np.concatenate([b.elements, a.elements[:1]]))))
+    doubled = dataclasses.replace(b, elements=np.concatenate([b.elements, a.elements[:1]]))
+    overlap = dataclasses.replace(m, parts=(a, doubled))
     with pytest.raises(InputError, match="belongs to 2 parts"):
         skfem.run(overlap)
     with pytest.raises(InputError, match="part names must differ"):
