@@ -16,9 +16,14 @@ Newton iteration every few milliseconds:
 - :mod:`.linear`: a fixed CSR pattern assembled in place, Dirichlet rows, and the solvers: MKL
   PARDISO via ctypes (pypardiso's library; ordering and symbolic analysis once per run, symmetric
   indefinite), block-Jacobi CG (compiled), SuperLU (scipy only);
-- :mod:`.contact`: frictionless node-to-rigid-surface contact with the sphere (a rigid body with
-  one dof, solved monolithically) and the plane, augmented Lagrangian with one multiplier update
-  per step and semi-smooth Newton;
+- :mod:`.parts`: models with several parts, each part's material (its own compiled kernels,
+  parameters, Prony series) on its own elements, per-element density in the lumped mass;
+- :mod:`.contact`: frictionless node-to-rigid-surface contact with the paper's hemisphere (a rigid
+  body moving along z, solved monolithically) and the plate, augmented Lagrangian with one
+  multiplier update per step and semi-smooth Newton; :mod:`.impactor`: the same for every
+  impactor shape ("sphere", "hemisphere", "flat" with a rounded or sharp rim, "plane") on the
+  reference gap :func:`cfm_core.scene.impactor.impactor_gap`, the impactor free along any of x,
+  y, z (its initial velocity vector), symmetry-plane nodes counted by their share;
 - :mod:`.stepper` / :mod:`.solver`: generalized-alpha (rho_inf = 0 by default; 1 is Newmark
   average acceleration) or quasi-static steps, Newton with the consistent tangent, step size from
   a local error estimate (Zienkiewicz-Xie) with the tolerance ``error_tol``, the integrator's
@@ -32,7 +37,10 @@ newton_iterations, rejected_steps (Newton failures), error_rejections (steps red
 linear_iterations (CG), setup_time (s, mesh, compilation or loading of the kernels, symbolic
 analysis; not in wall_time), times (s per phase: element, assembly, factorization, solve), counts,
 error_tol, failures; with contact: contact, penalty (N/m), max_penetration_sphere /
-max_penetration_plane (m), penetration_ratio (-, over h), separated.
+max_penetration_plane (m), penetration_ratio (-, over h), separated; with parts: part_energies
+(per part: internal energy at the end and its largest value, J); with an impactor free in x or
+y: momentum_x_drift, momentum_y_drift (kg m/s) and ``Result.impactor_lateral``. A flat impactor
+with edge_radius = 0 runs with a warning (the rim is a stress singularity).
 """
 
 from __future__ import annotations

@@ -39,7 +39,8 @@ class ContactState:
     the order of the candidate lists (the new multipliers once the step is accepted);
     force_on_impactor (N, +z); max_pen_sphere / max_pen_plane (m, largest penetration);
     grad: list of (dofs (m,), values (m,)) (N); hess: list of (rows, cols, values) COO triplets (N/m);
-    n_active: active nodes.
+    n_active: active nodes; force_vector (3,): the force on the impactor (N, modelled part), set
+    by the contact of any shape (:mod:`.impactor`), None for the hemisphere along z (z only).
     """
 
     p_sphere: np.ndarray
@@ -50,6 +51,7 @@ class ContactState:
     grad: list
     hess: list
     n_active: int
+    force_vector: np.ndarray | None = None
 
 
 def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, plane_nodes: np.ndarray,
@@ -60,10 +62,9 @@ def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, p
     k: augmentation stiffness (N/m per node); lam_sphere (ns,), lam_plane (np,): multipliers (N) of
     the candidate nodes ``sphere_nodes`` / ``plane_nodes``.
     """
-    fz, pen_s, pen_p, n_active = 0.0, 0.0, 0.0, 0
+    fz, pen_s, n_active = 0.0, 0.0, 0
     grad, hess = [], []
     p_s = np.zeros(len(sphere_nodes))
-    p_p = np.zeros(len(plane_nodes))
     if sphere is not None and len(sphere_nodes):
         c = np.array(sphere.center, dtype=np.float64)
         c[2] += w
@@ -94,6 +95,23 @@ def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, p
                 rows = np.broadcast_to(dofs[:, :, None], H.shape)
                 cols = np.broadcast_to(dofs[:, None, :], H.shape)
                 hess.append((rows.ravel(), cols.ravel(), H.ravel()))
+    p_p, pen_p, n_plane = plane_contact(x, plane, plane_nodes, k, lam_plane, tangent, grad, hess)
+    n_active += n_plane
+    return ContactState(p_s, p_p, fz, pen_s, pen_p, grad, hess, n_active)
+
+
+def plane_contact(x: np.ndarray, plane, plane_nodes: np.ndarray, k: float, lam_plane: np.ndarray,
+                  tangent: bool, grad: list, hess: list, share: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, float, int]:
+    """The rigid plate's contribution: penetration g = z_p - x_z (m) of the candidates ``plane_nodes``.
+
+    Appends the gradient (N) and Hessian (N/m) entries to ``grad`` / ``hess``; returns the nodal
+    forces (np,) (N, per whole node: the multipliers), the largest penetration (m) and the number
+    of active nodes. ``share`` (np,): the fraction of each node in the modelled part (1/2 on a
+    symmetry plane, see :func:`.impactor.symmetry_share`), which scales its contribution; None: 1.
+    """
+    p_p = np.zeros(len(plane_nodes))
+    pen_p, n_active = 0.0, 0
     if plane is not None and len(plane_nodes):
         g = plane.z - x[plane_nodes, 2]
         pen_p = max(0.0, float(g.max()))
@@ -104,7 +122,12 @@ def evaluate(x: np.ndarray, w: float, sphere, sphere_nodes: np.ndarray, plane, p
             nodes = plane_nodes[act]
             n_active += nodes.size
             dofs = 3 * nodes + 2
-            grad.append((dofs, -trial[act]))
-            if tangent:
-                hess.append((dofs, dofs, np.full(nodes.size, k)))
-    return ContactState(p_s, p_p, fz, pen_s, pen_p, grad, hess, n_active)
+            if share is None:
+                grad.append((dofs, -trial[act]))
+                if tangent:
+                    hess.append((dofs, dofs, np.full(nodes.size, k)))
+            else:
+                grad.append((dofs, -share[act] * trial[act]))
+                if tangent:
+                    hess.append((dofs, dofs, k * share[act]))
+    return p_p, pen_p, n_active

@@ -28,7 +28,7 @@ class Discretization:
 
     conn (E, 8): nodes of each element in skfem order; dN (E, Q, 8, 3): dN_a/dX_J (1/m);
     w (E, Q): integration weights (m^3); volume (E,): element volumes (m^3); mass (n,): lumped
-    (row-sum) nodal masses for density rho (kg); edofs (E, 24): dofs of each element, local
+    (row-sum) nodal masses for the density (kg); edofs (E, 24): dofs of each element, local
     index 3 a + i; size (m): mean element edge (cube root of the mean volume).
     """
 
@@ -50,9 +50,11 @@ class Discretization:
         return int(self.conn.shape[0])
 
 
-def discretize(nodes: np.ndarray, hexes: np.ndarray, density: float, intorder: int = 3) -> Discretization:
+def discretize(nodes: np.ndarray, hexes: np.ndarray, density, intorder: int = 3) -> Discretization:
     """Build the :class:`Discretization` of a hex mesh (nodes in m, hexes in VTK order).
 
+    density: one mass density (kg/m^3) for every element, or an array (E,) of one per element
+    (a model with parts).
     intorder 3 is the 2 x 2 x 2 Gauss rule (exact for the trilinear volume). Raises InputError
     for an element with a non-positive Jacobian at a Gauss point (inverted or wrongly ordered).
     """
@@ -76,7 +78,13 @@ def discretize(nodes: np.ndarray, hexes: np.ndarray, density: float, intorder: i
     N = np.stack([np.asarray(basis.basis[a][0]) for a in range(8)], axis=2)  # (E, Q, 8)
     volume = w.sum(axis=1)
     mass = np.zeros(nodes.shape[0])
-    np.add.at(mass, conn, float(density) * np.einsum("eq,eqa->ea", w, N))
+    if np.ndim(density) == 0:
+        np.add.at(mass, conn, float(density) * np.einsum("eq,eqa->ea", w, N))
+    else:
+        rho = np.asarray(density, dtype=np.float64).reshape(-1)
+        if rho.shape[0] != conn.shape[0]:
+            raise InputError(f"density: {rho.shape[0]} element densities for {conn.shape[0]} elements.")
+        np.add.at(mass, conn, rho[:, None] * np.einsum("eq,eqa->ea", w, N))
     edofs = (3 * conn[:, :, None] + np.arange(3)[None, None, :]).reshape(-1, 24)
     return Discretization(nodes=nodes, conn=conn, dN=np.ascontiguousarray(dN), w=w, volume=volume,
                           mass=mass, edofs=edofs, size=float(np.cbrt(volume.mean())))

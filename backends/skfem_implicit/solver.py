@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import time
-from contextlib import nullcontext
+from contextlib import ExitStack
 
 import numpy as np
 
@@ -26,9 +26,10 @@ from cfm_core.simulation.result import Result
 
 from .balance import Balance
 from .compiled import module_source
-from .linear import dot
 from .options import check_options
-from .stepper import State, StepFailure, Stepper
+from .history import Recorder
+from .parts import check_parts
+from .stepper import State, StepFailure, Stepper, lateral_force
 from .system import System
 
 
@@ -90,9 +91,13 @@ def _run(model, progress, o) -> Result:
     if quasi and model.sphere is not None:
         raise InputError(f"skfem backend: model '{model.name}' has a rigid impactor, which needs inertia; "
                          f"run it dynamically (quasi_static=False).")
-    if not quasi and not (float(model.density) > 0.0):
-        raise InputError(f"model '{model.name}': density = {model.density!r} kg/m^3 must be > 0 for a "
-                         f"dynamic run; quasi-static scenes set meta['quasi_static'] = True.")
+    if model.parts:
+        check_parts(model)
+    for part in model.part_list():
+        if not quasi and not (float(part.density) > 0.0):
+            where = f"part '{part.name}' of model '{model.name}'" if model.parts else f"model '{model.name}'"
+            raise InputError(f"{where}: density = {part.density!r} kg/m^3 must be > 0 for a "
+                             f"dynamic run; quasi-static scenes set meta['quasi_static'] = True.")
     end = float(model.end_time)
     if not (end > 0.0 and math.isfinite(end)):
         raise InputError(f"model '{model.name}': end_time = {end!r} s must be finite and > 0.")
@@ -118,11 +123,13 @@ def _run(model, progress, o) -> Result:
         dt = dt_max / 10.0
     dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
     stepper = Stepper(sys_, o, solver)
-    notice = (announce_compile(module_source(model.material), "cfm_skfem", "skfem", model.material.name, "elements")
-              if sys_.compiled is not None else nullcontext())  # the numba backend's notice of a cold first run
-    with notice:  # the first evaluation compiles the element kernels
+    with ExitStack() as notices:  # the first evaluation compiles the element kernels of each material
+        if o["kernels"] == "numba":  # the numba backend's notice of a cold first run
+            for name, material in {p.material.name: p.material for p in model.part_list()}.items():
+                notices.enter_context(announce_compile(module_source(material), "cfm_skfem", "skfem", name,
+                                                       "elements"))
         state = _initial_state(sys_, stepper)
-    rec = _Recorder(sys_, model)
+    rec = Recorder(sys_, model)
     rec.record(state, None, 0.0)
     setup = time.perf_counter() - wall0
     frames = [] if o["frame_interval"] is None else [(0.0, np.zeros((sys_.n_nodes, 3)))]
@@ -138,7 +145,7 @@ def _run(model, progress, o) -> Result:
     steps = 0
     monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
     nodes = np.asarray(model.nodes, dtype=np.float64)
-    impactor_z = lambda s: float(sys_.sphere.center[2] + s.q[sys_.w_dof]) if sys_.has_w else None  # noqa: E731
+    impactor_z = lambda s: sys_.impactor_point(s.q)  # noqa: E731  - the whole reference point (m)
     while state.t < end * (1.0 - 1e-12):
         if steps >= o["max_steps"]:
             raise NumericalError(f"skfem backend: more than max_steps = {o['max_steps']} steps before "
@@ -207,7 +214,7 @@ def _run(model, progress, o) -> Result:
                     break
     wall = time.perf_counter() - wall0 - setup  # solver time: the stepping loop only (as the numba backend)
     monitor.final(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
-    warnings = balance.verdict(model, stepper, state.t)
+    warnings = list(sys_.warnings) + balance.verdict(model, stepper, state.t)
     info = {"checks": monitor.report(), "force_balance": balance.record(), "solver_warnings": warnings,
             "elements": sys_.disc.n_elements, "dofs": sys_.n, "setup_time": setup,
             "times": dict(sys_.times), "counts": dict(sys_.counts), "contact": o["contact"],
@@ -241,7 +248,7 @@ def _initial_state(sys_: System, stepper: Stepper) -> State:
     q = np.zeros(sys_.n)
     v = np.zeros(sys_.n)
     if sys_.has_w:
-        v[sys_.w_dof] = float(sys_.sphere.velocity)
+        v[sys_.imp_dofs] = sys_.sphere.velocity_vector[sys_.axes]
     pr = sys_.model.prescribed
     if pr is not None and not sys_.quasi_static:
         v[sys_.presc_dofs] = pr.velocity(0.0)
@@ -254,6 +261,7 @@ def _initial_state(sys_: System, stepper: Stepper) -> State:
     cs = ev.contact
     lam_s, lam_p = sys_.zero_multipliers()
     return State(0.0, q, v, a, hist, ev.f_int, ev.f_c, fz=cs.force_on_impactor if cs else 0.0,
+                 fxy=lateral_force(cs), f_parts=sys_.parts.nodal_forces(sys_.n) if sys_.parts is not None else None,
                  lam_sphere=lam_s, lam_plane=lam_p)
 
 
@@ -272,72 +280,3 @@ def _final_error(model, fail: StepFailure, t: float, dt: float) -> NumericalErro
         f"skfem backend: the step to t = {t:.6g} s failed at the smallest step dt = {dt:.3g} s{where} "
         f"({fail.quantity}): {fail}. Model '{model.name}': lower the load, refine the mesh, or lower "
         f"dt_min / raise max_iterations.", time=t, element=fail.element, quantity=fail.quantity)
-
-
-class _Recorder:
-    """Histories at every accepted step (full model: x symmetry factor)."""
-
-    def __init__(self, sys_: System, model):
-        self.sys = sys_
-        self.factor = float(model.symmetry_factor)
-        self.rows = []
-        self.impulse = 0.0
-        self.w_int = 0.0
-        self.w_c = 0.0
-        self.w_ext = 0.0
-        self.diss = 0.0
-        self.pen_s = 0.0
-        self.pen_p = 0.0
-
-    def reaction(self, s: State) -> float:
-        d = self.sys.presc_dofs
-        return float(np.sum(s.f_int[d] + s.f_c[d])) if d.size else 0.0
-
-    def record(self, s: State, prev: State | None, dt: float):
-        sys_ = self.sys
-        if prev is not None:
-            dq = s.q - prev.q
-            if sys_.has_w:  # the impactor's momentum change less that of gravity: exact for the integrator
-                m_s = float(sys_.mass[sys_.w_dof])
-                self.impulse += m_s * float(s.v[sys_.w_dof] - prev.v[sys_.w_dof]) - float(sys_.f_ext[sys_.w_dof]) * dt
-            self.w_int += 0.5 * dot(prev.f_int + s.f_int, dq)
-            self.w_c += 0.5 * dot(prev.f_c + s.f_c, dq)
-            self.diss += s.dissipation
-            self.w_ext += 0.5 * dot(sys_.f_ext + sys_.f_ext, dq)
-            d = sys_.presc_dofs
-            if d.size:
-                self.w_ext += 0.5 * (self.reaction(prev) + self.reaction(s)) * float(dq[d].mean())
-        self.pen_s = max(self.pen_s, s.pen_sphere)
-        self.pen_p = max(self.pen_p, s.pen_plane)
-        ke = 0.5 * dot(sys_.mass, s.v * s.v)
-        wz = s.q[sys_.w_dof] if sys_.has_w else 0.0
-        zc = sys_.sphere.center[2] + wz if sys_.has_w else 0.0
-        vz = s.v[sys_.w_dof] if sys_.has_w else 0.0
-        self.rows.append((s.t, s.fz, self.impulse, zc, vz, self.reaction(s), ke, self.w_int,
-                          self.w_c, self.w_ext, dt, self.diss))
-
-    def result(self, model, steps: int, wall: float, frames, info) -> Result:
-        h = np.array(self.rows, dtype=np.float64)
-        if not np.isfinite(h).all():
-            i = int(np.argmax(~np.isfinite(h).all(axis=1)))
-            raise NumericalError(f"skfem backend: non-finite history at t = {h[i, 0]:.6g} s.",
-                                 time=float(h[i, 0]), quantity="history")
-        f = self.factor
-        t = h[:, 0]
-        dts = h[1:, 10]
-        res = Result(t=t, backend="skfem", steps=steps, wall_time=wall,
-                     energies={"kinetic": f * h[:, 6], "internal": f * h[:, 7],
-                               "hourglass": np.zeros_like(t), "contact": f * h[:, 8],
-                               "external": f * h[:, 9], "numerical_dissipation": f * h[:, 11]},
-                     dt_min=float(dts.min()) if dts.size else float("nan"),
-                     dt_max=float(dts.max()) if dts.size else float("nan"), frames=frames, info=info)
-        if self.sys.has_w:
-            res.contact_force = f * h[:, 1]
-            res.impulse = f * h[:, 2]
-            res.impactor_z = h[:, 3]
-            res.impactor_v = h[:, 4]
-            if model.mass_full:
-                res.acceleration = res.contact_force / float(model.mass_full)
-        if model.prescribed is not None:
-            res.reaction_force = f * h[:, 5]
-        return res

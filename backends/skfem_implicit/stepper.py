@@ -50,8 +50,10 @@ STALL_BAND = 100.0
 class State:
     """Converged state at time t (s): q, v, a (m, m/s, m/s^2), Prony history, forces (N, modelled part).
 
+    fz, fxy: the contact force on the impactor (N; z, and x and y for a laterally moving one);
     lam_sphere, lam_plane: contact multipliers (N) of the candidate nodes (see :mod:`.contact`);
-    dissipation (J): the integrator's numerical dissipation in the step that led here.
+    dissipation (J): the integrator's numerical dissipation in the step that led here;
+    f_parts (parts, n): the internal forces of each part (N; None for one material).
     """
 
     t: float
@@ -62,11 +64,13 @@ class State:
     f_int: np.ndarray
     f_c: np.ndarray
     fz: float = 0.0
+    fxy: tuple = (0.0, 0.0)
     lam_sphere: np.ndarray | None = None
     lam_plane: np.ndarray | None = None
     pen_sphere: float = 0.0
     pen_plane: float = 0.0
     dissipation: float = 0.0
+    f_parts: np.ndarray | None = None
 
 
 class StepFailure(Exception):
@@ -256,11 +260,19 @@ class Stepper:
             info.error = math.sqrt(dot(sys.mass, e * e) / den) if den > 0.0 else 0.0
         new = State(t=t1, q=q, v=v1, a=a1, hist=ev.history if ev.history is not None else s.hist,
                     f_int=ev.f_int, f_c=ev.f_c,
-                    fz=cs.force_on_impactor if cs is not None else 0.0,
+                    fz=cs.force_on_impactor if cs is not None else 0.0, fxy=lateral_force(cs),
                     lam_sphere=(cs.p_sphere if augment else s.lam_sphere) if cs is not None else None,
                     lam_plane=(cs.p_plane if augment else s.lam_plane) if cs is not None else None,
                     pen_sphere=cs.max_pen_sphere if cs is not None else 0.0,
                     pen_plane=cs.max_pen_plane if cs is not None else 0.0,
-                    dissipation=diss)
+                    dissipation=diss,
+                    f_parts=sys.parts.nodal_forces(sys.n) if sys.parts is not None else None)
         return new, info
 
+
+
+def lateral_force(cs) -> tuple[float, float]:
+    """(x, y) force on the impactor (N) of a contact state (zero without one or along z only)."""
+    if cs is None or cs.force_vector is None:
+        return (0.0, 0.0)
+    return (float(cs.force_vector[0]), float(cs.force_vector[1]))

@@ -1,10 +1,14 @@
 """The discrete system of one model: dofs, masses, constraints, residual and tangent.
 
-Unknowns q (m): nodal displacements (3 n, dof 3 node + axis) and, with a rigid sphere, its z
-displacement w as the last dof. :meth:`System.evaluate` gives f_int(q), the contact forces
-dPhi_c/dq and their tangent K_int + d2Phi_c/dq2; the time integrator (:mod:`.stepper`) adds the
-inertia M a(q). M is the lumped (row-sum) mass of the nodes and the impactor's mass (modelled
-part), zero in quasi-static runs; f_ext is gravity on the impactor (|model.gravity| downwards,
+Unknowns q (m): nodal displacements (3 n, dof 3 node + axis) and, with a rigid impactor, the
+displacements of its reference point along its free axes (``RigidSphere.moves``; z only by
+default, then its z displacement w is the last dof). :meth:`System.evaluate` gives f_int(q),
+the contact forces dPhi_c/dq and their tangent K_int + d2Phi_c/dq2 (contact: :mod:`.contact` for
+the paper's hemisphere moving along z only, :mod:`.impactor` for every other shape or motion);
+with several parts each part's material acts on its own elements (:mod:`.parts`). The time
+integrator (:mod:`.stepper`) adds the inertia M a(q). M is the lumped (row-sum) mass of the nodes
+(per-element density with parts) and the impactor's mass on each of its dofs (modelled part),
+zero in quasi-static runs; f_ext is gravity on the impactor (|model.gravity| downwards,
 as in the numba backend).
 """
 
@@ -17,10 +21,11 @@ import numpy as np
 
 from cfm_core.errors import InputError
 
-from . import contact, element
+from . import contact, element, impactor
 from .constitutive import Constitutive, History
 from .discretization import discretize
 from .linear import Pattern, assemble_vector
+from .parts import PartElements, check_parts
 
 
 @dataclass
@@ -41,28 +46,45 @@ class System:
     def __init__(self, model, volumetric: str = "mean-dilatation", quasi_static: bool = False,
                  kernels: str = "numba"):
         self.model = model
-        self.disc = discretize(model.nodes, model.hexes, model.density if not quasi_static else 0.0)
-        self.mat = Constitutive(model.material)
+        parts = model.part_list()
+        self.parts = None  # PartElements with several parts; else the one-material path below
         self.volumetric = volumetric
         self.kernels = kernels
         self.compiled = None
-        if kernels == "numba":
-            from .compiled import CompiledElements
+        if len(parts) > 1:
+            check_parts(model)
+            density = model.element_density()
+            self.disc = discretize(model.nodes, model.hexes, density if not quasi_static else 0.0)
+            self.parts = PartElements(self.disc, parts, volumetric, kernels)
+            self.mat = self.parts.mats[0]
+        else:
+            material = parts[0].material
+            self.disc = discretize(model.nodes, model.hexes, parts[0].density if not quasi_static else 0.0)
+            self.mat = Constitutive(material)
+            if kernels == "numba":
+                from .compiled import CompiledElements
 
-            self.compiled = CompiledElements(self.disc, model.material, volumetric)
+                self.compiled = CompiledElements(self.disc, material, volumetric)
+        #: the generated module whose scatter kernels assemble (None: numpy)
+        self.scatter = self.compiled.mod if self.compiled is not None else (
+            self.parts.mod if self.parts is not None else None)
         self.quasi_static = quasi_static
         nn = self.disc.n_nodes
         self.n_nodes = nn
         self.sphere = model.sphere
         self.has_w = self.sphere is not None
-        self.n = 3 * nn + (1 if self.has_w else 0)
-        self.w_dof = 3 * nn if self.has_w else -1
+        self.warnings = impactor.check(self.sphere, model.name) if self.has_w else []
+        #: the impactor's free axes (0, 1, 2 for x, y, z) and their dofs, after the nodes'
+        self.axes = (np.flatnonzero(np.asarray(self.sphere.moves, dtype=bool)) if self.has_w
+                     else np.zeros(0, np.int64))
+        self.imp_dofs = 3 * nn + np.arange(self.axes.size)
+        self.n = 3 * nn + self.axes.size
+        self.w_dof = int(self.imp_dofs[list(self.axes).index(2)]) if self.has_w else -1
+        #: the paper's hemisphere moving along z only keeps its own contact code (:mod:`.contact`)
+        self.general_contact = self.has_w and (self.sphere.shape != "hemisphere" or self.axes.size != 1)
         mass = np.repeat(self.disc.mass, 3)
         if self.has_w:
-            if not (self.sphere.mass > 0 and self.sphere.radius > 0):
-                raise InputError(f"model '{model.name}': sphere mass {self.sphere.mass!r} kg and radius "
-                                 f"{self.sphere.radius!r} m must be > 0.")
-            mass = np.append(mass, 0.0 if quasi_static else float(self.sphere.mass))
+            mass = np.append(mass, np.full(self.axes.size, 0.0 if quasi_static else float(self.sphere.mass)))
         self.mass = mass
         self.constrained = np.zeros(self.n, dtype=bool)
         fixed = np.asarray(model.fixed_dofs, dtype=np.int64).reshape(-1, 2)
@@ -83,12 +105,22 @@ class System:
         extra = None
         if self.has_w and self.sphere_nodes.size:  # contact couples each candidate node with the impactor
             r = (3 * self.sphere_nodes[:, None] + np.arange(3)[None, :]).ravel()
-            extra = (r, np.full(r.size, self.w_dof))
+            m = self.imp_dofs.size
+            i, j = np.triu_indices(m, 1)  # couplings between the impactor's own dofs
+            extra = (np.concatenate([np.repeat(r, m), self.imp_dofs[i]]),
+                     np.concatenate([np.tile(self.imp_dofs, r.size), self.imp_dofs[j]]))
         self.pattern = Pattern(self.disc.edofs, self.n, extra)
         self.plane = model.plane
         self.plane_nodes = np.asarray(model.plane_nodes, dtype=np.int64) if self.plane is not None else np.zeros(0, np.int64)
-        _, _, d2U = self.mat.volumetric(np.ones(1))
-        self.kappa0 = float(d2U[0])  # small-strain bulk modulus of the material (Pa)
+        self.share_imp = self.share_plane = None
+        if self.general_contact:  # each node's share of the modelled part (symmetry planes)
+            self.share_imp = impactor.symmetry_share(model, self.sphere_nodes)
+            self.share_plane = impactor.symmetry_share(model, self.plane_nodes)
+        if self.parts is not None:
+            self.kappa0 = self.parts.kappa0()  # the largest small-strain bulk modulus of the parts (Pa)
+        else:
+            _, _, d2U = self.mat.volumetric(np.ones(1))
+            self.kappa0 = float(d2U[0])  # small-strain bulk modulus of the material (Pa)
         #: wall time (s) per phase, accumulated over the run: "element" (Gauss-point and element
         #: work), "assembly" (global vectors and matrix, contact, mass, constraints),
         #: "factorization" (direct factorisation or preconditioner set-up), "solve" (triangular solves or CG)
@@ -110,7 +142,9 @@ class System:
         """
         u = self.displacement(q)
         tic = time.perf_counter()
-        if self.compiled is not None:
+        if self.parts is not None:
+            ev = self.parts.evaluate(u, hist, dt, tangent=tangent)
+        elif self.compiled is not None:
             ev = self.compiled.evaluate(u, hist, dt, tangent=tangent)
         else:
             ev = element.evaluate(self.disc, self.mat, u, hist, dt, tangent=tangent, volumetric=self.volumetric)
@@ -119,25 +153,31 @@ class System:
         self.counts["evaluations"] += 1
         nn3 = 3 * self.n_nodes
         f_int = np.zeros(self.n)
-        if self.compiled is not None:
-            self.compiled.mod.scatter_vector(ev.force, self.disc.edofs, f_int)
+        if self.scatter is not None:
+            self.scatter.scatter_vector(ev.force, self.disc.edofs, f_int)
         else:
             f_int[:nn3] = assemble_vector(self.disc.edofs, ev.force, nn3)
         f_c = np.zeros(self.n)
         cs = None
         K = None
         if self.has_w or (self.plane is not None and self.plane_nodes.size):
-            w = float(q[self.w_dof]) if self.has_w else 0.0
             lam_s, lam_p = lam if lam is not None else self.zero_multipliers()
-            cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
-                                  self.plane_nodes, self.penalty if k is None else k, self.w_dof, lam_s, lam_p,
-                                  tangent=tangent)
+            kk = self.penalty if k is None else k
+            if self.general_contact:
+                cs = impactor.evaluate(self.disc.nodes + u, self.impactor_displacement(q), self.sphere,
+                                       self.sphere_nodes, self.plane, self.plane_nodes, kk, self.imp_dofs,
+                                       self.axes, lam_s, lam_p, tangent=tangent, share_imp=self.share_imp,
+                                       share_plane=self.share_plane)
+            else:
+                w = float(q[self.w_dof]) if self.has_w else 0.0
+                cs = contact.evaluate(self.disc.nodes + u, w, self.sphere, self.sphere_nodes, self.plane,
+                                      self.plane_nodes, kk, self.w_dof, lam_s, lam_p, tangent=tangent)
             for dofs, vals in cs.grad:
                 np.add.at(f_c, dofs, vals)
         if tangent:
             K = np.zeros(self.pattern.nnz)
-            if self.compiled is not None:
-                self.compiled.mod.scatter_matrix(ev.stiffness, self.pattern.map_el, K)
+            if self.scatter is not None:
+                self.scatter.scatter_matrix(ev.stiffness, self.pattern.map_el, K)
             else:
                 K += np.bincount(self.pattern.map_el.ravel(), weights=ev.stiffness.ravel(), minlength=self.pattern.nnz)
             if cs is not None and cs.hess:
@@ -148,12 +188,27 @@ class System:
         self.times["assembly"] += time.perf_counter() - toc
         return Evaluation(f_int, f_c, K, ev.history, cs, ev.theta)
 
+    def impactor_displacement(self, q: np.ndarray) -> np.ndarray:
+        """(3,) displacement of the impactor's reference point (m; zero along held axes)."""
+        W = np.zeros(3)
+        if self.has_w:
+            W[self.axes] = q[self.imp_dofs]
+        return W
+
+    def impactor_point(self, q: np.ndarray) -> np.ndarray | None:
+        """(3,) current reference point of the impactor (m), None without one."""
+        if not self.has_w:
+            return None
+        return np.asarray(self.sphere.center, dtype=np.float64) + self.impactor_displacement(q)
+
     def zero_multipliers(self) -> tuple[np.ndarray, np.ndarray]:
         """Contact multipliers (N) of the sphere and plane candidate nodes, all zero."""
         return np.zeros(self.sphere_nodes.size), np.zeros(self.plane_nodes.size)
 
     def relaxed_history(self):
         """The undeformed, relaxed Prony state of every Gauss point (None when elastic)."""
+        if self.parts is not None:
+            return self.parts.relaxed()
         if not self.mat.k:
             return None
         if self.compiled is not None:
