@@ -119,9 +119,10 @@ class PartSettings:
         return dict(self.parameters)
 
 
-def _from_tables(cls, tables, where: str, label, extra=None):
-    """Validate a list of tables (or instances) into ``cls`` objects; errors say which one."""
-    allowed = [f.name for f in fields(cls) if f.name not in (extra or {})]
+def _from_tables(cls, tables, where: str, label, extra=None, fixed=()):
+    """Validate a list of tables (or instances) into ``cls`` objects; errors say which one.
+    ``extra(i, table)`` gives values of the ``fixed`` fields (not keys of the table)."""
+    allowed = [f.name for f in fields(cls) if f.name not in fixed]
     out = []
     for i, t in enumerate(tables):
         if isinstance(t, cls):
@@ -180,7 +181,7 @@ def make_parts(table) -> tuple:
     items = list(table.items())
     return _from_tables(PartSettings, [v for _, v in items], "[parts]",
                         lambda i, t: f"[parts.{items[i][0]}]",
-                        extra=lambda i, t: {"name": items[i][0]})
+                        extra=lambda i, t: {"name": items[i][0]}, fixed=("name",))
 
 
 def _unique(names, what):
