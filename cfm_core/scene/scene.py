@@ -27,7 +27,7 @@ from .impactor_section import resolve_symmetry
 from .layers import make_parts, mesh_part_elements
 from .run_section import RunSettings
 from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
-from .writer import scene_to_dict, scene_to_toml
+from .writer import _UNITS, scene_to_dict, scene_to_toml  # noqa: F401 (_UNITS: the studies name scene units)
 
 __all__ = ["Scene", "RunSettings", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
            "ElementTest", "RelaxationTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
