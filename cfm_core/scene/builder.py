@@ -236,7 +236,8 @@ def _drop_test(scene: Scene, material) -> Model:
         "impactor_shape": imp.shape, "impactor_edge_radius": imp.edge, "velocity_vector": [float(c) for c in v],
         "impact_point": [ox, oy],
     }
-    if parts:
+    if parts:  # Model.material is the first part's; this is the [material] section's (for scene.toml)
+        meta["material_parameters"] = dict(material.values)
         meta["parts"] = [{"name": p.name, "material": p.material.name, "density": p.density,
                           "elements": int(len(p.elements))} for p in parts]
         if sp.layers:

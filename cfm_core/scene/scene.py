@@ -200,7 +200,9 @@ class Scene:
             Any of: ``name``, ``end_time`` (s), ``output_rate`` (Hz), ``material``, ``moduli``,
             ``elastic``, ``parameters`` (dict, SI); drop test: ``width``, ``thickness``,
             ``element_size`` (m), ``density`` (kg/m^3), ``symmetry``, ``mesh`` (path), ``radius``
-            (m), ``mass`` (kg), ``velocity`` (m/s), ``friction`` (-); single element: ``size``
+            (m), ``mass`` (kg), ``velocity`` (m/s: a speed or [vx, vy, vz]), ``shape``,
+            ``edge_radius`` (m), ``angle``, ``azimuth`` (deg), ``offset`` ([x, y] in m),
+            ``friction`` (-); single element: ``size``
             (m), ``stretch`` (-), ``rate`` (1/s), ``hold`` (s), ``density`` (kg/m^3); relaxation:
             ``size`` (m), ``stretch`` (-), ``load_time`` (s), ``hold`` (s), ``lateral``.
 

@@ -71,6 +71,8 @@ def test_layer_materials_inherit_and_override():
     assert p[1].material.name == "neo-hookean" and p[1].material.values["mu"] == 5000.0
     assert "c" not in p[1].material.values  # a layer naming a material does not take [material]'s parameters
     assert p[2].material.moduli == "instantaneous" and p[2].material.values["c"] == 20.0
+    m = build_model(s)  # Model.material is the first part's; the meta keeps [material]'s values
+    assert m.material is m.parts[0].material and m.meta["material_parameters"]["c"] == 20.0
 
 
 @pytest.mark.parametrize("layers, specimen, match", [
