@@ -40,7 +40,9 @@ def add_parser(sub) -> None:
     p.add_argument("--mesh", help="hexahedral specimen mesh file read with meshio, coordinates in m "
                                   "(replaces the structured mesh; width and thickness come from it)")
     p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
-    p.add_argument("--symmetry", choices=["quarter", "none"], help="quarter model (default) or full specimen")
+    p.add_argument("--symmetry", choices=["auto", "quarter", "half", "none"],
+                   help="auto (default: quarter for a centred vertical impact, half (y >= 0) when only y is "
+                        "symmetric, else none), quarter, half or the full specimen (none)")
     add_material_options(p, default_material=None)
     add_vtu_options(p)
     p.add_argument("--no-plot", action="store_true", help="do not write acceleration.png")
@@ -134,7 +136,7 @@ def add_run_parser(sub) -> None:
                                    "relaxation scenes write reaction.csv (t s, stretch -, reaction_force N, "
                                    "nominal_stress Pa); both write summary.json (last) and a PNG plot into --out.")
     p.add_argument("--scene", required=True,
-                   help="scene TOML file, or a built-in scene name (drop-test, single-element, relaxation)")
+                   help=f"scene TOML file, or a built-in scene name ({', '.join(builtin_scenes())})")
     p.add_argument("--backend", default=None,
                    help="backend name (default: skfem for the quasi-static relaxation scene, numba otherwise)")
     p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N)")

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..errors import InputError
 from .mesh import nodes_on_plane, structured_hex_mesh
-from .model import Model, Prescribed, RigidPlane, RigidSphere, check_memory, too_big
+from .layers import bind_material, layer_cells, layer_z, mesh_part_elements
+from .model import Model, Part, Prescribed, RigidPlane, RigidSphere, check_memory, too_big
 from .scene import Scene
 from .sections import read_specimen_mesh
 from ..material.registry import make_material
@@ -131,71 +132,125 @@ def _fixed(nodes_dofs: list[tuple[np.ndarray, int]]) -> np.ndarray:
     return np.unique(np.vstack(parts).astype(np.int64), axis=0)
 
 
-def _mirror_lateral(nodes: np.ndarray, nx: int, ny: int, half: float) -> None:
-    """Make x and y of a full structured grid exactly mirror-symmetric about 0 (in place).
+def _mirror_lateral(nodes: np.ndarray, nx: int, ny: int, half: float, axes=(0, 1)) -> None:
+    """Make x (and y) of a structured grid exactly mirror-symmetric about 0 (in place).
 
-    The coordinates become -q[::-1] | q[1:] with q = the quarter model's coordinates, so the full
-    and quarter models share their nodes exactly and the centre lines lie exactly at 0 m.
+    The coordinates along each axis in ``axes`` become -q[::-1] | q[1:] with q = the quarter
+    model's coordinates, so the full, half and quarter models share their nodes exactly and the
+    centre lines lie exactly at 0 m.
     """
     idx = np.arange(len(nodes))
     for axis, n, stride, period in ((0, nx, 1, nx + 1), (1, ny, nx + 1, ny + 1)):
+        if axis not in axes:
+            continue
         q = np.linspace(0.0, half, n // 2 + 1)
         full = np.concatenate([-q[::-1], q[1:]])
         nodes[:, axis] = full[(idx // stride) % period]
 
 
-def _drop_test(scene: Scene, material) -> Model:
-    """Specimen z in [0, h] centred at x = y = 0 on the plane z = 0; sphere touching at the top.
+#: Symmetry -> (symmetry factor, which translations the modelled impactor has (x, y, z)).
+_SYMMETRY = {"quarter": (4.0, (False, False, True)), "half": (2.0, (True, False, True)),
+             "none": (1.0, (True, True, True))}
 
-    Quarter symmetry: only x, y >= 0 is meshed; u_x = 0 on x = 0 and u_y = 0 on y = 0; the
-    sphere carries a quarter of the mass and the symmetry factor is 4. The bottom is not fixed:
-    the plate is a (frictionless by default) contact.
+
+def _block(sp) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """Nodes and hexes of the built-in (layered) block of the modelled part, and its grid."""
+    nx, ny, nz = grid = sp.grid
+    w = sp.width
+    if sp.symmetry == "quarter":
+        lx = ly = w / 2.0
+        origin = (0.0, 0.0, 0.0)
+    elif sp.symmetry == "half":  # the mirrored quarter grid in x, y >= 0
+        lx, ly = w, w / 2.0
+        origin = (-w / 2.0, 0.0, 0.0)
+    else:  # the mirrored quarter grid: 2 * nq elements across, a node line at x = 0, y = 0
+        lx = ly = w
+        origin = (-w / 2.0, -w / 2.0, 0.0)
+    nodes, hexes = structured_hex_mesh(lx, ly, sp.thickness, nx, ny, nz, origin)
+    if sp.symmetry == "none":
+        _mirror_lateral(nodes, nx, ny, w / 2.0)
+    elif sp.symmetry == "half":
+        _mirror_lateral(nodes, nx, ny, w / 2.0, axes=(0,))
+    z = layer_z(sp.layers, sp.element_size) if sp.layers else None
+    if z is not None:  # layers of different spacing: exact interfaces
+        nodes[:, 2] = z[np.arange(len(nodes)) // ((nx + 1) * (ny + 1))]
+    return nodes, hexes, grid
+
+
+def _parts(scene: Scene, material, n_el: int, nx_ny: int) -> tuple:
+    """The model's parts: one per layer (from the plate up) or per [parts.NAME]; () for one material."""
+    sp = scene.specimen
+    if sp.layers:
+        cells = layer_cells(sp.layers, sp.element_size)
+        bounds = np.concatenate([[0], np.cumsum(cells)]) * nx_ny
+        regions = [(lay, np.arange(bounds[i], bounds[i + 1], dtype=np.int64)) for i, lay in enumerate(sp.layers)]
+    elif scene.parts:
+        regions = list(zip(scene.parts, mesh_part_elements(sp.mesh, n_el, scene.parts)))
+    else:
+        return ()
+    out = []
+    for region, elements in regions:
+        mat, rho = bind_material(region, scene.material, sp.density, material)
+        out.append(Part(region.name, mat, rho, np.asarray(elements, dtype=np.int64)))
+    return tuple(out)
+
+
+def _drop_test(scene: Scene, material) -> Model:
+    """Specimen z in [0, h] centred at x = y = 0 on the plane z = 0; impactor touching its top.
+
+    Quarter symmetry: only x, y >= 0 is meshed, u_x = 0 on x = 0 and u_y = 0 on y = 0, the
+    impactor carries a quarter of the mass and moves along z only, factor 4. Half: only y >= 0,
+    u_y = 0 on y = 0, half the mass, the impactor moves in x and z, factor 2. None: the whole
+    specimen, the impactor free to translate. The impactor's reference point starts at the
+    impact point (offset), its lowest point at the top z = h. The bottom is not fixed: the plate
+    is a (frictionless by default) contact. Layers and mesh parts become ``Model.parts``.
     """
     sp, imp = scene.specimen, scene.impactor
-    quarter = sp.symmetry == "quarter"
     if sp.mesh is not None:
         nodes, hexes, _ = read_specimen_mesh(sp.mesh, bool(sp.merge_nodes))
         nodes, hexes = nodes.copy(), hexes.copy()
         grid = None
     else:
-        nx, ny, nz = grid = sp.grid
-        if quarter:
-            lx = ly = sp.width / 2.0
-            origin = (0.0, 0.0, 0.0)
-        else:  # the mirrored quarter grid: 2 * nq elements across, a node line at x = 0, y = 0
-            lx = ly = sp.width
-            origin = (-sp.width / 2.0, -sp.width / 2.0, 0.0)
-        nodes, hexes = structured_hex_mesh(lx, ly, sp.thickness, nx, ny, nz, origin)
-        if not quarter:
-            _mirror_lateral(nodes, nx, ny, sp.width / 2.0)
+        nodes, hexes, grid = _block(sp)
     h = sp.thickness
     tol = 1e-6 * sp.element_size
     top = nodes_on_plane(nodes, 2, h, tol)
     bottom = nodes_on_plane(nodes, 2, 0.0, tol)
-    if quarter:
-        fixed = _fixed([(nodes_on_plane(nodes, 0, 0.0, tol), 0),
-                        (nodes_on_plane(nodes, 1, 0.0, tol), 1)])
-        factor = 4.0
-    else:
-        fixed = _fixed([])
-        factor = 1.0
-    sphere = RigidSphere(radius=imp.radius, mass=imp.mass / factor,
-                         center=(0.0, 0.0, h + imp.radius), velocity=-imp.velocity)
+    factor, moves = _SYMMETRY[sp.symmetry]
+    planes = {"quarter": [(0, 0), (1, 1)], "half": [(1, 1)], "none": []}[sp.symmetry]
+    fixed = _fixed([(nodes_on_plane(nodes, axis, 0.0, tol), dof) for axis, dof in planes])
+    v = imp.vector
+    (ox, oy) = imp.point
+    sphere = RigidSphere(radius=imp.radius, mass=imp.mass / factor, center=(ox, oy, h + imp.bottom),
+                         velocity=float(v[2]), shape=imp.shape, edge_radius=imp.edge,
+                         velocity_xy=(float(v[0]), float(v[1])), moves=moves)
+    parts = _parts(scene, material, len(hexes), 0 if grid is None else grid[0] * grid[1])
     meta = {
         "scene_type": scene.type, "symmetry": sp.symmetry, "thickness": h, "width": sp.width,
-        "element_size": sp.element_size, "density": sp.density, "velocity": imp.velocity,
+        "element_size": sp.element_size, "density": sp.density, "velocity": imp.speed,
         "impactor_mass": imp.mass, "impactor_radius": imp.radius,
         "friction": scene.contact.friction, "mesh": sp.mesh, "grid": grid,
         "moduli": scene.material.moduli, "elastic": scene.material.elastic,
         "end_time_automatic": scene.settings.end_time is None,
+        "symmetry_requested": sp.requested_symmetry, "symmetry_reason": scene.symmetry_reason,
+        "impactor_shape": imp.shape, "impactor_edge_radius": imp.edge, "velocity_vector": [float(c) for c in v],
+        "impact_point": [ox, oy],
     }
+    if parts:  # Model.material is the first part's; this is the [material] section's (for scene.toml)
+        meta["material_parameters"] = dict(material.values)
+        meta["parts"] = [{"name": p.name, "material": p.material.name, "density": p.density,
+                          "elements": int(len(p.elements))} for p in parts]
+        if sp.layers:
+            for entry, lay, n in zip(meta["parts"], sp.layers, layer_cells(sp.layers, sp.element_size)):
+                entry.update(thickness=lay.thickness, cells_through_thickness=n)
     return Model(
-        name=scene.settings.name, nodes=nodes, hexes=hexes, density=sp.density,
-        material=material, end_time=scene.end_time,
+        name=scene.settings.name, nodes=nodes, hexes=hexes,
+        density=parts[0].density if parts else sp.density,
+        material=parts[0].material if parts else material, end_time=scene.end_time,
         output_interval=1.0 / scene.settings.output_rate, fixed_dofs=fixed,
         sphere=sphere, plane=RigidPlane(0.0), sphere_nodes=top, plane_nodes=bottom,
         friction=scene.contact.friction, symmetry_factor=factor, mass_full=imp.mass,
-        stop_after_separation=True, meta=meta,
+        stop_after_separation=True, meta=meta, parts=parts,
     )
 
 

@@ -331,3 +331,67 @@ def mean_edge_length(nodes: np.ndarray, hexes: np.ndarray) -> float:
              (0, 4), (1, 5), (2, 6), (3, 7)]
     a, b = np.array(pairs).T
     return float(np.linalg.norm(x[:, a] - x[:, b], axis=-1).mean())
+
+
+def read_cell_sets(path) -> dict[str, np.ndarray]:
+    """Named sets of the hexahedra of a mesh file (cell sets, physical groups, integer cell data).
+
+    The indices count the hexahedra in the order :func:`read_hex_mesh` returns them (the
+    hexahedron blocks of the file one after the other). Names come from, in this order:
+    meshio ``cell_sets`` (Abaqus ``*ELSET``, gmsh 4 physical groups, ...); gmsh 2 physical
+    groups (``gmsh:physical`` tags named by ``field_data``; a tag without a name is
+    ``physical_TAG``); every other integer cell-data array ARRAY except ``gmsh:geometrical``,
+    one set per value V named ``ARRAY_V`` (e.g. a VTU array ``part`` with ids 1 and 2 gives
+    ``part_1`` and ``part_2``). A name already taken keeps its first meaning.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mesh file meshio reads.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Set name to the sorted, unique hexahedron indices (int64) it holds; sets holding no
+        hexahedron are left out.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read by meshio.
+    """
+    import meshio
+
+    try:
+        mesh = meshio.read(Path(path))
+    except (Exception, SystemExit) as exc:  # meshio raises many types and may even sys.exit(1)
+        raise InputError(f"mesh file '{path}' could not be read by meshio: {exc}.") from None
+    offsets, start = {}, 0
+    for b, block in enumerate(mesh.cells):
+        if block.type == "hexahedron":
+            offsets[b] = start
+            start += len(block.data)
+    sets: dict[str, np.ndarray] = {}
+
+    def add(name, per_block):
+        if name in sets:
+            return
+        idx = [np.asarray(sel, dtype=np.int64).ravel() + offsets[b] for b, sel in enumerate(per_block)
+               if b in offsets and sel is not None and len(sel)]
+        if idx:
+            sets[name] = np.unique(np.concatenate(idx))
+
+    for name, per_block in (mesh.cell_sets or {}).items():
+        add(str(name), per_block)
+    names = {int(v[0]): str(k) for k, v in (mesh.field_data or {}).items() if len(v) > 1 and int(v[1]) == 3}
+    for array, per_block in (mesh.cell_data or {}).items():
+        if array == "gmsh:geometrical":
+            continue
+        values = [np.asarray(d) if b in offsets else None for b, d in enumerate(per_block)]
+        ints = [v for v in values if v is not None]
+        if not ints or not all(v.ndim == 1 and np.issubdtype(v.dtype, np.integer) for v in ints):
+            continue
+        for tag in np.unique(np.concatenate(ints)).tolist():
+            name = (names.get(tag, f"physical_{tag}") if array == "gmsh:physical" else f"{array}_{tag}")
+            add(name, [None if v is None else np.flatnonzero(v == tag) for v in values])
+    return sets

@@ -150,7 +150,8 @@ def _drop_test_warnings(scene) -> list[str]:
     """Unit slips of the drop-test values (:data:`BOUNDS`) and a specimen too coarse through its thickness."""
     warnings = []
     for section, key, unit, slip, unusual, what in BOUNDS:
-        value = float(getattr(getattr(scene, section), key))
+        obj = getattr(scene, section)
+        value = float(obj.speed if key == "velocity" else getattr(obj, key))
         if slip is not None and value > slip:
             hint = unit_hint(key, value, unit, 0.0, slip)
             warnings.append(f"[{section}] {key} = {value:g} {unit} is not a plausible {what}: above {slip:g} {unit} it "

@@ -17,16 +17,17 @@ Public API: :func:`load_scene`, :func:`scene_from_dict`, :func:`builtin_scene`,
 
 from __future__ import annotations
 
-import json
-import re
 import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Mapping
 
 from ..errors import InputError, did_you_mean
-from .run_section import RunSettings, run_toml
+from .impactor_section import resolve_symmetry
+from .layers import make_parts, mesh_part_elements
+from .run_section import RunSettings
 from .sections import SCENE_TYPES, Contact, ElementTest, Impactor, MaterialSettings, RelaxationTest, SceneSettings, Specimen, _choice, _set
+from .writer import _UNITS, scene_to_dict, scene_to_toml  # noqa: F401 (_UNITS: the studies name scene units)
 
 __all__ = ["Scene", "RunSettings", "SceneSettings", "Specimen", "Impactor", "Contact", "MaterialSettings",
            "ElementTest", "RelaxationTest", "SCENE_TYPES", "load_scene", "scene_from_dict", "builtin_scene",
@@ -46,7 +47,8 @@ _OVERRIDES_COMMON = {"name": ("scene", "name"), "end_time": ("scene", "end_time"
 _OVERRIDES = {
     "drop-test": {**{k: ("specimen", k) for k in ("width", "thickness", "element_size", "density",
                                                   "symmetry", "mesh")},
-                  **{k: ("impactor", k) for k in ("radius", "mass", "velocity")},
+                  **{k: ("impactor", k) for k in ("radius", "mass", "velocity", "shape", "edge_radius", "angle",
+                                                  "azimuth", "offset")},
                   "friction": ("contact", "friction"), **_OVERRIDES_COMMON},
     "single-element": {**{k: ("element", k) for k in ("size", "stretch", "rate", "hold",
                                                        "density")}, **_OVERRIDES_COMMON},
@@ -79,12 +81,22 @@ class Scene:
         The [run] section (any scene type): backend, dtype, device, options and input-file
         digests of the run that wrote the scene (:mod:`cfm_core.scene.run_section`); None: the
         defaults.
+    parts : tuple of PartSettings
+        Drop test with a [specimen] mesh only: ``[parts.NAME]`` tables giving the material of
+        each named cell set (:mod:`cfm_core.scene.layers`); empty: one material.
+
+    Attributes
+    ----------
+    symmetry_reason : str
+        Drop test: why [specimen] symmetry (resolved at construction from "auto" or checked when
+        asked for, :func:`cfm_core.scene.impactor_section.resolve_symmetry`) is what it is.
 
     Raises
     ------
     InputError
-        ``settings`` is not a SceneSettings, a section the scene type does not use is given, or a
-        section is not of its class.
+        ``settings`` is not a SceneSettings, a section the scene type does not use is given, a
+        section is not of its class, a requested symmetry the impact breaks, an impact point off
+        the specimen, or [parts] that do not match the mesh's cell sets.
     """
 
     settings: SceneSettings
@@ -95,6 +107,7 @@ class Scene:
     element: ElementTest | None = None
     relaxation: RelaxationTest | None = None
     run: RunSettings | None = None
+    parts: tuple = ()
 
     def __post_init__(self):
         if not isinstance(self.settings, SceneSettings):
@@ -114,6 +127,41 @@ class Scene:
                 _set(self, **{key: cls()})
             elif not isinstance(val, cls):
                 raise InputError(f"Scene.{key} must be a {cls.__name__}, got {val!r}.")
+        if self.parts and self.type != "drop-test":
+            raise InputError(f"a {self.type} scene has no [parts]; parts give the materials of a drop-test mesh.")
+        _set(self, parts=make_parts({p.name: p for p in self.parts}) if self.parts else ())
+        if self.type == "drop-test":
+            self._resolve_drop_test()
+
+    def _resolve_drop_test(self):
+        """Resolve the symmetry, check the impact point and the mesh parts."""
+        sp, imp = self.specimen, self.impactor
+        requested = sp.requested_symmetry
+        sym, why = resolve_symmetry(sp, imp, requested)
+        if sym != sp.symmetry:
+            sp = replace(sp, symmetry=sym)
+            object.__setattr__(sp, "requested_symmetry", requested)
+            _set(self, specimen=sp)
+        object.__setattr__(self, "symmetry_reason", why)
+        (ox, oy) = imp.point
+        if ox or oy:
+            if sp.mesh is not None:
+                from .sections import read_specimen_mesh
+
+                nodes = read_specimen_mesh(sp.mesh, bool(sp.merge_nodes))[0]
+                lo, hi = nodes[:, :2].min(axis=0), nodes[:, :2].max(axis=0)
+            else:
+                lo, hi = (-sp.width / 2.0, -sp.width / 2.0), (sp.width / 2.0, sp.width / 2.0)
+            for k, v in ((0, ox), (1, oy)):
+                if not lo[k] < v < hi[k]:
+                    raise InputError(f"[impactor] offset {'xy'[k]} = {v:g} m puts the impact point off the specimen, "
+                                     f"whose top spans {lo[k]:g} < {'xy'[k]} < {hi[k]:g} m; give an offset inside it "
+                                     f"(m, relative to the specimen centre).")
+        if self.parts:
+            if sp.mesh is None:
+                raise InputError("[parts] give the materials of the cell sets of a [specimen] mesh, but the scene has "
+                                 "no mesh; for the built-in block use [[specimen.layers]] (from the plate upwards).")
+            mesh_part_elements(sp.mesh, sp.n_elements, self.parts)
 
     @property
     def type(self) -> str:
@@ -124,14 +172,14 @@ class Scene:
     def end_time(self) -> float:
         """End time (s): [scene] end_time if given, else automatic.
 
-        drop-test: 10 * thickness / velocity + 5e-3 s, a generous bound (the sphere cannot travel
+        drop-test: 10 * thickness / (-v_z) + 5e-3 s, a generous bound (the sphere cannot travel
         further than the thickness, and the run stops earlier once it separates); single-element
         and relaxation: load time + hold.
         """
         if self.settings.end_time is not None:
             return self.settings.end_time
         if self.type == "drop-test":
-            return 10.0 * self.specimen.thickness / self.impactor.velocity + 5e-3
+            return 10.0 * self.specimen.thickness / self.impactor.normal_speed + 5e-3
         if self.type == "relaxation":
             return self.relaxation.load_time + self.relaxation.hold
         return self.element.load_time + self.element.hold
@@ -152,7 +200,9 @@ class Scene:
             Any of: ``name``, ``end_time`` (s), ``output_rate`` (Hz), ``material``, ``moduli``,
             ``elastic``, ``parameters`` (dict, SI); drop test: ``width``, ``thickness``,
             ``element_size`` (m), ``density`` (kg/m^3), ``symmetry``, ``mesh`` (path), ``radius``
-            (m), ``mass`` (kg), ``velocity`` (m/s), ``friction`` (-); single element: ``size``
+            (m), ``mass`` (kg), ``velocity`` (m/s: a speed or [vx, vy, vz]), ``shape``,
+            ``edge_radius`` (m), ``angle``, ``azimuth`` (deg), ``offset`` ([x, y] in m),
+            ``friction`` (-); single element: ``size``
             (m), ``stretch`` (-), ``rate`` (1/s), ``hold`` (s), ``density`` (kg/m^3); relaxation:
             ``size`` (m), ``stretch`` (-), ``load_time`` (s), ``hold`` (s), ``lateral``.
 
@@ -243,10 +293,11 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
                          f"{', '.join(repr(t) for t in SCENE_TYPES)}.")
     stype = _choice("scene", "type", head["type"], SCENE_TYPES)
     layout = _LAYOUT[stype]
+    extra = ["run", "parts"] if stype == "drop-test" else ["run"]
     for key in d:
-        if key not in layout and key != "run":
-            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, [*layout, 'run'])}; "
-                             f"allowed sections: {', '.join(layout)}, run.")
+        if key not in layout and key not in extra:
+            raise InputError(f"unknown key '{key}' at the top level of a {stype} scene{_close(key, [*layout, *extra])}; "
+                             f"allowed sections: {', '.join([*layout, *extra])}.")
     sections = {}
     for key, cls in layout.items():
         table = d.get(key, {})
@@ -265,6 +316,8 @@ def scene_from_dict(d: Mapping, base_dir=None) -> Scene:
         sections["settings" if key == "scene" else key] = cls(**table)
     if d.get("run") is not None:
         sections["run"] = RunSettings.from_table(d["run"], base_dir)
+    if d.get("parts"):
+        sections["parts"] = make_parts(d["parts"])
     return Scene(**sections)
 
 
@@ -340,95 +393,3 @@ def builtin_scene(name: str) -> Scene:
         raise InputError(f"unknown built-in scene {name!r}; available: "
                          f"{', '.join(builtin_scenes())}.")
     return load_scene(_scenes_dir() / f"{name}.toml")
-
-
-
-# ----------------------------------------------------------------------------- writing
-_UNITS = {"end_time": "s", "output_rate": "Hz", "width": "m", "thickness": "m",
-          "element_size": "m", "density": "kg/m^3", "radius": "m", "mass": "kg",
-          "velocity": "m/s, impact speed, positive = down", "friction": "-", "size": "m",
-          "stretch": "-", "rate": "1/s", "hold": "s", "load_time": "s"}
-
-
-def scene_to_dict(scene: Scene) -> dict:
-    """The scene as a nested dict of plain values that :func:`scene_from_dict` reads back.
-
-    Automatic values are left out (end_time when None; width, thickness and element_size when
-    they come from a mesh).
-
-    Parameters
-    ----------
-    scene : Scene
-        A validated scene.
-
-    Returns
-    -------
-    dict
-        ``{"scene": {...}, "<section>": {key: value (SI)}, ...}``; ``None`` values and empty
-        parameter tables are left out.
-    """
-    out = {}
-    for key in _LAYOUT[scene.type]:
-        obj = scene.settings if key == "scene" else getattr(scene, key)
-        table = {}
-        for f in fields(obj):
-            val = getattr(obj, f.name)
-            if val is None:
-                continue
-            if key == "specimen" and scene.specimen.mesh is not None and \
-                    f.name in ("width", "thickness", "element_size"):
-                continue
-            if key == "material" and f.name == "parameters":
-                if val:
-                    table["parameters"] = dict(val)
-                continue
-            table[f.name] = val
-        out[key] = table
-    if scene.run is not None:
-        out["run"] = scene.run.as_dict()
-    return out
-
-
-def _toml_key(k: str) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(float(v))
-    if isinstance(v, str):
-        return json.dumps(v)  # a JSON string is a valid TOML basic string
-    raise TypeError(f"cannot write {v!r} to TOML")
-
-
-def scene_to_toml(scene: Scene) -> str:
-    """The scene as TOML text (SI units, commented); :func:`load_scene` reads it back equal.
-
-    Parameters
-    ----------
-    scene : Scene
-        A validated scene.
-
-    Returns
-    -------
-    str
-        TOML with a header comment, one table per section, the unit of each key as a comment
-        and material parameter overrides as ``[material.parameters]``.
-    """
-    lines = [f"# {scene.type} scene written by cfm_core.scene.scene_to_toml (SI units)"]
-    d = scene_to_dict(scene)
-    d.pop("run", None)
-    for section, table in d.items():
-        params = table.pop("parameters", None)
-        lines += ["", f"[{section}]"]
-        for k, v in table.items():
-            unit = f"  # {_UNITS[k]}" if k in _UNITS else ""
-            lines.append(f"{_toml_key(k)} = {_toml_value(v)}{unit}")
-        if params:
-            lines += ["", f"[{section}.parameters]  # SI units"]
-            lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in params.items()]
-    if scene.run is not None:
-        lines += ["", *run_toml(scene.run)]
-    return "\n".join(lines) + "\n"

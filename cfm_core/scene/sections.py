@@ -17,8 +17,8 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import InputError
-from .mesh import mean_edge_length, read_hex_mesh
-from .plausible import unit_hint
+from .mesh import mean_edge_length, read_cell_sets, read_hex_mesh
+from .layers import layer_cells, make_layers
 
 SCENE_TYPES = ("drop-test", "single-element", "relaxation")
 #: [scene] output_rate (Hz) when a scene gives none: the paper's 50 kHz, 100 Hz for the long
@@ -27,39 +27,8 @@ DEFAULT_OUTPUT_RATE = {"drop-test": 50_000.0, "single-element": 50_000.0, "relax
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
 
 
-# ----------------------------------------------------------------------------- value checks
-def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, note="", fix=None) -> float:
-    """``value`` as a float if it is a finite real number in the range, else InputError."""
-    lo_s, hi_s = ("<" if lo_open else "<="), ("<" if hi_open else "<=")
-    allowed = f"a finite number with {lo:g} {lo_s} {key} {hi_s} {hi:g} {unit}"
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise InputError(f"[{section}] {key} = {value!r} ({type(value).__name__}) is not a number; "
-                         f"it must be {allowed}. {note}".rstrip())
-    x = float(value)
-    ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
-    if not ok:
-        hint = unit_hint(key, x, unit, lo, hi, fix) if math.isfinite(x) else ""
-        raise InputError(" ".join(filter(None, (f"[{section}] {key} = {value!r} {unit} is out of range; it "
-                                                 f"must be {allowed}.", note, hint))))
-    return x
-
-
-def _choice(section, key, value, allowed) -> str:
-    if not isinstance(value, str) or value not in allowed:
-        raise InputError(f"[{section}] {key} = {value!r} is not allowed; use one of "
-                         f"{', '.join(repr(a) for a in allowed)}.")
-    return value
-
-
-def _text(section, key, value) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise InputError(f"[{section}] {key} = {value!r} must be a non-empty string.")
-    return value
-
-
-def _set(obj, **kw):
-    for k, v in kw.items():
-        object.__setattr__(obj, k, v)
+from .values import _choice, _num, _set, _text  # noqa: F401 (re-exported)
+from .impactor_section import SYMMETRIES
 
 
 # ----------------------------------------------------------------------------- sections
@@ -131,39 +100,69 @@ def read_specimen_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarra
     return _read_mesh_cached(str(p), st.st_mtime_ns, st.st_size, bool(merge))
 
 
+@functools.lru_cache(maxsize=16)
+def _read_sets_cached(path: str, mtime_ns: int, size: int) -> dict:
+    sets = read_cell_sets(path)
+    for a in sets.values():
+        a.setflags(write=False)
+    return sets
+
+
+def read_specimen_cell_sets(path) -> dict:
+    """Named hexahedron sets of a user mesh ({name: indices}), read once per file version
+    (:func:`cfm_core.scene.mesh.read_cell_sets`; read-only arrays)."""
+    st = Path(path).stat()
+    return _read_sets_cached(str(path), st.st_mtime_ns, st.st_size)
+
+
 @dataclass(frozen=True)
 class Specimen:
     """[specimen] of a drop test: a square block on the plate, bottom at z = 0, centred at x=y=0.
 
-    width (m, full in-plane size, default 0.05, at most 1); thickness (m, default 0.008, allowed 1e-4..0.1);
-    element_size (m, default 0.001, at most the thickness); density (kg/m^3, default 950, an
-    assumption: not in the paper); symmetry ("quarter": only x, y >= 0 is modelled | "none").
-    mesh: optional path of a user hexahedral mesh (coordinates in m); then width (x extent of the
-    full specimen), thickness (max z) and element_size (mean edge length) are taken from the mesh,
-    and values given for them must agree with it. The mesh's bottom must be at z = 0; with
-    symmetry "none" its lateral centre at x = y = 0, with "quarter" it must be the x, y >= 0
-    quarter (min x = min y = 0). merge_nodes: merge coincident nodes of the mesh that its elements
-    do not share (default None = false: such a mesh, which is not one body, is refused with a count).
+    width (m, full in-plane size, default 0.05, at most 1); thickness (m, default 0.008, allowed
+    1e-4..0.1; with layers their sum); element_size (m, default 0.001, at most the thickness; the
+    in-plane size, and the size through the thickness of layers that give none); density
+    (kg/m^3, default 950, an assumption: not in the paper); symmetry ("auto": the most reduced
+    model the impact allows | "quarter": only x, y >= 0 is modelled | "half": only y >= 0 |
+    "none"; resolved by :func:`cfm_core.scene.impactor_section.resolve_symmetry` when the
+    scene is built, and :attr:`requested_symmetry` keeps what was asked). layers: optional
+    ``[[specimen.layers]]`` from the plate upwards (:class:`cfm_core.scene.layers.Layer`), a
+    conforming layered block. mesh: optional path of a user hexahedral mesh (coordinates in m);
+    then width (x extent of the full specimen), thickness (max z) and element_size (mean edge
+    length) are taken from the mesh, and values given for them must agree with it. The mesh's
+    bottom must be at z = 0; its shape sets the symmetry (:attr:`mesh_symmetry`): the x, y >= 0
+    quarter (min x = min y = 0) is "quarter", y >= 0 centred in x is "half", a mesh centred at
+    x = y = 0 is "none". merge_nodes: merge coincident nodes of the mesh that its elements do
+    not share (default None = false: such a mesh, which is not one body, is refused with a count).
     """
 
     width: float | None = None
     thickness: float | None = None
     element_size: float | None = None
     density: float = 950.0
-    symmetry: str = "quarter"
+    symmetry: str = "auto"
     mesh: str | None = None
     merge_nodes: bool | None = None
+    layers: tuple = ()
 
     def __post_init__(self):
         s = "specimen"
-        _choice(s, "symmetry", self.symmetry, ("quarter", "none"))
+        _choice(s, "symmetry", self.symmetry, SYMMETRIES)
+        object.__setattr__(self, "requested_symmetry", self.symmetry)
+        object.__setattr__(self, "mesh_symmetry", None)
         if self.merge_nodes is not None and not isinstance(self.merge_nodes, bool):
             raise InputError(f"[specimen] merge_nodes = {self.merge_nodes!r} must be true or false.")
         _set(self, density=_num(s, "density", self.density, "kg/m^3", 1, 1e5,
                                 note="The default 950 kg/m^3 is an assumption (not in the paper)."))
+        _set(self, layers=make_layers(self.layers) if self.layers else ())
         if self.mesh is not None:
+            if self.layers:
+                raise InputError(f"[specimen] mesh = {self.mesh!r} and [[specimen.layers]] cannot be used together: "
+                                 f"layers cut the built-in block; give the regions of a mesh as cell sets with "
+                                 f"[parts.NAME] material = ... instead.")
             self._geometry_from_mesh()
         else:
+            self._layered_thickness()
             for key, default in (("width", 0.05), ("thickness", 0.008), ("element_size", 0.001)):
                 if getattr(self, key) is None:
                     _set(self, **{key: default})
@@ -183,6 +182,21 @@ class Specimen:
                                  f"elements for the modelled part (at most {MAX_ELEMENTS} allowed); "
                                  f"use a larger element_size (m).")
 
+    def _layered_thickness(self):
+        """thickness = the sum of the layers' (a given thickness must agree)."""
+        if not self.layers:
+            return
+        total = 0.0
+        for lay in self.layers:
+            total = total + lay.thickness
+        if self.thickness is not None:
+            g = _num("specimen", "thickness", self.thickness, "m", 1e-4, 0.1)
+            if not math.isclose(g, total, rel_tol=1e-9, abs_tol=0.0):
+                raise InputError(f"[specimen] thickness = {self.thickness!r} m disagrees with the sum of the "
+                                 f"[[specimen.layers]] thicknesses, {total!r} m; remove thickness (it is their "
+                                 f"sum) or fix the layers.")
+        _set(self, thickness=total)
+
     def _geometry_from_mesh(self):
         if not isinstance(self.mesh, (str, Path)) or not str(self.mesh).strip():
             raise InputError(f"[specimen] mesh = {self.mesh!r} must be a file path (string).")
@@ -193,7 +207,19 @@ class Specimen:
         if abs(lo[2]) > tol:
             raise InputError(f"[specimen] mesh '{path}': its bottom is at z = {lo[2]:g} m, but it "
                              f"must be at z = 0 (the plate). Translate the mesh.")
-        if self.symmetry == "quarter":
+        kind = self.symmetry
+        if kind == "auto":
+            at0 = [abs(lo[k]) <= tol for k in (0, 1)]
+            kind = "quarter" if all(at0) else "half" if at0[1] else "none"
+        object.__setattr__(self, "mesh_symmetry", kind)
+        if kind == "half":
+            cx = 0.5 * (lo[0] + hi[0])
+            if abs(lo[1]) > tol or abs(cx) > tol:
+                raise InputError(f"[specimen] mesh '{path}' with symmetry = 'half' must be the y >= 0 half "
+                                 f"(min y = 0 m) centred at x = 0, but min y = {lo[1]:g} m and its x centre is "
+                                 f"{cx:g} m. Translate the mesh, or give a full mesh with symmetry = 'none'.")
+            width = float(hi[0] - lo[0])
+        elif kind == "quarter":
             if abs(lo[0]) > tol or abs(lo[1]) > tol:
                 raise InputError(f"[specimen] mesh '{path}' with symmetry = 'quarter' must be the "
                                  f"x >= 0, y >= 0 quarter (min x = min y = 0 m), but min x = "
@@ -222,14 +248,20 @@ class Specimen:
     def grid(self) -> tuple[int, int, int]:
         """(nx, ny, nz) of the structured mesh of the modelled part (quarter or full).
 
-        Quarter: nx = ny = round(width / 2 / element_size); full: twice that (the mirrored
-        quarter, so the two models have exactly the same elements); nz = round(thickness /
-        element_size); each at least 1, halves rounded up.
+        Quarter (and "auto" before it is resolved): nx = ny = nq = round(width / 2 /
+        element_size); half: nx = 2 nq, ny = nq; full: 2 nq each (the mirrored quarter, so the
+        models have exactly the same elements); nz = round(thickness / element_size), or with
+        layers the sum of :func:`cfm_core.scene.layers.layer_cells`; each at least 1, halves
+        rounded up.
         """
         nq = max(1, math.floor(self.width / 2.0 / self.element_size + 0.5))
-        nz = max(1, math.floor(self.thickness / self.element_size + 0.5))
-        n = nq if self.symmetry == "quarter" else 2 * nq
-        return n, n, nz
+        if self.layers:
+            nz = sum(layer_cells(self.layers, self.element_size))
+        else:
+            nz = max(1, math.floor(self.thickness / self.element_size + 0.5))
+        nx = nq if self.symmetry in ("quarter", "auto") else 2 * nq
+        ny = 2 * nq if self.symmetry == "none" else nq
+        return nx, ny, nz
 
     @property
     def n_elements(self) -> int:
@@ -240,22 +272,7 @@ class Specimen:
         return nx * ny * nz
 
 
-@dataclass(frozen=True)
-class Impactor:
-    """[impactor]: rigid hemisphere. radius (m, 0.055, at most 1), mass (kg, 0.220, the full impactor),
-    velocity (m/s, impact speed, positive = moving down, default 1.0). Values that are surely a unit
-    slip (mass above 100 kg, speed above 100 m/s) are refused before running by
-    :func:`cfm_core.scene.plausible.check_plausible`."""
-
-    radius: float = 0.055
-    mass: float = 0.220
-    velocity: float = 1.0
-
-    def __post_init__(self):
-        _set(self, radius=_num("impactor", "radius", self.radius, "m", 1e-4, 1.0))  # larger: mm typed as m
-        _set(self, mass=_num("impactor", "mass", self.mass, "kg", 0, 1e4, lo_open=True))
-        _set(self, velocity=_num("impactor", "velocity", self.velocity, "m/s", 0, 1e3, lo_open=True,
-                                 note="It is the impact speed; the direction (down) is implied."))
+from .impactor_section import Impactor  # noqa: E402,F401 (the [impactor] section lives there)
 
 
 @dataclass(frozen=True)

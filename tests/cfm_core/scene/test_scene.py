@@ -108,7 +108,7 @@ BAD = [
     ("specimen", "width", 0.0, "m"), ("specimen", "width", -math.inf, "m"),
     ("specimen", "element_size", 0.0, "m"), ("specimen", "element_size", 0.009, "m"),
     ("specimen", "element_size", math.nan, "m"), ("specimen", "density", 0.0, "kg/m^3"),
-    ("specimen", "symmetry", "half", ""), ("specimen", "mesh", 3, ""),
+    ("specimen", "symmetry", "octant", ""), ("specimen", "mesh", 3, ""),
     ("impactor", "velocity", 0.0, "m/s"), ("impactor", "velocity", -1.0, "m/s"),
     ("impactor", "velocity", math.inf, "m/s"), ("impactor", "velocity", "1", "m/s"),
     ("impactor", "radius", 0.0, "m"), ("impactor", "mass", -0.22, "kg"),
@@ -241,7 +241,8 @@ def test_mesh_placement_errors(tmp_path):
     full = tmp_path / "full.vtu"
     _write_mesh(full, 0.04, 0.04, 0.006, 4, (-0.02, -0.02, 0.0))
     with pytest.raises(InputError, match="symmetry = 'quarter' must be the x >= 0, y >= 0"):
-        scene_from_dict(drop(specimen={"mesh": str(full)}))
+        scene_from_dict(drop(specimen={"mesh": str(full), "symmetry": "quarter"}))
+    assert scene_from_dict(drop(specimen={"mesh": str(full)})).specimen.symmetry == "none"  # auto: its shape
     s = scene_from_dict(drop(specimen={"mesh": str(full), "symmetry": "none"}))
     assert s.specimen.width == pytest.approx(0.04)
     shifted = tmp_path / "shifted.vtu"
