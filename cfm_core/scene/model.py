@@ -256,8 +256,14 @@ class Model:
     parts: tuple = ()
 
     def part_list(self) -> tuple[Part, ...]:
-        """The parts of the model; one part named after the material on every element when
-        ``parts`` is empty."""
+        """The parts of the model.
+
+        Returns
+        -------
+        tuple of Part
+            ``parts``, or one part named after the material on every element when ``parts`` is
+            empty.
+        """
         if self.parts:
             return tuple(self.parts)
         return (Part(self.material.name, self.material, float(self.density),
@@ -269,14 +275,26 @@ class Model:
         return len(self.parts) > 1
 
     def element_part(self) -> np.ndarray:
-        """(e,) int64: the index in :meth:`part_list` of each element's part."""
+        """Part of each element.
+
+        Returns
+        -------
+        ndarray, shape (e,)
+            int64 index in :meth:`part_list` of each element's part.
+        """
         out = np.zeros(self.n_elements, dtype=np.int64)
         for i, p in enumerate(self.part_list()):
             out[np.asarray(p.elements, dtype=np.int64)] = i
         return out
 
     def element_density(self) -> np.ndarray:
-        """(e,) mass density of each element (kg/m^3)."""
+        """Mass density of each element.
+
+        Returns
+        -------
+        ndarray, shape (e,)
+            Density of each element's part (kg/m^3).
+        """
         rho = np.array([float(p.density) for p in self.part_list()])
         return rho[self.element_part()]
 
