@@ -30,7 +30,8 @@ def test_layered_tissue():
     assert m.meta["symmetry"] == "quarter" and m.sphere.shape == "hemisphere"
     z = m.nodes[m.hexes, 2].mean(axis=1)  # the skin is on top, the muscle on the plate
     assert z[m.parts[2].elements].min() > 0.018 and z[m.parts[0].elements].max() < 0.010
-    assert [e["cells_through_thickness"] for e in m.meta["parts"]] == [10, 4, 2]
+    # every layer takes the 2 mm of --element-size (none sets its own)
+    assert [e["cells_through_thickness"] for e in m.meta["parts"]] == [5, 4, 1]
 
 
 def test_flat_impactor():
