@@ -41,14 +41,23 @@ def _scenes(mode: str):
     cfg = MODES[mode]
     single = builtin_scene("single-element")
     drop = builtin_scene("drop-test")
+    layered, flat = builtin_scene("layered-tissue"), builtin_scene("flat-impactor")
     if cfg["small_drop"]:
         small = drop.with_overrides(name="drop-test-small", **cfg["small_drop"])
-        drops = [("drop test 20x20x6 mm, 2 mm elements", small)]
+        drops = [("drop test 20x20x6 mm, 2 mm elements", small),
+                 # skin 2 / SAT 8 / muscle 10 mm as the built-in, on a 20 mm block, 2 mm elements
+                 ("layered tissue 20x20x20 mm, 2 mm elements",
+                  layered.with_overrides(name="layered-tissue-small", width=0.02, element_size=0.002)),
+                 # the flat impactor scaled to the small block: 6 mm radius, 1 mm rim
+                 ("flat impactor 20x20x6 mm, 2 mm elements",
+                  flat.with_overrides(name="flat-impactor-small", width=0.02, thickness=0.006, element_size=0.002,
+                                      radius=0.006))]
         wp = [("single element", single), ("small drop test 20x20x6 mm", small)]
         base = small.with_overrides(end_time=cfg["stability_end"])
     else:
         drops = [(f"drop test {1e3 * h:g} mm", drop.with_overrides(thickness=h, element_size=1e-3))
                  for h in cfg["drop_thicknesses"]]
+        drops += [("layered tissue (built-in scene)", layered), ("flat impactor (built-in scene)", flat)]
         wp = [("single element", single), ("drop test 8 mm", drop.with_overrides(thickness=0.008))]
         base = drop.with_overrides(thickness=0.008, element_size=1e-3)
     return single, drops, wp, base
