@@ -1,8 +1,11 @@
 """Batched drop tests on torch: one simulation advances B runs that share a mesh.
 
 The B runs may differ in material parameter values (same material definition, same number of
-Prony terms), impact velocity, impactor mass and start height, and end time; they share the mesh,
-density, constraints, contact node sets, sphere radius and friction. The batch is one mesh of B
+Prony terms, per part), impact velocity, impactor mass and start height, and end time; they share the mesh,
+parts (elements, densities, material definitions), constraints, contact node sets, impactor shape,
+radius and free axes, and friction. A model with parts runs renumbered so that each part is one
+contiguous element range (mesh order within a part: ``renumber.plan(..., "none", groups)``); the
+results, checks and messages are in the user's numbering. The batch is one mesh of B
 disconnected copies: elements (B N) and nodes (B n), run b's at b N + e and b n + i, so the
 element pass (``element``) is the single run's, unchanged; every per-run quantity (time t, step dt,
 sphere height and velocity, energy sums, stop rule, failure) is a (B,) tensor on the device. Each
@@ -41,46 +44,8 @@ from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
 
 CHUNK = 32            # steps between host reads of the history rows and the run flags
 
-# error codes per run (flags on the device)
-OK, INVERTED, NONFINITE, COLLAPSE, STATE, NEWTON, FALLBACK = 0, 1, 2, 3, 4, 5, 6
-
-
-def check_batch(models) -> None:
-    """InputError unless the models can run as one batch (see the module docstring)."""
-    if not models:
-        raise InputError("torch batch: no models given.")
-    m0 = models[0]
-    if m0.sphere is None or m0.prescribed is not None:
-        raise InputError(f"torch batch: model '{m0.name}' is not a drop test (a rigid sphere and no prescribed "
-                         f"motion); run it alone with TorchExplicitBackend().run.")
-    k0 = len(mat.prony(m0.material)[0])
-    s0 = m0.sphere
-    for i, m in enumerate(models[1:], 1):
-        p0, pm = m0.part_list(), m.part_list()
-        same = [("nodes", np.array_equal(m.nodes, m0.nodes)), ("hexes", np.array_equal(m.hexes, m0.hexes)),
-                ("density", m.density == m0.density),
-                ("parts", len(pm) == len(p0) and all(
-                    a.density == b.density and np.array_equal(a.elements, b.elements) and a.material.spec == b.material.spec
-                    and len(mat.prony(a.material)[0]) == len(mat.prony(b.material)[0]) for a, b in zip(pm, p0))),
-                ("fixed_dofs", np.array_equal(np.asarray(m.fixed_dofs), np.asarray(m0.fixed_dofs))),
-                ("sphere_nodes", np.array_equal(m.sphere_nodes, m0.sphere_nodes)),
-                ("plane_nodes", np.array_equal(m.plane_nodes, m0.plane_nodes)),
-                ("plane", m.plane == m0.plane), ("friction", m.friction == m0.friction),
-                ("gravity", m.gravity == m0.gravity), ("symmetry_factor", m.symmetry_factor == m0.symmetry_factor),
-                ("stop_after_separation", m.stop_after_separation == m0.stop_after_separation),
-                ("material", m.material.spec == m0.material.spec and len(mat.prony(m.material)[0]) == k0),
-                ("sphere", m.sphere is not None and m.sphere.radius == m0.sphere.radius
-                 and tuple(m.sphere.center[:2]) == tuple(m0.sphere.center[:2])
-                 and (m.sphere.shape, m.sphere.edge_radius, tuple(m.sphere.moves))
-                 == (s0.shape, s0.edge_radius, tuple(s0.moves))),
-                ("prescribed", m.prescribed is None)]
-        bad = [name for name, ok in same if not ok]
-        if bad:
-            raise InputError(f"torch batch: model {i} ('{m.name}') differs from model 0 ('{m0.name}') in "
-                             f"{', '.join(bad)}; a batch shares the mesh, density, constraints, contact, sphere "
-                             f"shape and "
-                             f"radius, the parts and their material definitions (parameter values, Prony terms, "
-                             f"velocity, impactor mass and end time may differ). Run it in another batch.")
+from .batch_checks import (COLLAPSE, FALLBACK, INVERTED, NEWTON, NONFINITE, OK, STATE,  # noqa: F401
+                           check_batch, run_error)
 
 
 def run_batch(models, progress=None, raise_errors: bool = True, sync_free: bool | None = None, **options):
@@ -507,7 +472,7 @@ class _Batch:
                 out.append(self.check_errors[b])
                 continue
             if c != OK:
-                out.append(self._error(b, model, c, e))
+                out.append(run_error(b, model, c, e, self.ren, self.dtype, self.o.collapse, self.general))
                 continue
             if bool(alive[b]):
                 out.append(errors.max_steps(model, int(steps[b]), float(t[b])))
@@ -525,37 +490,3 @@ class _Batch:
             res.info["checks"] = self.monitors[b].report()
             out.append(res)
         return out
-
-    def _error(self, b, model, c, e):
-        import torch
-
-        el, t, val, m = int(e[0]), e[1], e[2], e[3:6]
-        if self.ren is not None:            # parts: internal element -> the user's
-            el = self.ren.user_element(el)
-        where = f"batch run {b} ('{model.name}')"
-        if c == INVERTED:
-            err = errors.inverted(model, el, t, val)
-        elif c == NONFINITE:
-            material = model.part_list()[int(model.element_part()[el])].material
-            err = errors.nonfinite(material, f"element {el} at t = {t:.6g} s", m, val, t, el,
-                                   float32=self.dtype == torch.float32)
-        elif c == COLLAPSE:
-            err = errors.collapse(model, t, el, val, e[6], self.o.collapse)
-        elif c == STATE:
-            err = errors.state(model, t)
-        elif c == NEWTON:
-            err = NumericalError(f"contact Newton iteration of the sphere did not converge in "
-                                 f"{_fixed()} iterations at t = {t:.6g} s (sync-free batch); run with "
-                                 f"sync_free=False.", time=t, quantity="contact")
-        else:
-            err = NumericalError(f"an element needed the Jacobi eigen fallback for a C that is not isotropic to "
-                                 f"round-off at t = {t:.6g} s (sync-free batch); run with sync_free=False.",
-                                 time=t, quantity="eigen fallback")
-        err.args = (f"{where}: {err.args[0]}",) + err.args[1:]
-        return err
-
-
-def _fixed() -> int:
-    from .batch_contact import FIXED_ITERATIONS
-
-    return FIXED_ITERATIONS

@@ -16,6 +16,15 @@ the sphere, while some are: one to start the contact Newton iteration and one pe
 About 3 + iterations per step on the CPU (block 1), 4-5 on CUDA (block 4). A step whose
 eigen-decomposition needs the Jacobi fallback (round-off-isotropic C in the first steps) costs a
 second element response. Forces, impulses and energies in the Result are of the full model.
+
+Parts (``model.multi_material``): the renumbering groups the elements by part (each part one
+contiguous range) and the element pass takes each part's material derivatives, Prony series and
+density (:mod:`.parts`); a one-material model runs the pass unchanged. Impactors other than the
+paper's hemisphere moving along z (another shape, or free in x or y) use :mod:`.impactor_contact`
+with the reference point and velocity as 3-vectors over the free axes, and record the 23 history
+columns (in-plane force, position, velocity and momenta); its Newton iteration checks convergence
+every ``newton_block`` iterations like the hemisphere's; the frame state of a model with parts
+holds the Prony state per part (:func:`.parts.frame_state_parts`).
 """
 
 from __future__ import annotations
