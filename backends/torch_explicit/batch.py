@@ -3,9 +3,10 @@
 The B runs may differ in material parameter values (same material definition, same number of
 Prony terms, per part), impact velocity, impactor mass and start height, and end time; they share the mesh,
 parts (elements, densities, material definitions), constraints, contact node sets, impactor shape,
-radius and free axes, and friction. A model with parts runs renumbered so that each part is one
-contiguous element range (mesh order within a part: ``renumber.plan(..., "none", groups)``); the
-results, checks and messages are in the user's numbering. The batch is one mesh of B
+radius and free axes, and friction. A model with parts runs renumbered as the single run is (each
+part one contiguous element range, ``renumber.plan(..., o.renumber, groups)``); the results, checks
+and messages are in the user's numbering. A one-material batch keeps the mesh's numbering (its
+results stay those of earlier versions to the bit). The batch is one mesh of B
 disconnected copies: elements (B N) and nodes (B n), run b's at b N + e and b n + i, so the
 element pass (``element``) is the single run's, unchanged; every per-run quantity (time t, step dt,
 sphere height and velocity, energy sums, stop rule, failure) is a (B,) tensor on the device. Each
@@ -91,11 +92,11 @@ class _Batch:
         self.models, self.o, self.device, self.dtype, self.progress = models, o, device, dtype, progress
         self.sync_free = sync_free
         B = self.B = len(models)
-        # parts: the models renumbered so that each part is one contiguous element range (element order
-        # of the mesh within a part); runs, monitors and messages stay in the user's numbering
+        # parts: the models renumbered as the single run is (each part one contiguous element range, the
+        # renumber option's order within it); runs, monitors and messages stay in the user's numbering
         self.ren = None
         if models[0].multi_material:
-            self.ren = renumber.plan(models[0].nodes, models[0].hexes, "none", groups=models[0].element_part())
+            self.ren = renumber.plan(models[0].nodes, models[0].hexes, o.renumber, groups=models[0].element_part())
         self.imodels = [self.ren.model(m) for m in models] if self.ren is not None else list(models)
         m0 = self.imodels[0]
         a, uv, k = arr.build(m0, o, device, dtype)
