@@ -126,4 +126,22 @@ def test_batch_of_general_impactors_equals_the_runs_alone():
             assert r.steps == ref.steps
             assert np.max(np.abs(r.contact_force - ref.contact_force)) < 1e-10 * np.max(ref.contact_force)
             assert np.max(np.abs(r.impactor_lateral["y"] - ref.impactor_lateral["y"])) < 1e-15
+            if sync_free:       # the step reads nothing back (the history and flags once per chunk)
+                assert r.info["host_syncs_per_step"] < 0.1
     assert np.max(np.abs(alone[0].contact_force[:50] - alone[1].contact_force[:50])) > 0.0
+
+
+def test_flat_punch_converges_as_its_rim_sharpens():
+    """A centred flat punch whose rim lies over a row of top nodes (radius 10 um beyond them): the
+    peak force approaches the sharp punch's (edge_radius = 0, which runs: the explicit contact needs
+    no smooth surface) as edge_radius -> 0 (measured differences 2.8 %, 1.0 %, 0.02 % for r = 100,
+    50, 25 um)."""
+    m = replace(build_model(BASE), end_time=0.002)
+    top = float(m.nodes[:, 2].max())
+    rho0 = float(np.unique(m.nodes[:, 0])[2])
+    peaks = []
+    for r in (1e-4, 5e-5, 2.5e-5, 0.0):
+        sp = replace(m.sphere, shape="flat", radius=rho0 + 1e-5, edge_radius=r, center=(0.0, 0.0, top + 1e-4))
+        peaks.append(float(np.max(TorchExplicitBackend().run(replace(m, sphere=sp)).contact_force)))
+    diff = np.abs(np.array(peaks[:-1]) - peaks[-1]) / peaks[-1]
+    assert np.all(np.diff(diff) < 0.0) and diff[-1] < 1e-3 < diff[0]
