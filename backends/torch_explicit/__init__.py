@@ -9,6 +9,12 @@ batched tensor ops, and ``index_add_`` of the nodal forces. The time loop is Pyt
 comes from its single symbolic definition (generated torch code, ``cfm_core.material.codegen``). torch is
 imported only when a run or a point evaluation starts.
 
+Models with several parts (``Model.parts``: material, parameters and density per region) run with
+the elements grouped by part (:mod:`.parts`); the rigid impactor may be a hemisphere (the paper's,
+with its own contact, :mod:`.contact`), a sphere, a flat punch with a rounded rim or a plane, and may
+move in x and y as well as z (:mod:`.impactor`, :mod:`.impactor_contact`; the in-plane history
+columns of ``cfm_backends.explicit.history``). Batches share the part layout and the impactor shape.
+
 Options of :meth:`TorchExplicitBackend.run`: :class:`.options.TorchOptions` (declared once with unit,
 default and allowed values; listed by ``cfm backends --options`` and in the method's docstring):
 the explicit-solver options shared with numba (``cfm_backends.explicit.options``: ``hourglass``,
@@ -37,7 +43,8 @@ class TorchExplicitBackend(Backend):
     name = "torch"
     kind = "explicit"
     description = ("explicit total Lagrangian hex8 (one-point, viscous hourglass), kinematic contact "
-                   "with rigid sphere and plane, vectorised in torch (CPU or CUDA)")
+                   "with a rigid impactor (hemisphere, sphere, flat, plane) and plane, parts, vectorised in "
+                   "torch (CPU or CUDA)")
     needs_tangent = False
     devices = ("cpu", "cuda")
     dtypes = ("float64", "float32")

@@ -29,7 +29,7 @@ class Arrays:
     G: object             # (8, 4, N) hourglass vectors (-)
     L: object             # (N,) characteristic lengths (m)
     V0: object            # (N,) reference volumes (m^3)
-    hgc: object           # (N,) -Q_hg rho V0^(2/3) / 4 (kg/m)
+    hgc: object           # (N,) -Q_hg rho V0^(2/3) / 4 (kg/m), rho per element with parts
     mass: object          # (n,) lumped nodal masses (kg; 1 for massless nodes, which are fixed)
     free: object          # (3, n) 1 on free dofs, 0 on fixed and prescribed ones
     pmask: object         # (3, n) 1 on prescribed dofs, or None
@@ -47,14 +47,17 @@ def _tensor(a, dtype, device):
 
 
 def build(model, o, device, dtype):
-    """(Arrays, initial uv (6, n), prony history size k) on ``device`` in ``dtype``; o: TorchOptions."""
+    """(Arrays, initial uv (6, n), prony history size k) on ``device`` in ``dtype``; o: TorchOptions.
+
+    With parts the hourglass factor uses each element's density and k is the largest part's
+    number of Prony terms (the history of the others is padded, see :mod:`.parts`)."""
     import torch
 
     from .contact import PlaneNodes, SphereNodes
 
     nodes, hexes = check_model(model)
     n, ne = nodes.shape[0], hexes.shape[0]
-    rho = float(model.density)
+    rho = float(model.density) if not model.parts else model.element_density()   # (N,) with parts
     V0, B, G, L = geometry.hex_geometry(nodes, hexes)
     mass, free, pm, pn = geometry.constraints(model, nodes, hexes, V0)
     pmask = None
@@ -80,7 +83,7 @@ def build(model, o, device, dtype):
     v0 = initial_velocity(o, n, free, "torch")
     if v0 is not None:
         uv[3:6] = T(v0.T)
-    k = int(np.asarray(model.material.prony_arrays()[0]).size)
+    k = max(int(np.asarray(p.material.prony_arrays()[0]).size) for p in model.part_list())
     return arrays, uv, k
 
 

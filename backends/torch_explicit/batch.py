@@ -1,8 +1,12 @@
 """Batched drop tests on torch: one simulation advances B runs that share a mesh.
 
 The B runs may differ in material parameter values (same material definition, same number of
-Prony terms), impact velocity, impactor mass and start height, and end time; they share the mesh,
-density, constraints, contact node sets, sphere radius and friction. The batch is one mesh of B
+Prony terms, per part), impact velocity, impactor mass and start height, and end time; they share the mesh,
+parts (elements, densities, material definitions), constraints, contact node sets, impactor shape,
+radius and free axes, and friction. A model with parts runs renumbered as the single run is (each
+part one contiguous element range, ``renumber.plan(..., o.renumber, groups)``); the results, checks
+and messages are in the user's numbering. A one-material batch keeps the mesh's numbering (its
+results stay those of earlier versions to the bit). The batch is one mesh of B
 disconnected copies: elements (B N) and nodes (B n), run b's at b N + e and b n + i, so the
 element pass (``element``) is the single run's, unchanged; every per-run quantity (time t, step dt,
 sphere height and velocity, energy sums, stop rule, failure) is a (B,) tensor on the device. Each
@@ -29,49 +33,20 @@ import time
 
 import numpy as np
 
-from cfm_backends.explicit import errors, history
+from cfm_backends.explicit import errors, history, renumber
 from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 
 from . import arrays as arr
 from . import material as mat
+from . import parts
 from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
 
 CHUNK = 32            # steps between host reads of the history rows and the run flags
 
-# error codes per run (flags on the device)
-OK, INVERTED, NONFINITE, COLLAPSE, STATE, NEWTON, FALLBACK = 0, 1, 2, 3, 4, 5, 6
-
-
-def check_batch(models) -> None:
-    """InputError unless the models can run as one batch (see the module docstring)."""
-    if not models:
-        raise InputError("torch batch: no models given.")
-    m0 = models[0]
-    if m0.sphere is None or m0.prescribed is not None:
-        raise InputError(f"torch batch: model '{m0.name}' is not a drop test (a rigid sphere and no prescribed "
-                         f"motion); run it alone with TorchExplicitBackend().run.")
-    k0 = len(mat.prony(m0.material)[0])
-    for i, m in enumerate(models[1:], 1):
-        same = [("nodes", np.array_equal(m.nodes, m0.nodes)), ("hexes", np.array_equal(m.hexes, m0.hexes)),
-                ("density", m.density == m0.density),
-                ("fixed_dofs", np.array_equal(np.asarray(m.fixed_dofs), np.asarray(m0.fixed_dofs))),
-                ("sphere_nodes", np.array_equal(m.sphere_nodes, m0.sphere_nodes)),
-                ("plane_nodes", np.array_equal(m.plane_nodes, m0.plane_nodes)),
-                ("plane", m.plane == m0.plane), ("friction", m.friction == m0.friction),
-                ("gravity", m.gravity == m0.gravity), ("symmetry_factor", m.symmetry_factor == m0.symmetry_factor),
-                ("stop_after_separation", m.stop_after_separation == m0.stop_after_separation),
-                ("material", m.material.spec == m0.material.spec and len(mat.prony(m.material)[0]) == k0),
-                ("sphere", m.sphere is not None and m.sphere.radius == m0.sphere.radius
-                 and tuple(m.sphere.center[:2]) == tuple(m0.sphere.center[:2])),
-                ("prescribed", m.prescribed is None)]
-        bad = [name for name, ok in same if not ok]
-        if bad:
-            raise InputError(f"torch batch: model {i} ('{m.name}') differs from model 0 ('{m0.name}') in "
-                             f"{', '.join(bad)}; a batch shares the mesh, density, constraints, contact, sphere "
-                             f"radius and the material definition (values, Prony terms, velocity, impactor mass "
-                             f"and end time may differ). Run it in another batch.")
+from .batch_checks import (COLLAPSE, FALLBACK, INVERTED, NEWTON, NONFINITE, OK, STATE,  # noqa: F401
+                           check_batch, run_error)
 
 
 def run_batch(models, progress=None, raise_errors: bool = True, sync_free: bool | None = None, **options):
@@ -116,8 +91,14 @@ class _Batch:
         t0 = time.perf_counter()
         self.models, self.o, self.device, self.dtype, self.progress = models, o, device, dtype, progress
         self.sync_free = sync_free
-        m0 = models[0]
         B = self.B = len(models)
+        # parts: the models renumbered as the single run is (each part one contiguous element range, the
+        # renumber option's order within it); runs, monitors and messages stay in the user's numbering
+        self.ren = None
+        if models[0].multi_material:
+            self.ren = renumber.plan(models[0].nodes, models[0].hexes, o.renumber, groups=models[0].element_part())
+        self.imodels = [self.ren.model(m) for m in models] if self.ren is not None else list(models)
+        m0 = self.imodels[0]
         a, uv, k = arr.build(m0, o, device, dtype)
         n, N = a.n, a.ne
         self.n, self.N, self.k = n, N, k
@@ -142,14 +123,35 @@ class _Batch:
             self.plane = PlaneNodes((pl.nodes.view(1, -1) + (offs * n).view(B, 1)).reshape(-1), rep(pl.Xz),
                                     rep(pl.free))
         # per-run material and impactor
-        self.ghd = mat.grad_hess_diag(m0.material)
-        P = np.array([mat.parameters(m.material) for m in models])                  # (B, P)
-        self.p = [T(P[:, j]).view(B, 1) for j in range(P.shape[1])]
-        pr = [mat.prony(m.material) for m in models]
         T64 = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=torch.float64, device=device)  # noqa: E731
-        self.gam = T64([g for g, _, _ in pr]).view(B, k)
-        self.tau = T64([t for _, t, _ in pr]).view(B, k)
-        self.ginf = T([gi for _, _, gi in pr]).repeat_interleave(N)
+        self.lay, self.rho = None, float(m0.density)
+        if m0.multi_material:       # per part: derivatives, Prony series (padded to k), density
+            lays = [parts.layout(m) for m in self.imodels]
+            self.lay = lay = lays[0]
+            self.ghd = parts.composite(lay.ghd, lay.ranges)
+            self.p = [[T(np.array([ly.params[i][j] for ly in lays])).view(B, 1) for j in range(len(lay.params[i]))]
+                      for i in range(len(lay.ranges))]
+            self.gam = T64(np.stack([ly.gam for ly in lays]))                       # (B, P, k)
+            self.tau = T64(np.stack([ly.tau for ly in lays]))
+            self.part_index = torch.as_tensor(lay.part, device=device)
+            self.ginf = T(np.stack([ly.ginf[ly.part] for ly in lays])).reshape(-1)
+            self.rho = rep(T(lay.density))
+        else:
+            self.ghd = mat.grad_hess_diag(m0.material)
+            P = np.array([mat.parameters(m.material) for m in models])              # (B, P)
+            self.p = [T(P[:, j]).view(B, 1) for j in range(P.shape[1])]
+            pr = [mat.prony(m.material) for m in models]
+            self.gam = T64([g for g, _, _ in pr]).view(B, k)
+            self.tau = T64([t for _, t, _ in pr]).view(B, k)
+            self.ginf = T([gi for _, _, gi in pr]).repeat_interleave(N)
+        from .solver import general_impactor
+
+        self.general = general_impactor(m0.sphere)
+        if self.general:            # any shape, lateral motion: reference point and velocity (3, B)
+            self.C0 = T64([list(m.sphere.center) for m in models]).T.contiguous()
+            self.Vv0 = T64([(m.sphere.velocity_vector * np.asarray(m.sphere.moves, dtype=float)).tolist()
+                            for m in models]).T.contiguous()
+            self.fmask = torch.tensor([float(f) for f in m0.sphere.moves], dtype=dtype, device=device).view(3, 1)
         # per-run scalars (time, step, impactor, energy sums) are float64 whatever the field dtype,
         # as the single run's host arithmetic
         self.M = T64([m.sphere.mass for m in models])
@@ -177,6 +179,13 @@ class _Batch:
 
         if self.k == 0:
             return torch.zeros((2, 0, 1), dtype=self.dtype, device=self.device)
+        if self.lay is not None:    # (B, P, k) series: per run and part, then per element
+            x = dtp[:, None, None] / self.tau
+            small = x < 1e-8
+            decay = torch.where(small, 1.0 - x, torch.exp(-x))
+            gain = self.gam * torch.where(small, 1.0 - 0.5 * x, -torch.expm1(-x) / torch.where(small, 1.0, x))
+            f = torch.stack([decay, gain]).permute(0, 3, 1, 2).to(self.dtype)       # (2, k, B, P)
+            return f.index_select(3, self.part_index).reshape(2, self.k, -1)
         x = dtp[:, None] / self.tau
         small = x < 1e-8
         decay = torch.where(small, 1.0 - x, torch.exp(-x))
@@ -207,13 +216,13 @@ class _Batch:
             kin = kin._replace(m=m, Q=Q, fallback=kin.fallback & False)
             D = element.derivatives(self._ghd, self.p, kin.m)
         args = (self.state, self._factors(dtp), self.ginf, self.BV, self.G, self.L, self.V0, self.hgc,
-                float(self.models[0].density), 0 if self.o.hourglass_wave == "shear" else 1)
+                self.rho, 0 if self.o.hourglass_wave == "shear" else 1)
         return kin, element.response(kin, D, *args, stages=st), overflow
 
     def loop(self):
         import torch
 
-        from . import batch_contact, element
+        from . import batch_contact, element, impactor_contact
         from .contact import plane_contact
         from .element import scatter
 
@@ -226,6 +235,10 @@ class _Batch:
         grav = abs(float(m0.gravity))
         mu = float(m0.friction)
         cx, cy, R = float(m0.sphere.center[0]), float(m0.sphere.center[1]), float(m0.sphere.radius)
+        sph, gen = m0.sphere, self.general
+        if gen:
+            C, Vv = self.C0.clone(), self.Vv0.clone()
+            ez = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64, device=dev).view(3, 1)
         M = self.M
         u, v = self.uv[0:3], self.uv[3:6]
         vold, dvc = torch.zeros_like(u), torch.zeros_like(u)
@@ -279,36 +292,60 @@ class _Batch:
             v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (F(dtn)[:, None] / self.mass.view(B, n))).mul_(
                 self.free.view(3, B, n))
             u.view(3, B, n).add_(v.view(3, B, n) * F(dt)[:, None])
-            Vo, Zn = V, Z
-            Vs = Vo - dtn * grav
-            Zs = Zn + dt * Vs
-            # 4. contact
-            dvc.zero_()
-            dZ, dV, pen, checks, unconv = batch_contact.sphere_contact(
-                u, v, dvc, self.sphere, cx, cy, F(Zs), F(Vs), R, F(M), mu, F(dt), alive, self.tol, self.block)
-            dZ, dV, pen = dZ.double(), dV.double(), pen.double()
+            if gen:     # any shape, lateral motion (impactor_contact); z as the hemisphere's below
+                Vo3, Co3 = Vv, C
+                Vs3 = Vo3 - (dtn * grav) * ez
+                Cs3 = Co3 + dt * Vs3
+                dvc.zero_()
+                dC, dV3, pen, checks, unconv = impactor_contact.contact(
+                    u, v, dvc, self.sphere, sph.shape, R, float(sph.edge_radius), self.fmask, F(Cs3), F(Vs3), F(M),
+                    mu, F(dt), alive, self.tol, self.block)
+                dC, dV3, pen = dC.double(), dV3.double(), pen.double()
+                Cs3, Vs3 = Cs3 + dC, Vs3 + dV3
+                Vo, Zn, Vs, Zs, dV = Vo3[2], Co3[2], Vs3[2], Cs3[2], dV3[2]
+            else:
+                Vo, Zn = V, Z
+                Vs = Vo - dtn * grav
+                Zs = Zn + dt * Vs
+                # 4. contact
+                dvc.zero_()
+                dZ, dV, pen, checks, unconv = batch_contact.sphere_contact(
+                    u, v, dvc, self.sphere, cx, cy, F(Zs), F(Vs), R, F(M), mu, F(dt), alive, self.tol, self.block)
+                dZ, dV, pen = dZ.double(), dV.double(), pen.double()
             self.syncs += checks
             self._flag(code, err, alive & unconv, NEWTON, emin * 0, t, dt, kin.m[:, :B], DT0)
             if self.plane is not None:
                 plane_contact(u, v, dvc, self.plane, float(m0.plane.z), mu,
                               F(dt).repeat_interleave(self.p_count))
-            Zs = Zs + dZ
-            Vs = Vs + dV
+            if not gen:
+                Zs = Zs + dZ
+                Vs = Vs + dV
             force = M * dV / dtn
             Vf = Vo + dtp / (dtp + dt) * (Vs - Vo)
             # 5. energies and the record of step n
-            en = self._energies(v, vold, nodal, dvc, F(dtn)).double()
-            ke, ai, bi, ah, bh, ac, bc, pz = en.unbind(0)
-            ke = ke + 0.5 * M * Vo * Vs
-            fs = 0.5 * M * dV
-            ac = ac + fs * Vo
-            bc = bc + fs * Vs
+            en = self._energies(v, vold, nodal, dvc, F(dtn), gen).double()
+            ke, ai, bi, ah, bh, ac, bc, pz = en[:8].unbind(0)
             fg = -0.5 * dtn * M * grav
+            if gen:
+                ke = ke + 0.5 * M * (Vo3 * Vs3).sum(0)
+                ac = ac + 0.5 * M * (dV3 * Vo3).sum(0)
+                bc = bc + 0.5 * M * (dV3 * Vs3).sum(0)
+            else:
+                ke = ke + 0.5 * M * Vo * Vs
+                fs = 0.5 * M * dV
+                ac = ac + fs * Vo
+                bc = bc + fs * Vs
             ax, bx = fg * Vo, fg * Vs
             pz = pz + M * Vs
-            rows.append(torch.stack([t, force * sym, (IMP + 0.5 * dtp * force) * sym, Zn, Vf, z(), ke * sym,
-                                     IE * sym, -(WHG + ah) * sym, -(WC + ac) * sym, (WEXT + ax) * sym,
-                                     (WINT + ai) * sym, dt, pen, pz * sym], dim=1))
+            row = [t, force * sym, (IMP + 0.5 * dtp * force) * sym, Zn, Vf, z(), ke * sym, IE * sym,
+                   -(WHG + ah) * sym, -(WC + ac) * sym, (WEXT + ax) * sym, (WINT + ai) * sym, dt, pen, pz * sym]
+            if gen:
+                f3 = M * dV3 / dtn
+                Vf3 = Vo3 + dtp / (dtp + dt) * (Vs3 - Vo3)
+                pxy = en[8:10] + M * Vs3[0:2]
+                row += [f3[0] * sym, f3[1] * sym, Co3[0], Co3[1], Vf3[0], Vf3[1], pxy[0] * sym, pxy[1] * sym]
+                C, Vv = torch.where(alive, Cs3, C), torch.where(alive, Vs3, Vv)
+            rows.append(torch.stack(row, dim=1))
             masks.append(alive.clone())
             WINT, WHG, WC, WEXT = WINT + ai + bi, WHG + ah + bh, WC + ac + bc, WEXT + ax + bx
             IMP = IMP + force * dtn
@@ -345,7 +382,7 @@ class _Batch:
                 self.syncs += 1
                 if not bool(alive.any()):
                     break
-                self._monitor(alive, t, u, Z)
+                self._monitor(alive, t, u, C if gen else Z)
                 tmin = float(torch.where(alive, t, math.inf).min())
                 if self.progress is not None and tmin >= next_progress:
                     self.progress(min(tmin, tick * 100.0))
@@ -355,7 +392,7 @@ class _Batch:
         if rows:
             chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
         wall = time.perf_counter() - start
-        self._monitor(alive, t, u, Z, final=True, ok=(code == OK).to("cpu").numpy())
+        self._monitor(alive, t, u, C if gen else Z, final=True, ok=(code == OK).to("cpu").numpy())
         host = [x.to("cpu") for x in (steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t)]
         self.memory = self._memory(vold, dvc)
         return self._results(chunks, wall, total, *host)
@@ -372,12 +409,13 @@ class _Batch:
         if not runs:
             return
         uh = u.to("cpu", torch.float64).view(3, self.B, self.n).numpy()
-        zh = Z.to("cpu", torch.float64).numpy()
+        zh = Z.to("cpu", torch.float64).numpy()      # (B,) heights or (3, B) reference points
         nodes = self.nodes0
         for b in runs:
             check = self.monitors[b].final if final else self.monitors[b].check
+            ub = uh[:, b].T if self.ren is None else self.ren.to_user_nodes(uh[:, b].T)
             try:
-                check(float(th[b]), nodes + uh[:, b].T, float(zh[b]))
+                check(float(th[b]), nodes + ub, float(zh[b]) if zh.ndim == 1 else zh[:, b].copy())
             except NumericalError as exc:
                 self.check_errors[b] = exc
                 alive[b] = False
@@ -406,8 +444,9 @@ class _Batch:
                             m[0].to(err.dtype), m[1].to(err.dtype), m[2].to(err.dtype), dt0.to(err.dtype)], dim=1)
         err.copy_(torch.where(new[:, None], vals, err))
 
-    def _energies(self, v, vold, nodal, dvc, dtn):
-        """(8, B): kinetic energy, A/B work halves of internal, hourglass, contact forces, z momentum."""
+    def _energies(self, v, vold, nodal, dvc, dtn, lateral: bool = False):
+        """(8, B): kinetic energy, A/B work halves of internal, hourglass, contact forces, z momentum;
+        ``lateral``: (10, B), the x and y momenta appended."""
         import torch
 
         B, n = self.B, self.n
@@ -416,8 +455,10 @@ class _Batch:
         prods = torch.stack([nodal[0:3] * vold, nodal[0:3] * v, nodal[3:6] * vold, nodal[3:6] * v, mh * vold,
                              mh * v, self.mass * (vold * v)]).view(7, 3, B, n).sum((1, 3))
         pz = (self.mass * v[2]).view(B, n).sum(1)
-        return torch.stack([0.5 * prods[6], -h * prods[0], -h * prods[1], h * prods[2], h * prods[3], prods[4],
-                            prods[5], pz])
+        out = [0.5 * prods[6], -h * prods[0], -h * prods[1], h * prods[2], h * prods[3], prods[4], prods[5], pz]
+        if lateral:
+            out += list((self.mass * v[0:2]).view(2, B, n).sum(2).unbind(0))
+        return torch.stack(out)
 
     def _results(self, chunks, wall, total, steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t):
         import torch
@@ -432,7 +473,7 @@ class _Batch:
                 out.append(self.check_errors[b])
                 continue
             if c != OK:
-                out.append(self._error(b, model, c, e))
+                out.append(run_error(b, model, c, e, self.ren, self.dtype, self.o.collapse, self.general))
                 continue
             if bool(alive[b]):
                 out.append(errors.max_steps(model, int(steps[b]), float(t[b])))
@@ -450,34 +491,3 @@ class _Batch:
             res.info["checks"] = self.monitors[b].report()
             out.append(res)
         return out
-
-    def _error(self, b, model, c, e):
-        import torch
-
-        el, t, val, m = int(e[0]), e[1], e[2], e[3:6]
-        where = f"batch run {b} ('{model.name}')"
-        if c == INVERTED:
-            err = errors.inverted(model, el, t, val)
-        elif c == NONFINITE:
-            err = errors.nonfinite(model.material, f"element {el} at t = {t:.6g} s", m, val, t, el,
-                                   float32=self.dtype == torch.float32)
-        elif c == COLLAPSE:
-            err = errors.collapse(model, t, el, val, e[6], self.o.collapse)
-        elif c == STATE:
-            err = errors.state(model, t)
-        elif c == NEWTON:
-            err = NumericalError(f"contact Newton iteration of the sphere did not converge in "
-                                 f"{_fixed()} iterations at t = {t:.6g} s (sync-free batch); run with "
-                                 f"sync_free=False.", time=t, quantity="contact")
-        else:
-            err = NumericalError(f"an element needed the Jacobi eigen fallback for a C that is not isotropic to "
-                                 f"round-off at t = {t:.6g} s (sync-free batch); run with sync_free=False.",
-                                 time=t, quantity="eigen fallback")
-        err.args = (f"{where}: {err.args[0]}",) + err.args[1:]
-        return err
-
-
-def _fixed() -> int:
-    from .batch_contact import FIXED_ITERATIONS
-
-    return FIXED_ITERATIONS

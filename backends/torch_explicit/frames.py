@@ -3,7 +3,9 @@
 After a step the positions are x^{n+1}, the velocities v^{n+1/2}, and the element state holds the
 Prony history H and isochoric S0 of step n with the step dt just taken: the next element pass
 computes the stress at x^{n+1} from exactly these, and so does
-:func:`cfm_core.post.fields.element_stress`.
+:func:`cfm_core.post.fields.element_stress`. A model with parts stores its Prony state per part
+instead (:func:`.parts.frame_state_parts`: ``velocity``, ``prony_dt`` and ``parts``, a list of
+``name``, ``elements``, ``prony_H``, ``prony_S0`` per part).
 """
 
 from __future__ import annotations
