@@ -11,6 +11,10 @@ Two structures are accepted by :mod:`cfm_core.post.fields`:
   (no Prony terms), ``prony_S0`` a list of (e_p, 6) ndarrays or None, rows in the order of
   ``part.elements`` (increasing user element index), and one ``prony_dt`` (s) for all parts.
   :func:`part_prony_state` builds it from a backend's per-part arrays in any element order.
+* **a list of parts** (what the torch backend stores): ``parts`` a list in part order of dicts
+  ``{"name", "elements": (e_p,) user element indices, "prony_H": (k_p, e_p, 6), "prony_S0":
+  (e_p, 6)}`` (the two arrays absent for a part without Prony terms), rows in ``elements``
+  order, and one ``prony_dt`` (s); read through :func:`part_prony_state`.
 
 Units: H and S0 in Pa (Voigt 11, 22, 33, 12, 23, 13: the history stresses and the previous
 isochoric second Piola-Kirchhoff stress), dt in s.
@@ -113,6 +117,12 @@ def part_prony_states(model, state) -> list:
         A state that does not fit the parts (a count of entries, terms or elements), named.
     """
     parts = model.part_list()
+    if state is not None and state.get("prony_H") is None and state.get("parts"):
+        entries = state["parts"]
+        if len(entries) != len(parts):
+            raise ValueError(f"frame_state: {len(entries)} parts stored; the model has {len(parts)}.")
+        state = part_prony_state(model, [e.get("prony_H") for e in entries], [e.get("prony_S0") for e in entries],
+                                 float(state["prony_dt"]), elements=[e["elements"] for e in entries])
     if state is None or state.get("prony_H") is None:
         return [None] * len(parts)
     H, S0, dt = state["prony_H"], state["prony_S0"], float(state["prony_dt"])
