@@ -1,4 +1,4 @@
-"""Generate, cache and import the numba module of one material.
+"""Generate, cache and import the numba module of one material (or of the materials of a model's parts).
 
 Numba caches compiled code only for functions defined in a real file, and the kernels must call
 the material's functions as globals. So the module is written once per material source:
@@ -8,6 +8,12 @@ the material's functions as globals. So the module is written once per material 
            + the other kernel files (vmath.py, eigen.py, ...),
     all kernel files without their standalone blocks
 
+then ``element_parts`` (generated: the element pass of each part in turn). A model with parts
+of several materials gets one module for its distinct materials (:func:`distinct`): the first
+material's functions as above, then each further material's renamed with the suffix ``__m<j>``
+together with its own copy of the element pass (``PER_MATERIAL``: element_pass, element_block,
+material_block calling its functions), so that every material's derivatives are inlined into its
+own vectorised block loop; parts of one material (any parameters) share its pass. Written
 into ``$CFM_CACHE_DIR`` (default ``~/.cache/cfm/numba``), named by a hash of its full text, and
 imported with importlib; every kernel is ``njit(cache=True)``, so a second process loads the
 machine code from ``__pycache__`` beside the file instead of recompiling. The cache is keyed by
@@ -209,49 +215,61 @@ def _element_copy(suffix: str) -> str:
 
 PARTS_HEAD = '''@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def element_parts(x, v, fb, parts, dtp, hg, hgwave):
-    """The element pass of every part (generated, one call per part with its material's pass):
-    Prony factors of the step dtp (s), stresses, forces onto fb, stable steps; (work (J), failures)."""
+    """The element pass of every part (generated): per part the Prony factors of the step dtp (s)
+    and the compiled pass of its material (PP_MAT: 0 the first material's, j the one suffixed
+    __m<j>): stresses, forces onto fb, stable steps. Returns (stress work (J), failures)."""
     work = 0.0
     nbad = 0
+    for ip in range(len(parts)):
+        pt = parts[ip]
+        prony_step(dtp, pt[PT_GAM], pt[PT_TAU], pt[PT_DECAY], pt[PT_GAIN])
+        mi = int(pt[PT_PAR][PP_MAT])
 '''
 
-PARTS_CALL = '''    pt = parts[{i}]
-    prony_step(dtp, pt[PT_GAM], pt[PT_TAU], pt[PT_DECAY], pt[PT_GAIN])
-    w, nb = {fn}(x, v, pt[PT_CONN], pt[PT_SLOT], pt[PT_CHUNKS], pt[PT_ED], pt[PT_EH], fb, pt[PT_P], pt[PT_DECAY],
-                 pt[PT_GAIN], pt[PT_PAR][PP_GINF], pt[PT_BDT], pt[PT_BEMIN], pt[PT_STATUS], pt[PT_ERRV],
-                 pt[PT_PAR][PP_RHO], hg, hgwave)
-    work += w
-    nbad += nb
+PARTS_CALL = '''        {branch}:
+            w, nb = {fn}(x, v, pt[PT_CONN], pt[PT_SLOT], pt[PT_CHUNKS], pt[PT_ED], pt[PT_EH], fb, pt[PT_P],
+                         pt[PT_DECAY], pt[PT_GAIN], pt[PT_PAR][PP_GINF], pt[PT_BDT], pt[PT_BEMIN],
+                         pt[PT_STATUS], pt[PT_ERRV], pt[PT_PAR][PP_RHO], hg, hgwave)
 '''
 
 
-def _parts_function(calls: list[str]) -> str:
-    """The generated ``element_parts``: the element pass of every part in turn, each part with its
-    material's compiled pass (``calls[i]``: the function of part i)."""
-    return PARTS_HEAD + "".join(PARTS_CALL.format(i=i, fn=fn) for i, fn in enumerate(calls)) + "    return work, nbad\n"
+def _parts_function(n_materials: int) -> str:
+    """The generated ``element_parts`` of a module of ``n_materials`` materials."""
+    calls = []
+    for j in range(n_materials):
+        branch = ("if True" if n_materials == 1 else "else" if j == n_materials - 1
+                  else "if mi == 0" if j == 0 else f"elif mi == {j}")
+        calls.append(PARTS_CALL.format(branch=branch, fn="element_pass" + (f"__m{j}" if j else "")))
+    return PARTS_HEAD + "".join(calls) + "        work += w\n        nbad += nb\n    return work, nbad\n"
 
 
-def module_source(material) -> str:
-    """Full text of the generated module for ``material`` (one material) or a tuple of materials
-    (one per part; parts sharing a material's source share its compiled functions, the first
-    material's are the plain names and each further one's carry the suffix ``__m<j>``)."""
-    mats = _materials(material)
+def distinct(material) -> tuple[tuple, list[int]]:
+    """The distinct materials of ``material`` (one, or a tuple with one per part; materials with
+    the same name and numba source share compiled code, whatever their parameters) in order of
+    first appearance, and the index among them of each part's material."""
     uniq, keys, index = [], [], []
-    for m in mats:
+    for m in _materials(material):
         key = (m.name, m.numba_source())
         if key not in keys:
             uniq.append(m)
             keys.append(key)
         index.append(keys.index(key))
+    return tuple(uniq), index
+
+
+def module_source(material) -> str:
+    """Full text of the generated module for ``material`` (one material) or a tuple of materials
+    (its distinct ones, :func:`distinct`: the first material's functions carry the plain names,
+    each further one's the suffix ``__m<j>``; ``element_parts`` calls part i's by its index)."""
+    uniq, _ = distinct(material)
     extra = ""
     for j, m in enumerate(uniq[1:], start=1):
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
                   + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
-    calls = ["element_pass" + (f"__m{j}" if j else "") for j in index]
     layout, *kernels = kernel_text()
-    return (HEADER.format(name=_label(mats)) + layout + "\n\n# ---- material.numba_source() ----\n"
+    return (HEADER.format(name=_label(uniq)) + layout + "\n\n# ---- material.numba_source() ----\n"
             + _material_text(uniq[0]) + "\n\n\n" + "\n\n".join(kernels) + extra
-            + "\n\n# ---- the parts (generated) ----\n" + _parts_function(calls))
+            + "\n\n# ---- the parts (generated) ----\n" + _parts_function(len(uniq)))
 
 
 def _label(material) -> str:
@@ -281,7 +299,7 @@ def source_of(material) -> str:
     """:func:`module_source` of ``material`` (one material or a tuple, one per part), built once
     per process (keyed by the materials' names and generated scalar code; the kernel files do not
     change while a process runs): the cache check of :func:`announce` and :func:`load` share it."""
-    key = tuple((m.name, m.numba_source()) for m in _materials(material))
+    key = tuple((m.name, m.numba_source()) for m in distinct(material)[0])
     text = _SOURCES.get(key)
     if text is None:
         text = _SOURCES[key] = module_source(material)

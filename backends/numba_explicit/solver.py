@@ -146,19 +146,20 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, eh,
           np.zeros(sp.rows * K.NF), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.full(nblk, np.inf), np.zeros(nblk, dtype=np.int64), np.zeros(ne, dtype=np.int8), np.zeros((nblk, 4)))
-    parts = part_tuples(geo, st, sp.chunks, ranges, nblks, ks, mats, prm, plist)
+    parts = part_tuples(geo, st, sp.chunks, ranges, nblks, ks, mats, prm, plist,
+                        codegen.distinct(tuple(pt.material for pt in plist))[1])
     cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 12)))
     return Prepared(geo, (prm[0], *mats[0]), par, ipar, sc, st, cnt, presc, nodes, ren, parts, ranges, nblks, ks)
 
 
-def part_tuples(geo, st, chunks, ranges, nblks, ks, mats, prm, plist) -> tuple:
+def part_tuples(geo, st, chunks, ranges, nblks, ks, mats, prm, plist, mat_index) -> tuple:
     """The time loop's ``parts`` (layout.py, PT_*): per part, views of the global arrays over its
     elements and blocks, its chunks (first block counted in the part), material and Prony arrays."""
     conn, slot = geo[0], geo[1]
     ed, eh, status, bdt, bemin, errv = st[3], st[4], st[11], st[9], st[10], st[12]
     out = []
     b0 = h0 = c0 = 0
-    for (ea, eb), nb, k, (gam, tau), p, pt in zip(ranges, nblks, ks, mats, prm, plist):
+    for (ea, eb), nb, k, (gam, tau), p, pt, mi in zip(ranges, nblks, ks, mats, prm, plist, mat_index):
         c1 = int(np.searchsorted(chunks[:, 0], b0 + nb, side="left"))
         ch = chunks[c0:c1 + 1].copy()
         ch[:, 0] -= b0
@@ -167,6 +168,7 @@ def part_tuples(geo, st, chunks, ranges, nblks, ks, mats, prm, plist) -> tuple:
         pp[K.PP_RHO] = float(pt.density)
         pp[K.PP_GINF] = gamma_inf(pt.material.prony_arrays()[0])
         pp[K.PP_E0] = ea
+        pp[K.PP_MAT] = mi
         out.append((conn[ea:eb], slot[ea:eb], np.ascontiguousarray(ch), ed[b0 * K.ED_N * K.BLOCK:(b0 + nb) * K.ED_N * K.BLOCK],
                     eh[h0:h0 + nh], status[ea:eb], bdt[b0:b0 + nb], bemin[b0:b0 + nb], errv[b0:b0 + nb],
                     p, gam, tau, np.zeros(k), np.zeros(k), pp))
@@ -258,11 +260,11 @@ def warm_up(mod, material) -> float:
     one element per material (``material``: one, or a tuple with one per part); seconds spent.
     ``point_history`` (material-point runs) is left to its first use: a run does not call it, and
     loading a kernel from numba's cache costs time too."""
-    if id(mod) in _WARM:
+    mats = codegen._materials(material)
+    if (id(mod), len(mats)) in _WARM:
         return 0.0
     from cfm_core.scene.model import Model, Part, RigidPlane, RigidSphere
 
-    mats = codegen._materials(material)
     ne = len(mats)
     xs = np.arange(ne + 1, dtype=np.float64)
     nodes = np.array([[x, y, z] for z in (0.0, 1.0) for y in (0.0, 1.0) for x in xs]) * 1e-3
@@ -278,7 +280,7 @@ def warm_up(mod, material) -> float:
     start = time.perf_counter()
     prep = prepare(model, NumbaOptions())
     advance(mod, prep, np.zeros((4, K.H_N)), 1e-9)
-    _WARM.add(id(mod))
+    _WARM.add((id(mod), len(mats)))
     return time.perf_counter() - start
 
 

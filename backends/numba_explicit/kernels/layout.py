@@ -128,7 +128,8 @@ PT_PAR = 14         # float64 values PP_*
 PP_RHO = 0          # density (kg/m^3)
 PP_GINF = 1         # gamma_inf (-)
 PP_E0 = 2           # first internal element of the part
-PP_N = 3
+PP_MAT = 3          # index of its material among the module's (codegen.distinct)
+PP_N = 4
 
 # ---- return codes of the time loop ----
 R_CHUNK = 0         # reached the requested time or buffer end
