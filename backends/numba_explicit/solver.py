@@ -10,6 +10,19 @@ The solver runs a renumbered copy of the model (``cfm_backends.explicit.renumber
 ``renumber``): elements along a space-filling curve, nodes in first-touch order, so that each
 block of elements touches a compact range of nodes. Frames, the physics checks and every node or
 element named in an error are in the user's numbering.
+
+Parts (``Model.parts``): the renumbering sorts the elements by part, so each part is one
+contiguous range of internal elements; each part is blocked on its own (its last block may be
+partial) and split into its own scatter chunks, with its density (lumped mass, hourglass factor,
+wave speed), material parameters, Prony terms and gamma_inf (``parts``, kernels/layout.py PT_*).
+The generated ``element_parts`` runs each part's pass with its material's compiled code
+(``codegen``); the stable step is the minimum over all parts, the energies sum over them. A model
+without parts runs exactly the arrays and operations it ran before parts existed.
+
+Impactor: the paper's hemisphere moving along z keeps ``sphere_contact``; other shapes
+(``sphere``, ``flat``, ``plane``) and lateral motion (``RigidSphere.moves``) run
+``impactor_contact`` (kernels/impactor.py), which also records the in-plane columns
+(``backends/explicit/history.py``).
 """
 
 from __future__ import annotations
