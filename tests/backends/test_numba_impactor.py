@@ -133,7 +133,7 @@ def test_centred_full_model_free_impactor_equals_the_quarter(quarter):
     assert res.steps == q.steps
     scale = np.abs(q.contact_force).max()
     assert scale > 50.0
-    assert np.abs(res.contact_force - q.contact_force).max() <= 1e-10 * scale
+    assert np.abs(res.contact_force - q.contact_force).max() <= 1e-11 * scale      # 1.5e-12 seen: summation order
     lat = res.impactor_lateral
     assert np.abs(lat["force_x"]).max() <= 1e-10 * scale and np.abs(lat["force_y"]).max() <= 1e-10 * scale
     assert np.abs(res.impactor_z - q.impactor_z).max() <= 1e-10 * q_model.sphere.radius
