@@ -4,8 +4,10 @@ Total Lagrangian hex8 elements with one-point integration (Flanagan-Belytschko m
 and viscous hourglass control, lumped mass, central differences with the stable step
 dt = 0.9 min_e L_e / c_e recomputed every step from the current tangent (L_e from the
 Flanagan-Belytschko eigenvalue bound, edge / sqrt(3) for a cube; c_e from max_a d^2 Psi / d lambda_a^2), kinematic (momentum-exchange) contact with a rigid
-sphere and a rigid plane, so the contact never limits the step (docs/conventions.md section 5). The
+impactor (hemisphere, sphere, flat with a rounded rim, plane; translating along its free directions)
+and a rigid plane, so the contact never limits the step (docs/conventions.md section 5). The
 material's generated scalar code and the kernels (``kernels/``) are compiled together by numba
+(one element pass per material of a model's parts, elements grouped by part)
 and cached on disk (``codegen``). numba is imported only when a run or a point evaluation starts.
 
 Energies (Result.energies, J, full model): kinetic = 1/2 sum m v^{n-1/2} . v^{n+1/2} (the

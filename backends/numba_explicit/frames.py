@@ -4,6 +4,17 @@ After a call of the time loop the positions are x^{n+1}, the velocities v^{n+1/2
 element blocks hold the Prony state of step n (history stresses H, isochoric S0_old) with the
 step dt just taken (``S_DTPREV``): the next element pass computes the stress at x^{n+1} from
 exactly these, and so does :func:`cfm_core.post.fields.element_stress`.
+
+Structure (user's node and element numbering):
+
+* one material (``Model.parts`` empty or one part): ``velocity`` (n, 3) (m/s) and, for k > 0
+  Prony terms, ``prony_H`` (k, e, 6), ``prony_S0`` (e, 6) (Pa, Voigt 11, 22, 33, 12, 23, 13),
+  ``prony_dt`` (s), as before parts existed;
+* several parts (``Model.multi_material``): ``velocity`` (n, 3); ``prony_S0`` (e, 6) over all
+  elements (zero in parts without Prony terms) and ``prony_dt`` (s) when any part has Prony
+  terms; ``prony_H`` a **list with one array per part** in ``Model.part_list()`` order, part i's
+  of shape (k_i, e_i, 6) with its elements in the order of ``part.elements`` (k_i may be 0);
+  and ``part_elements``, the list of those element index arrays (int64, user numbering).
 """
 
 from __future__ import annotations
@@ -13,15 +24,50 @@ import numpy as np
 from .kernels import layout as K
 
 
-def frame_state(prep, ne: int, k: int) -> dict:
-    """Velocity (n, 3) (m/s) and, for k > 0 Prony terms, ``prony_H`` (k, ne, 6), ``prony_S0``
-    (ne, 6) (Pa, Voigt 11, 22, 33, 12, 23, 13) and ``prony_dt`` (s), copies."""
+def frame_state(prep, model, k: int | None = None) -> dict:
+    """The frame state of the run ``prep`` of ``model`` (the user's) in the user's numbering;
+    copies. See the module docstring for the structure. Called as ``frame_state(prep, ne, k)``
+    (ne elements, k Prony terms of a one-material run): the same dict in the solver's numbering."""
     from .solver import per_element
 
-    out = {"velocity": prep.st[1].copy()}
-    if k > 0:
-        H = per_element(prep.st[4], 6 * k, 0, 6 * k, ne)
-        out["prony_H"] = np.ascontiguousarray(H.reshape(ne, k, 6).transpose(1, 0, 2))
-        out["prony_S0"] = per_element(prep.st[3], K.ED_N, K.ED_S0, 6, ne)
-        out["prony_dt"] = float(prep.sc[K.S_DTPREV])
+    if k is not None:
+        out = {"velocity": prep.st[1].copy()}
+        ne = int(model)
+        if k > 0:
+            H = per_element(prep.st[4], 6 * k, 0, 6 * k, ne)
+            out["prony_H"] = np.ascontiguousarray(H.reshape(ne, k, 6).transpose(1, 0, 2))
+            out["prony_S0"] = per_element(prep.st[3], K.ED_N, K.ED_S0, 6, ne)
+            out["prony_dt"] = float(prep.sc[K.S_DTPREV])
+        return out
+    ren = prep.ren
+    ne = model.n_elements
+    out = {"velocity": ren.to_user_nodes(prep.st[1])}
+    ks = prep.ks
+    if not model.multi_material:
+        k = ks[0]
+        if k > 0:
+            H = per_element(prep.st[4], 6 * k, 0, 6 * k, ne)
+            out["prony_H"] = ren.to_user_elements(np.ascontiguousarray(H.reshape(ne, k, 6).transpose(1, 0, 2)), axis=1)
+            out["prony_S0"] = ren.to_user_elements(per_element(prep.st[3], K.ED_N, K.ED_S0, 6, ne))
+            out["prony_dt"] = float(prep.sc[K.S_DTPREV])
+        return out
+    if max(ks) == 0:
+        return out
+    S0 = np.zeros((ne, 6))
+    Hs, els = [], []
+    for (ea, eb), pt, part in zip(prep.ranges, prep.parts, model.part_list()):
+        n_p, k = eb - ea, int(pt[K.PT_GAM].shape[0])
+        user = ren.elements[ea:eb]                       # user element of each internal one
+        order = np.argsort(user, kind="stable")         # -> the order of part.elements (sorted)
+        S0[user] = per_element(pt[K.PT_ED], K.ED_N, K.ED_S0, 6, n_p)
+        if k > 0:
+            H = per_element(pt[K.PT_EH], 6 * k, 0, 6 * k, n_p).reshape(n_p, k, 6).transpose(1, 0, 2)
+        else:
+            H = np.zeros((0, n_p, 6))
+        Hs.append(np.ascontiguousarray(H[:, order]))
+        els.append(np.asarray(part.elements, dtype=np.int64).copy())
+    out["prony_H"] = Hs
+    out["prony_S0"] = S0
+    out["prony_dt"] = float(prep.sc[K.S_DTPREV])
+    out["part_elements"] = els
     return out

@@ -45,7 +45,8 @@ def chunk_count(n_blocks: int) -> int:
     return int(min(MAX_CHUNKS, max(1, n_blocks // TARGET_BLOCKS)))
 
 
-def plan(hexes: np.ndarray, n_nodes: int, block: int, n_chunks: int | None = None) -> ScatterPlan:
+def plan(hexes: np.ndarray, n_nodes: int, block: int, n_chunks: int | None = None,
+         parts: list | None = None) -> ScatterPlan:
     """The scatter plan of a connectivity whose nodes are numbered in first-touch order.
 
     Parameters
@@ -57,7 +58,12 @@ def plan(hexes: np.ndarray, n_nodes: int, block: int, n_chunks: int | None = Non
     block : int
         Elements per block (``kernels.layout.BLOCK``).
     n_chunks : int, optional
-        Chunks (default :func:`chunk_count`).
+        Chunks (default :func:`chunk_count`; per part with ``parts``).
+    parts : list of (int, int), optional
+        Element ranges [first, end) of the parts (contiguous, in order, covering all elements):
+        each part's elements are blocked on their own (its first element starts a block, its
+        last block may be partial) and split into its own chunks, so that a chunk never spans
+        two parts. Block numbers then count the parts' blocks in turn. Default: one part.
 
     Returns
     -------
@@ -70,10 +76,18 @@ def plan(hexes: np.ndarray, n_nodes: int, block: int, n_chunks: int | None = Non
     """
     hexes = np.asarray(hexes, dtype=np.int64)
     ne = hexes.shape[0]
-    nblk = -(-ne // block)
-    nch = chunk_count(nblk) if n_chunks is None else int(max(1, min(n_chunks, nblk)))
-    bounds = (np.arange(nch + 1, dtype=np.int64) * nblk) // nch            # first block of each chunk
-    ech = np.searchsorted(bounds, np.arange(ne) // block, side="right") - 1  # chunk of each element
+    eblk = np.zeros(ne, dtype=np.int64)                                     # block of each element
+    bounds = [np.zeros(1, dtype=np.int64)]
+    b0 = 0
+    for ea, eb in (parts if parts is not None else [(0, ne)]):
+        nblk = -(-(eb - ea) // block)
+        nch = chunk_count(nblk) if n_chunks is None else int(max(1, min(n_chunks, nblk)))
+        bounds.append(b0 + ((np.arange(1, nch + 1, dtype=np.int64) * nblk) // nch))  # first block of each chunk
+        eblk[ea:eb] = b0 + np.arange(eb - ea) // block
+        b0 += nblk
+    bounds = np.concatenate(bounds)
+    nch = bounds.size - 1
+    ech = np.searchsorted(bounds, eblk, side="right") - 1                   # chunk of each element
     flat = hexes.ravel()
     used, first = np.unique(flat, return_index=True)
     owner = np.full(n_nodes, nch, dtype=np.int64)

@@ -10,6 +10,19 @@ The solver runs a renumbered copy of the model (``cfm_backends.explicit.renumber
 ``renumber``): elements along a space-filling curve, nodes in first-touch order, so that each
 block of elements touches a compact range of nodes. Frames, the physics checks and every node or
 element named in an error are in the user's numbering.
+
+Parts (``Model.parts``): the renumbering sorts the elements by part, so each part is one
+contiguous range of internal elements; each part is blocked on its own (its last block may be
+partial) and split into its own scatter chunks, with its density (lumped mass, hourglass factor,
+wave speed), material parameters, Prony terms and gamma_inf (``parts``, kernels/layout.py PT_*).
+The generated ``element_parts`` runs each part's pass with its material's compiled code
+(``codegen``); the stable step is the minimum over all parts, the energies sum over them. A model
+without parts runs exactly the arrays and operations it ran before parts existed.
+
+Impactor: the paper's hemisphere moving along z keeps ``sphere_contact``; other shapes
+(``sphere``, ``flat``, ``plane``) and lateral motion (``RigidSphere.moves``) run
+``impactor_contact`` (kernels/impactor.py), which also records the in-plane columns
+(``backends/explicit/history.py``).
 """
 
 from __future__ import annotations
@@ -49,17 +62,38 @@ class Prepared:
     presc: tuple
     nodes: np.ndarray
     ren: renumber.Renumbering
+    parts: tuple = ()
+    ranges: list = None
+    nblks: list = None
+    ks: list = None
+
+
+def part_ranges(model) -> list[tuple[int, int]]:
+    """[first, end) internal element range of each part of a renumbered model (one part: all)."""
+    ranges = []
+    for part in model.part_list():
+        el = np.asarray(part.elements, dtype=np.int64)
+        ea, eb = (int(el[0]), int(el[-1]) + 1) if el.size else (0, 0)
+        if el.size and (eb - ea != el.size or (ranges and ea != ranges[-1][1])):
+            raise InputError(f"numba backend: part '{part.name}' is not one contiguous element range after "
+                             f"renumbering (an internal error of the renumbering).")
+        ranges.append((ea, eb))
+    return ranges
 
 
 def prepare(model, o: NumbaOptions) -> Prepared:
     """Build all arrays of a run from the model and checked options (in the solver's numbering:
-    ``Prepared.ren`` maps it to the user's)."""
+    ``Prepared.ren`` maps it to the user's). Each part (``Model.part_list()``) is one contiguous
+    range of internal elements whose blocks are a contiguous range of the block arrays; the
+    global arrays in ``geo``, ``st`` hold all parts, ``parts`` views of them per part (layout.py,
+    PT_*); ``mat`` is the first part's material arrays."""
     user_nodes, user_hexes = check_model(model)
-    ren = renumber.plan(user_nodes, user_hexes, o.renumber)
+    ren = renumber.plan(user_nodes, user_hexes, o.renumber, groups=model.element_part())
     model = ren.model(model)
     nodes, hexes = model.nodes, model.hexes
     n, ne = nodes.shape[0], hexes.shape[0]
-    rho = float(model.density)
+    plist = model.part_list()
+    ranges = part_ranges(model)
     V0, B, G, L = geometry.hex_geometry(nodes, hexes)
     mass, free, pmask, pnodes = geometry.constraints(model, nodes, hexes, V0)
     pr = model.prescribed
@@ -69,14 +103,13 @@ def prepare(model, o: NumbaOptions) -> Prepared:
                  np.ascontiguousarray(pr.values, dtype=np.float64))
     else:
         presc = (np.zeros(0, np.int64), np.zeros(0), np.zeros(1), np.zeros(1))
-    gam, tau = (np.ascontiguousarray(a, dtype=np.float64) for a in model.material.prony_arrays())
-    p = np.ascontiguousarray(model.material.param_array(), dtype=np.float64)
-    k = gam.shape[0]
+    mats = [tuple(np.ascontiguousarray(a, dtype=np.float64) for a in pt.material.prony_arrays()) for pt in plist]
+    prm = [np.ascontiguousarray(pt.material.param_array(), dtype=np.float64) for pt in plist]
 
     par = np.zeros(K.P_N)
     ipar = np.zeros(K.I_N, dtype=np.int64)
     sc = np.zeros(K.S_N)
-    par[K.P_RHO] = rho
+    par[K.P_RHO] = float(plist[0].density)
     par[K.P_HG] = o.hourglass
     par[K.P_SAFETY] = o.safety
     par[K.P_DTMAX] = o.dt_max
@@ -86,16 +119,12 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     par[K.P_SYM] = float(model.symmetry_factor)
     par[K.P_TEND] = float(model.end_time)
     par[K.P_SEPTIME] = o.separation_time
-    par[K.P_GINF] = gamma_inf(model.material.prony_arrays()[0])  # the one exact sum
+    par[K.P_GINF] = gamma_inf(plist[0].material.prony_arrays()[0])  # the one exact sum
     ipar[K.I_HGWAVE] = 0 if o.hourglass_wave == "shear" else 1
     ipar[K.I_STOPSEP] = int(bool(model.stop_after_separation))
     sph = model.sphere
     if sph is not None:
-        ipar[K.I_SPHERE] = 1
-        par[K.P_RADIUS] = sph.radius
-        par[K.P_SMASS] = sph.mass
-        par[K.P_CX], par[K.P_CY] = sph.center[0], sph.center[1]
-        sc[K.S_Z], sc[K.S_V] = sph.center[2], sph.velocity
+        impactor_parameters(sph, par, ipar, sc)
     if model.plane is not None:
         ipar[K.I_PLANE] = 1
         par[K.P_PLANEZ] = model.plane.z
@@ -111,20 +140,78 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     snodes = np.ascontiguousarray(model.sphere_nodes if sph is not None else [], dtype=np.int64)
     plnodes = np.ascontiguousarray(model.plane_nodes if model.plane is not None else [], dtype=np.int64)
     hx = np.einsum("sa,eaj->esj", geometry.HG_BASE, nodes[hexes])    # h_alpha . X_k (m), (e, 4, 3)
-    ed = block_arrays(B, hx, V0, L, rho * V0 ** (2.0 / 3.0) / 4.0)
-    nblk = ed.shape[0] // (K.ED_N * K.BLOCK)
-    sp = scatter.plan(hexes, n, K.BLOCK)
+    eds, nblks = [], []
+    for (ea, eb), pt in zip(ranges, plist):
+        rho = float(pt.density)
+        eds.append(block_arrays(B[ea:eb], hx[ea:eb], V0[ea:eb], L[ea:eb], rho * V0[ea:eb] ** (2.0 / 3.0) / 4.0))
+        nblks.append(eds[-1].shape[0] // (K.ED_N * K.BLOCK))
+    ed = eds[0] if len(eds) == 1 else np.concatenate(eds)
+    nblk = sum(nblks)
+    sp = scatter.plan(hexes, n, K.BLOCK, parts=ranges)
     if sp.rows >= 2 ** 31:
         raise InputError(f"numba backend: the mesh has {n} nodes; at most {2 ** 31 - 1 - (sp.rows - n)} are "
                          f"supported (32-bit node indices).")
     # 32-bit corner indices: half the index traffic of the element pass (meshes up to 2^31 nodes)
     geo = (np.ascontiguousarray(hexes, dtype=np.int32), np.ascontiguousarray(sp.slot, dtype=np.int32), sp.chunks,
            mass, free.astype(np.int8), pmask.astype(np.int8), sp.hptr, sp.hrow)   # 0/1 masks: 1 byte per dof
-    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, np.zeros(nblk * 6 * k * K.BLOCK),
+    ks = [m[0].shape[0] for m in mats]
+    eh = np.zeros(sum(nb * 6 * k * K.BLOCK for nb, k in zip(nblks, ks)))
+    st = (nodes.copy(), np.ascontiguousarray(v), np.zeros((n, 3)), ed, eh,
           np.zeros(sp.rows * K.NF), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
           np.full(nblk, np.inf), np.zeros(nblk, dtype=np.int64), np.zeros(ne, dtype=np.int8), np.zeros((nblk, 4)))
-    cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 9)))
-    return Prepared(geo, (p, gam, tau), par, ipar, sc, st, cnt, presc, nodes, ren)
+    parts = part_tuples(geo, st, sp.chunks, ranges, nblks, ks, mats, prm, plist,
+                        codegen.distinct(tuple(pt.material for pt in plist))[1])
+    cnt = (snodes, plnodes, np.zeros((max(len(snodes), 1), 12)))
+    return Prepared(geo, (prm[0], *mats[0]), par, ipar, sc, st, cnt, presc, nodes, ren, parts, ranges, nblks, ks)
+
+
+def part_tuples(geo, st, chunks, ranges, nblks, ks, mats, prm, plist, mat_index) -> tuple:
+    """The time loop's ``parts`` (layout.py, PT_*): per part, views of the global arrays over its
+    elements and blocks, its chunks (first block counted in the part), material and Prony arrays."""
+    conn, slot = geo[0], geo[1]
+    ed, eh, status, bdt, bemin, errv = st[3], st[4], st[11], st[9], st[10], st[12]
+    out = []
+    b0 = h0 = c0 = 0
+    for (ea, eb), nb, k, (gam, tau), p, pt, mi in zip(ranges, nblks, ks, mats, prm, plist, mat_index):
+        c1 = int(np.searchsorted(chunks[:, 0], b0 + nb, side="left"))
+        ch = chunks[c0:c1 + 1].copy()
+        ch[:, 0] -= b0
+        nh = nb * 6 * k * K.BLOCK
+        pp = np.zeros(K.PP_N)
+        pp[K.PP_RHO] = float(pt.density)
+        pp[K.PP_GINF] = gamma_inf(pt.material.prony_arrays()[0])
+        pp[K.PP_E0] = ea
+        pp[K.PP_MAT] = mi
+        out.append((conn[ea:eb], slot[ea:eb], np.ascontiguousarray(ch), ed[b0 * K.ED_N * K.BLOCK:(b0 + nb) * K.ED_N * K.BLOCK],
+                    eh[h0:h0 + nh], status[ea:eb], bdt[b0:b0 + nb], bemin[b0:b0 + nb], errv[b0:b0 + nb],
+                    p, gam, tau, np.zeros(k), np.zeros(k), pp))
+        b0 += nb
+        h0 += nh
+        c0 = c1
+    return tuple(out)
+
+
+def impactor_parameters(sph, par, ipar, sc) -> None:
+    """The impactor's entries of par, ipar and sc (layout.py): the paper's hemisphere moving along
+    z runs ``sphere_contact`` (I_GENERAL 0), any other shape or motion ``impactor_contact``."""
+    ipar[K.I_SPHERE] = 1
+    par[K.P_RADIUS] = sph.radius
+    par[K.P_SMASS] = sph.mass
+    par[K.P_CX], par[K.P_CY] = sph.center[0], sph.center[1]
+    sc[K.S_Z], sc[K.S_V] = sph.center[2], sph.velocity
+    sc[K.S_X], sc[K.S_Y] = sph.center[0], sph.center[1]
+    moves = tuple(bool(m) for m in sph.moves)
+    shape = getattr(sph, "shape", "hemisphere")
+    ipar[K.I_SHAPE] = {"hemisphere": K.SH_HEMISPHERE, "sphere": K.SH_SPHERE, "flat": K.SH_FLAT,
+                       "plane": K.SH_PLANE}[shape]
+    ipar[K.I_GENERAL] = int(not (shape == "hemisphere" and moves == (False, False, True)))
+    ipar[K.I_MOVX], ipar[K.I_MOVY], ipar[K.I_MOVZ] = (int(m) for m in moves)
+    par[K.P_EDGE] = float(sph.edge_radius) if shape == "flat" else 0.0
+    vx, vy = (float(c) for c in sph.velocity_xy)
+    sc[K.S_VX] = vx if moves[0] else 0.0
+    sc[K.S_VY] = vy if moves[1] else 0.0
+    if not moves[2]:
+        sc[K.S_V] = 0.0
 
 
 def block_arrays(B, hx, V0, L, hgfac):
@@ -165,7 +252,8 @@ def _error(code: int, prep: Prepared, model):
         return errors.inverted(model, e, t, sc[K.S_ERRV])
     if code == K.R_NONFINITE:
         m = (sc[K.S_ERRM0], sc[K.S_ERRM1], sc[K.S_ERRM2])
-        return errors.nonfinite(model.material, f"element {e} at t = {t:.6g} s", m, sc[K.S_ERRV], t, e)
+        material = model.part_list()[int(model.element_part()[e])].material
+        return errors.nonfinite(material, f"element {e} at t = {t:.6g} s", m, sc[K.S_ERRV], t, e)
     if code == K.R_COLLAPSE:
         return errors.collapse(model, t, e, sc[K.S_ERRV], sc[K.S_DT0], prep.par[K.P_COLLAPSE])
     return errors.state(model, t)
@@ -173,7 +261,7 @@ def _error(code: int, prep: Prepared, model):
 
 def advance(mod, prep: Prepared, hist: np.ndarray, t_stop: float):
     """One call of the compiled loop: (rows, code)."""
-    return mod.advance(prep.geo, prep.mat, prep.par, prep.ipar, prep.sc, prep.st, prep.cnt,
+    return mod.advance(prep.geo, prep.parts, prep.par, prep.ipar, prep.sc, prep.st, prep.cnt,
                        prep.presc, hist, t_stop)
 
 
@@ -181,23 +269,31 @@ _WARM: set = set()
 
 
 def warm_up(mod, material) -> float:
-    """Compile (or load from the cache) the time loop ``advance`` and all it calls on a 1-element
-    model; seconds spent. ``point_history`` (material-point runs) is left to its first use: a run
-    does not call it, and loading a kernel from numba's cache costs time too."""
-    if id(mod) in _WARM:
+    """Compile (or load from the cache) the time loop ``advance`` and all it calls on a model of
+    one element per material (``material``: one, or a tuple with one per part); seconds spent.
+    ``point_history`` (material-point runs) is left to its first use: a run does not call it, and
+    loading a kernel from numba's cache costs time too."""
+    mats = codegen._materials(material)
+    if (id(mod), len(mats)) in _WARM:
         return 0.0
-    from cfm_core.scene.model import Model, RigidPlane, RigidSphere
+    from cfm_core.scene.model import Model, Part, RigidPlane, RigidSphere
 
-    nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
-                      [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=np.float64) * 1e-3
-    model = Model(name="warm-up", nodes=nodes, hexes=np.arange(8)[None, :], density=1000.0,
-                  material=material, end_time=1e-9, output_interval=1e-9,
+    ne = len(mats)
+    xs = np.arange(ne + 1, dtype=np.float64)
+    nodes = np.array([[x, y, z] for z in (0.0, 1.0) for y in (0.0, 1.0) for x in xs]) * 1e-3
+    idx = lambda i, y, z: int(z * 2 * (ne + 1) + y * (ne + 1) + i)           # noqa: E731
+    hexes = np.array([[idx(i, 0, 0), idx(i + 1, 0, 0), idx(i + 1, 1, 0), idx(i, 1, 0),
+                       idx(i, 0, 1), idx(i + 1, 0, 1), idx(i + 1, 1, 1), idx(i, 1, 1)] for i in range(ne)])
+    parts = tuple(Part(f"p{i}", m, 1000.0, np.array([i])) for i, m in enumerate(mats)) if ne > 1 else ()
+    top = np.flatnonzero(nodes[:, 2] > 0.0)
+    model = Model(name="warm-up", nodes=nodes, hexes=hexes, density=1000.0,
+                  material=mats[0], end_time=1e-9, output_interval=1e-9,
                   sphere=RigidSphere(0.05, 0.01, (0.0, 0.0, 0.051), -1.0), plane=RigidPlane(0.0),
-                  sphere_nodes=np.arange(4, 8), plane_nodes=np.arange(4))
+                  sphere_nodes=top, plane_nodes=np.flatnonzero(nodes[:, 2] == 0.0), parts=parts)
     start = time.perf_counter()
     prep = prepare(model, NumbaOptions())
     advance(mod, prep, np.zeros((4, K.H_N)), 1e-9)
-    _WARM.add(id(mod))
+    _WARM.add((id(mod), len(mats)))
     return time.perf_counter() - start
 
 
@@ -213,10 +309,11 @@ def run_model(model, progress=None, **options) -> Result:
 
     with num_threads(numba, o.threads, serial=model.n_elements < PARALLEL_MIN):
         t0 = time.perf_counter()
-        with codegen.announce(model.material):
-            mod = codegen.load(model.material)
+        material = model.material if not model.multi_material else tuple(p.material for p in model.parts)
+        with codegen.announce(material):
+            mod = codegen.load(material)
             if o.warm_up:
-                warm_up(mod, model.material)
+                warm_up(mod, material)
         compile_time = time.perf_counter() - t0
         prep = prepare(model, o)
         return _loop(model, mod, prep, o, progress, compile_time, numba.get_num_threads())
@@ -228,7 +325,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     next_progress = tick
     fi = o.frame_interval
     frames = [(0.0, np.zeros_like(prep.nodes))] if fi else []
-    states = [prep.ren.frame_state_to_user(frame_state(prep, model.n_elements, prep.mat[1].shape[0]))] if fi else []  # velocity, Prony state
+    states = [frame_state(prep, model)] if fi else []  # velocity, Prony state (user numbering)
     next_frame = fi if fi else math.inf
     chunks = []
     hist = np.zeros((4096, K.H_N))
@@ -241,6 +338,8 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     # numbering (the positions renumbered back); the fold check compiled
     monitor = Monitor(model, corner_volumes=lambda x, hexes: mod.corner_volumes(x, conn, vols))
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
+    if model.sphere is not None and model.sphere.lateral:   # the whole reference point
+        z = lambda: np.array([prep.sc[K.S_X], prep.sc[K.S_Y], prep.sc[K.S_Z]])   # noqa: E731
     start = time.perf_counter()
     while True:
         rows, code = advance(mod, prep, hist, min(next_progress, next_frame, monitor.next))
@@ -252,7 +351,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
             monitor.check(t, ren.to_user_nodes(prep.st[0]), z())
         if fi and t >= next_frame:
             frames.append((t, ren.to_user_nodes(prep.st[0] - prep.nodes)))
-            states.append(ren.frame_state_to_user(frame_state(prep, model.n_elements, prep.mat[1].shape[0])))
+            states.append(frame_state(prep, model))
             next_frame = (math.floor(t / fi) + 1) * fi
         if t >= next_progress:
             if progress is not None and min(t, end) > reported:

@@ -4,7 +4,8 @@ After the trial update, penetrating nodes are moved back onto the rigid surface 
 velocities corrected consistently (dv = dx / dt), which is the same as adding a contact force
 m dv / dtn to the central-difference update: the contact never limits the time step.
 
-Sphere (moving along z only, hemispherical: only its lower half, n_z < 0, can touch):
+Sphere (moving along z only, hemispherical: only its lower half, n_z < 0, can touch; the
+paper's impactor; other shapes and lateral motion: ``impactor.py``, the same scheme in general):
 a node I inside the sphere is pushed along d_I, its outward normal n_I = (x_I - c)/|x_I - c|
 with the components of fixed dofs removed (symmetry planes: the correction never moves a fixed
 dof; on a symmetry plane n has no component along the fixed axis anyway), by s_I >= 0 so that

@@ -28,8 +28,9 @@ P_GRAV = 11         # downward gravity on the sphere (m/s^2)
 P_SYM = 12          # symmetry factor (-)
 P_TEND = 13         # end time (s)
 P_SEPTIME = 14      # time after separation before stopping (s)
-P_GINF = 15         # Prony long-term coefficient gamma_inf (-)
-P_N = 16
+P_GINF = 15         # Prony long-term coefficient gamma_inf (-) (of the first part; each part's in PP_GINF)
+P_EDGE = 16         # rim radius of a flat impactor (m)
+P_N = 17
 
 # ---- ipar: switches ----
 I_HGWAVE = 0        # 0: hourglass wave speed from the isochoric modulus, 1: full longitudinal
@@ -38,7 +39,18 @@ I_PLANE = 2         # 1 if a rigid plane exists
 I_PRESC = 3         # 1 if prescribed motion exists
 I_PDOF = 4          # prescribed dof (0, 1, 2)
 I_STOPSEP = 5       # 1: stop after separation
-I_N = 6
+I_GENERAL = 6       # 0: hemisphere moving along z (sphere_contact); 1: any shape or motion (impactor_contact)
+I_SHAPE = 7         # impactor shape: SH_* below
+I_MOVX = 8          # 1 if the impactor moves in x
+I_MOVY = 9          # 1 if the impactor moves in y
+I_MOVZ = 10         # 1 if the impactor moves in z
+I_N = 11
+
+# ---- impactor shapes (ipar[I_SHAPE]), formulas of cfm_core.scene.impactor.gap ----
+SH_HEMISPHERE = 0
+SH_SPHERE = 1
+SH_FLAT = 2
+SH_PLANE = 3
 
 # ---- sc: scalar state carried between calls ----
 S_T = 0             # time t^n (s)
@@ -64,7 +76,11 @@ S_DTMIN = 19        # smallest / largest step taken (s)
 S_DTMAX = 20
 S_KE0 = 21          # kinetic energy at t = 0 (J)
 S_MAXPEN = 22       # largest sphere penetration after correction (m)
-S_N = 23
+S_X = 23            # impactor reference point x, y (m)
+S_Y = 24
+S_VX = 25           # impactor velocity x, y v^{n-1/2} (m/s)
+S_VY = 26
+S_N = 27
 
 # ---- hist columns (one row per step; forces, impulses and energies of the full model) ----
 H_T = 0             # t^n (s)
@@ -82,7 +98,38 @@ H_WINT = 11         # work of the internal nodal forces (J), diagnostic
 H_DT = 12           # step dt_{n+1/2} taken from t^n (s)
 H_PEN = 13          # largest sphere penetration after correction (m)
 H_PZ = 14           # z momentum of nodes + sphere (kg m/s, full model)
-H_N = 15
+H_FX = 15           # in-plane contact force on the impactor x, y (N; 0 where it is held)
+H_FY = 16
+H_X = 17            # impactor reference point x, y (m)
+H_Y = 18
+H_VX = 19           # impactor velocity x, y (m/s)
+H_VY = 20
+H_PX = 21           # x, y momentum of nodes + impactor (kg m/s, full model; 0 unless it moves laterally)
+H_PY = 22
+H_N = 23
+
+# ---- the parts: the time loop's ``parts`` is a tuple with one tuple per part (one contiguous
+# range of internal elements, its blocks a contiguous range of the block arrays), entries: ----
+PT_CONN = 0         # (e_p, 8) int32 corner nodes
+PT_SLOT = 1         # (e_p, 8) int32 force-buffer rows
+PT_CHUNKS = 2       # (c_p + 1, 3) int64 the part's chunks (first block counted in the part)
+PT_ED = 3           # the part's stretch of the block array ed
+PT_EH = 4           # its Prony state (6 k_p rows per block)
+PT_STATUS = 5       # (e_p,) int8 failure status
+PT_BDT = 6          # (nblk_p,) smallest L / c per block (s)
+PT_BEMIN = 7        # (nblk_p,) int64 its element (counted in the part)
+PT_ERRV = 8         # (nblk_p, 4) values of a failure
+PT_P = 9            # material parameters
+PT_GAM = 10         # Prony gamma_k, tau_k (s), and the step's decay and gain factors (k_p,)
+PT_TAU = 11
+PT_DECAY = 12
+PT_GAIN = 13
+PT_PAR = 14         # float64 values PP_*
+PP_RHO = 0          # density (kg/m^3)
+PP_GINF = 1         # gamma_inf (-)
+PP_E0 = 2           # first internal element of the part
+PP_MAT = 3          # index of its material among the module's (codegen.distinct)
+PP_N = 4
 
 # ---- return codes of the time loop ----
 R_CHUNK = 0         # reached the requested time or buffer end
