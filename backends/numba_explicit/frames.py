@@ -10,11 +10,12 @@ Structure (user's node and element numbering):
 * one material (``Model.parts`` empty or one part): ``velocity`` (n, 3) (m/s) and, for k > 0
   Prony terms, ``prony_H`` (k, e, 6), ``prony_S0`` (e, 6) (Pa, Voigt 11, 22, 33, 12, 23, 13),
   ``prony_dt`` (s), as before parts existed;
-* several parts (``Model.multi_material``): ``velocity`` (n, 3); ``prony_S0`` (e, 6) over all
-  elements (zero in parts without Prony terms) and ``prony_dt`` (s) when any part has Prony
-  terms; ``prony_H`` a **list with one array per part** in ``Model.part_list()`` order, part i's
-  of shape (k_i, e_i, 6) with its elements in the order of ``part.elements`` (k_i may be 0);
-  and ``part_elements``, the list of those element index arrays (int64, user numbering).
+* several parts (``Model.multi_material``): ``velocity`` (n, 3) and, when any part has Prony
+  terms, ``prony_dt`` (s) and ``parts``: one dict per part in ``Model.part_list()`` order,
+  ``{"name", "elements": (e_p,) user element indices (sorted), "prony_H": (k_p, e_p, 6),
+  "prony_S0": (e_p, 6)}`` (the arrays absent for a part without Prony terms), rows in
+  ``elements`` order: the structure the torch backend stores, read by
+  :func:`cfm_core.post.part_state.part_prony_states`.
 """
 
 from __future__ import annotations
@@ -53,21 +54,17 @@ def frame_state(prep, model, k: int | None = None) -> dict:
         return out
     if max(ks) == 0:
         return out
-    S0 = np.zeros((ne, 6))
-    Hs, els = [], []
+    entries = []
     for (ea, eb), pt, part in zip(prep.ranges, prep.parts, model.part_list()):
         n_p, k = eb - ea, int(pt[K.PT_GAM].shape[0])
         user = ren.elements[ea:eb]                       # user element of each internal one
         order = np.argsort(user, kind="stable")         # -> the order of part.elements (sorted)
-        S0[user] = per_element(pt[K.PT_ED], K.ED_N, K.ED_S0, 6, n_p)
+        entry = {"name": part.name, "elements": user[order].astype(np.int64)}
         if k > 0:
             H = per_element(pt[K.PT_EH], 6 * k, 0, 6 * k, n_p).reshape(n_p, k, 6).transpose(1, 0, 2)
-        else:
-            H = np.zeros((0, n_p, 6))
-        Hs.append(np.ascontiguousarray(H[:, order]))
-        els.append(np.asarray(part.elements, dtype=np.int64).copy())
-    out["prony_H"] = Hs
-    out["prony_S0"] = S0
+            entry["prony_H"] = np.ascontiguousarray(H[:, order])
+            entry["prony_S0"] = per_element(pt[K.PT_ED], K.ED_N, K.ED_S0, 6, n_p)[order]
+        entries.append(entry)
+    out["parts"] = entries
     out["prony_dt"] = float(prep.sc[K.S_DTPREV])
-    out["part_elements"] = els
     return out
