@@ -26,7 +26,8 @@ def check_model(model) -> tuple[np.ndarray, np.ndarray]:
     ------
     InputError
         Wrong array shapes, node indices out of range or no element, density or end time not
-        positive, a sphere without positive radius (m) and mass (kg), a prescribed dof not 0, 1 or 2.
+        positive, a sphere without positive radius (m) and mass (kg), a flat impactor with a sharp
+        rim (edge_radius = 0 m), a prescribed dof not 0, 1 or 2.
     """
     nodes = np.ascontiguousarray(model.nodes, dtype=np.float64)
     hexes = np.ascontiguousarray(model.hexes, dtype=np.int64)
@@ -36,6 +37,12 @@ def check_model(model) -> tuple[np.ndarray, np.ndarray]:
     n = nodes.shape[0]
     if hexes.shape[0] == 0 or hexes.min() < 0 or hexes.max() >= n:
         raise InputError(f"model '{model.name}': hexes must index nodes 0..{n - 1} (and there must be at least one).")
+    sph = model.sphere
+    if sph is not None and sph.shape == "flat" and not float(sph.edge_radius) > 0.0:
+        raise InputError(f"model '{model.name}': [impactor] edge_radius = {sph.edge_radius!r} m: a flat impactor with a "
+                         f"sharp rim puts a stress singularity at the rim, which an explicit run cannot resolve; give "
+                         f"a rounded rim (0 < edge_radius < radius, m; at least about two element sizes to resolve "
+                         f"it) or run the implicit skfem backend, which accepts 0 with a warning.")
     if not (float(model.density) > 0.0):
         raise InputError(f"model '{model.name}': density = {model.density!r} kg/m^3 must be > 0.")
     if not (float(model.end_time) > 0.0):

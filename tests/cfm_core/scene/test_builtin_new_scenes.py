@@ -37,7 +37,7 @@ def test_layered_tissue():
 def test_flat_impactor():
     s = builtin_scene("flat-impactor")
     imp = s.impactor
-    assert (imp.shape, imp.radius, imp.edge_radius, imp.mass, imp.velocity) == ("flat", 0.02, 0.001, 0.22, 1.25)
+    assert (imp.shape, imp.radius, imp.edge_radius, imp.mass, imp.velocity) == ("flat", 0.02, 0.003, 0.22, 1.25)
     assert (s.specimen.width, s.specimen.thickness) == (0.05, 0.008) and s.material.name == "cfm"
     m = build_model(s.with_overrides(element_size=2e-3))
     assert m.sphere.center == (0.0, 0.0, 0.008) and m.sphere.velocity == -1.25 and m.meta["symmetry"] == "quarter"
