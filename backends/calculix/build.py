@@ -165,7 +165,7 @@ def linked_source(mats, sources=None) -> tuple[str, dict]:
         dispatch += [f"      if (cmname(1:{len(t) + 1}) .eq. '{t} ') then",
                      "        found = 1",
                      f"        call cfmu_{n}(sig, statev, dd, e1, e2, e3, e4, ddsddt,",
-                     "     &    drplde, e5, stran, dstran, time, dtime, temp, dtemp, predef,",
+                     "     &    drplde, e5, stran, dstran, time, dtl, temp, dtemp, predef,",
                      "     &    dpred, cmname, ndi, nshr, ntens, nstatv, props, nprops,",
                      "     &    coords, drot, pnew, celent, dfgrd0, dfgrd1, noel, npt,",
                      "     &    layer, kspt, kstep(1), kinc)",

@@ -8,18 +8,18 @@ node made ccx's impact rules cut every increment to the minimum); contact is fri
 lift-off (a fixed support raised the peak and added a 1 kHz ring), here a layer of hexahedra
 with every node fixed.
 
-Not wired into the backend yet (:func:`.deck.write_deck` refuses rigid bodies). Found so far:
-before the umat_abaqus.f patch of :mod:`.build`, C3D8R specimen elements distorted in the first
-50 us increment (the hourglass force read an undefined tangent); C3D8 ran but slowly (29
-increments of 50 us in 300 s on a loaded 2-core machine). With the patch, the first UMAT call
-at t = 0 (the initial accelerations of ``*INITIAL CONDITIONS, TYPE=VELOCITY``) gets an invalid
-deformation gradient or state (error 1 or 2, varying from build to build: uninitialised input
-on ccx's side). The same deck with the generated neo-Hookean UMAT (one state variable) runs,
-as does CalculiX's native NEO HOOKE, so the CFM's 25 state variables are the suspect (not
-zero at the start in this deck: try ``*INITIAL CONDITIONS, TYPE=SOLUTION``). With ``DIRECT``
-increments ccx's impact rules want a smaller increment and the native run stopped after 13
-increments (6 s each on the loaded machine): use ``*DYNAMIC`` with automatic increments.
-Kept as the starting point of the drop test in CalculiX.
+Found when it was wired in (with the CFM's 25 state variables):
+
+- ``*DYNAMIC`` first computes the initial accelerations with C3D8R integrated at 8 points
+  (``resultsmech.f``, ``intscheme = 1``), reading states and stresses ccx never initialised
+  there (the failures "at the first call", error 1 or 2 varying from build to build). The
+  adaptor (:file:`adaptor.f`) answers that call from the undeformed, unloaded state; the plate
+  is C3D8 (fully integrated, all its nodes fixed, so its element type changes nothing) so that
+  ccx's state array has room for 8 points per element and that call stays inside it.
+- Fixed increments (``DIRECT``) stop at the first increment ("solution seems to diverge"):
+  ccx's impact rules want a smaller one. Automatic increments (:data:`MIN_INCREMENT` up to the
+  largest increment, 50 us by default) run, and a UMAT error in a Newton iterate (J <= 0 far
+  from the solution) cuts the increment back through PNEWDT instead of stopping ccx.
 """
 
 from __future__ import annotations
@@ -36,6 +36,10 @@ from .deck import _int_lines, material_card
 PENALTY = 1e10
 #: Thickness of the impactor cap and of the plate layer, relative to the element size (-).
 LAYER = 1.0
+#: Smallest automatic increment (s) before ccx gives up (then a NumericalError).
+MIN_INCREMENT = 1e-8
+#: Largest increment (s) of the drop test when none is given (issue 22: 50 us resolved the CFC 600 band).
+DROP_INCREMENT = 5e-5
 
 
 def _grid(n_x: int, extent: float) -> np.ndarray:
@@ -62,9 +66,9 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     Parameters
     ----------
     model : Model
-        A drop-test model (sphere and plane present, frictionless).
+        A drop-test model (a hemisphere impactor moving along z, a plane, frictionless).
     dt : float
-        Fixed time increment (s).
+        Largest (and first) time increment (s); ccx's automatic incrementation may cut it.
     end_time : float
         End of the step (s).
     native : bool
@@ -79,12 +83,23 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     Raises
     ------
     InputError
-        Friction (only frictionless contact is written), or gravity.
+        Friction (only frictionless contact is written), gravity, several parts, or an impactor
+        other than the hemisphere moving along z.
     """
     if model.friction != 0.0 or model.gravity != 0.0:
         raise InputError(f"calculix backend: the drop test is written frictionless and without gravity; the scene "
                          f"has friction = {model.friction:g}, gravity = {model.gravity:g} m/s^2.")
     sph = model.sphere
+    if sph is None or model.plane is None:
+        raise InputError(f"calculix backend: the drop-test deck needs an impactor and a plate; scene '{model.name}' "
+                         f"lacks one.")
+    if getattr(sph, "shape", "hemisphere") != "hemisphere" or getattr(sph, "lateral", False):
+        raise InputError(f"calculix backend: the drop test is written for the hemisphere moving along z (the "
+                         f"paper's); scene '{model.name}' has impactor shape '{sph.shape}'"
+                         f"{' moving in x or y' if sph.lateral else ''}.")
+    if getattr(model, "multi_material", False):
+        raise InputError(f"calculix backend: one material per specimen so far; scene '{model.name}' has parts "
+                         f"{[p.name for p in model.part_list()]}.")
     x = model.nodes
     h = float(np.min(np.linalg.norm(x[model.hexes[:, 1]] - x[model.hexes[:, 0]], axis=1)))
     quarter = model.symmetry_factor > 1.0
@@ -123,7 +138,7 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     out += [f"{e + 1}, " + ", ".join(str(int(v) + 1) for v in hx) for e, hx in enumerate(model.hexes)]
     out.append("*ELEMENT, TYPE=C3D8R, ELSET=ECAP")
     out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(cap_ids, cap_elems)]
-    out.append("*ELEMENT, TYPE=C3D8R, ELSET=EPLATE")
+    out.append("*ELEMENT, TYPE=C3D8, ELSET=EPLATE")  # see the module docstring
     out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(plate_ids, plate_elems)]
     out.append("*NSET, NSET=NCAP")
     out += _int_lines(range(n_spec + 1, n_spec + 1 + len(cap_nodes)))
@@ -158,8 +173,12 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     out += ["NPLATE, 1, 3", f"{ref}, 1, 2", f"{rot}, 1, 3"]
     out.append("*INITIAL CONDITIONS, TYPE=VELOCITY")
     out += ["NCAP, 3, " + f"{sph.velocity:.14g}", f"{ref}, 3, {sph.velocity:.14g}"]
+    if not (dt > 0.0 and end_time > 0.0):
+        raise InputError(f"calculix backend: increment and end time must be > 0 s; got {dt!r}, {end_time!r}.")
+    dt = min(dt, end_time)
     steps = int(math.ceil(end_time / dt - 1e-9))
-    out += [f"*STEP, NLGEOM, INC={steps + 10}", "*DYNAMIC, DIRECT", f"{end_time / steps:.14g}, {end_time:.14g}",
+    out += [f"*STEP, NLGEOM, INC={100 * steps + 1000}", "*DYNAMIC",
+            f"{dt:.14g}, {end_time:.14g}, {min(MIN_INCREMENT, dt):.14g}, {dt:.14g}",
             "*NODE PRINT, NSET=NREF", "U, V", "*CONTACT PRINT, SLAVE=STOP, MASTER=SCAP", "CF", "*END STEP"]
     return out
 
