@@ -233,14 +233,25 @@ def test_cfm_drop_test_agrees_with_numba_on_the_same_mesh(ccx):
 
 @pytest.mark.slow
 def test_native_neo_hooke_equals_generated_umat_on_the_drop_test(ccx):
-    """The first millisecond of a neo-Hookean drop test (C10 = 16 kPa): the same increments, the same histories."""
+    """The first millisecond of a neo-Hookean drop test (C10 = 16 kPa), native NEO HOOKE and the UMAT.
+
+    On every increment both runs take the contact force is equal to the digits ccx prints. They
+    part where a Newton iterate inverts an element (0.65 ms when measured): the UMAT refuses it and
+    ccx cuts the increment at once, ccx's own material iterates on; from there the increments
+    differ and the runs agree to the time discretisation (the impactor velocity to 1e-4 m/s).
+    """
     scene = builtin_scene("drop-test").with_overrides(element_size=0.002, material="neo-hookean",
                                                       parameters={"mu": 32e3}, end_time=1e-3)
     m = build_model(scene)
     umat, native = ccx.run(m), ccx.run(m, native=True)
-    np.testing.assert_array_equal(umat.t, native.t)
-    peak = np.max(np.abs(native.contact_force))
-    err = np.max(np.abs(umat.contact_force - native.contact_force)) / peak
-    print(f"native NEO HOOKE vs UMAT on the drop test: {err:.3g} of the peak force {peak:.4g} N")
-    assert peak > 0.1 and err < 1e-4
-    np.testing.assert_allclose(umat.impactor_v, native.impactor_v, rtol=0, atol=1e-6)
+    k = 0
+    while k < min(umat.t.size, native.t.size) and umat.t[k] == native.t[k]:
+        k += 1
+    fu, fn = umat.contact_force[:k], native.contact_force[:k]
+    print(f"native NEO HOOKE vs UMAT on the drop test: {k - 1} shared increments (to {1e3 * umat.t[k - 1]:.3g} ms), "
+          f"max difference {np.max(np.abs(fu - fn)):.3g} N of {np.max(np.abs(fn)):.4g} N")
+    assert np.sum(fn > 0) >= 10
+    np.testing.assert_allclose(fu, fn, rtol=1e-6, atol=0)
+    g = np.linspace(0.0, 1e-3, 201)
+    dv = np.abs(np.interp(g, umat.t, umat.impactor_v) - np.interp(g, native.t, native.impactor_v))
+    assert dv.max() < 1e-4
