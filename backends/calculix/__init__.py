@@ -95,7 +95,8 @@ class CalculixBackend(Backend):
         rec = find(model.material) or {}
         ccx = check_ccx(rec.get("ccx"))
         res = run_ccx(ccx, model, threads=opts.threads, max_increment=opts.max_increment, native=opts.native,
-                      keep=opts.keep, separation_time=opts.separation_time, progress=progress)
+                      keep=opts.keep, separation_time=opts.separation_time, progress=progress,
+                      penalty=opts.contact_stiffness)
         res.info.update({"ccx": ccx, "build": rec.get("key")})
         if progress is not None:
             progress(float(res.t[-1]))

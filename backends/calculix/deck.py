@@ -107,7 +107,8 @@ def increments(model, max_increment: float) -> list[tuple[float, float]]:
     return steps
 
 
-def write_deck(model, path, max_increment: float = np.inf, native: bool = False) -> None:
+def write_deck(model, path, max_increment: float = np.inf, native: bool = False,
+               penalty: float | None = None) -> None:
     """Write the CalculiX input deck of ``model`` to ``path``.
 
     Parameters
@@ -122,6 +123,8 @@ def write_deck(model, path, max_increment: float = np.inf, native: bool = False)
         Largest time increment (s).
     native : bool
         CalculiX's own neo-Hookean material instead of the UMAT (:func:`material_card`).
+    penalty : float, optional
+        Drop test: contact penalty stiffness (Pa/m); default :data:`.drop.PENALTY`.
 
     Raises
     ------
@@ -134,7 +137,8 @@ def write_deck(model, path, max_increment: float = np.inf, native: bool = False)
 
         dt = DROP_INCREMENT if not np.isfinite(max_increment) else float(max_increment)
         with open(path, "w") as f:
-            f.write("\n".join(drop_deck_lines(model, dt, float(model.end_time), native=native)) + "\n")
+            f.write("\n".join(drop_deck_lines(model, dt, float(model.end_time), native=native,
+                                                penalty=penalty)) + "\n")
         return
     if model.prescribed is None:
         raise InputError(f"calculix backend: the scene '{model.name}' has no prescribed motion.")

@@ -60,7 +60,8 @@ def _hex_block(coords_bottom, coords_top, n: int, first_node: int, first_elem: i
     return nodes, np.array(elems), ids
 
 
-def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> list[str]:
+def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
+                    penalty: float | None = None) -> list[str]:
     """Deck lines of a quarter (or full) drop-test model.
 
     Parameters
@@ -73,6 +74,8 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
         End of the step (s).
     native : bool
         CalculiX's own neo-Hookean material (:func:`.deck.material_card`).
+    penalty : float, optional
+        Contact penalty stiffness (Pa/m) of both contact pairs; default :data:`PENALTY`.
 
     Returns
     -------
@@ -165,7 +168,7 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
             "*MATERIAL, NAME=PLATE", "*ELASTIC", "1e9, 0.3", "*DENSITY", "1000.",
             "*SOLID SECTION, ELSET=EPLATE, MATERIAL=PLATE",
             f"*RIGID BODY, ELSET=ECAP, REF NODE={ref}, ROT NODE={rot}"]
-    out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{PENALTY:.6g}, 0.1",
+    out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{PENALTY if penalty is None else penalty:.6g}, 0.1",
             "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "STOP, SCAP",
             "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "SBOT, SPLATE"]
     out.append("*BOUNDARY")

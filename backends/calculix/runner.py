@@ -48,7 +48,8 @@ def read_totals(text: str, nset: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, native: bool = False,
-            keep: str | None = None, separation_time: float = 2e-4, progress=None) -> Result:
+            keep: str | None = None, separation_time: float = 2e-4, progress=None,
+            penalty: float | None = None) -> Result:
     """Write the deck of ``model``, run ``ccx`` on it, return the histories as a :class:`Result`.
 
     Parameters
@@ -69,6 +70,8 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
         Drop test: stop this long (s) after the impactor left the specimen (as the other backends).
     progress : callable, optional
         Drop test: called with the simulated time (s) while ccx runs.
+    penalty : float, optional
+        Drop test: contact penalty stiffness (Pa/m); default :data:`.drop.PENALTY`.
 
     Returns
     -------
@@ -91,7 +94,7 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
         work = Path(keep) if keep else Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         deck = work / "job.inp"
-        write_deck(model, deck, max_increment=max_increment, native=native)
+        write_deck(model, deck, max_increment=max_increment, native=native, penalty=penalty)
         env = {**os.environ, "OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads),
                "CCX_NPROC_RESULTS": str(threads)}
         t1 = time.perf_counter()
