@@ -24,7 +24,7 @@ class CalculixOptions(Options):
                           "(neo-hookean material only)", kind="bool")
     separation_time: float = option(2e-4, "s", "drop test: stop this long after the impactor left the specimen "
                                     "(as the other backends)", low=0.0)
-    contact_stiffness: float = option(1e10, "Pa/m", "drop test: penalty stiffness of the impactor and plate "
+    contact_stiffness: float = option(1e11, "Pa/m", "drop test: penalty stiffness of the impactor and plate "
                                       "contact (PRESSURE-OVERCLOSURE=LINEAR)", low=0.0, low_open=True)
     keep: str = option(None, "-", "folder to run ccx in and keep (deck, .dat, .frd, .sta)", kind="str",
                        none="a temporary folder")
