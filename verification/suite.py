@@ -80,7 +80,7 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     Raises InputError on an unknown mode, section or backend, or a budget that is not > 0."""
     from cfm_core.errors import InputError
 
-    from . import agreement, inventory, paper_compare, report, stability, verdict, workprecision
+    from . import agreement, calculix, inventory, paper_compare, report, stability, verdict, workprecision
     from .machine import git_commit, machine_info
     from .runs import RunCache
 
@@ -101,8 +101,11 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
     if unknown:
         raise InputError(f"--require names unknown backend(s) {', '.join(unknown)}; known: "
                          f"{', '.join(b['name'] for b in inv)}.")
-    pointers = inventory.usable(inv, "point")
-    runners = inventory.usable(inv, "run")
+    # an experimental backend (calculix) is checked in its own rows (verification.calculix), not in
+    # every pair, work-precision and stability case
+    general = [b for b in inv if not getattr(type(b["instance"]), "experimental", False)]
+    pointers = inventory.usable(general, "point")
+    runners = inventory.usable(general, "run")
     cache = cache or RunCache()
     wp_budget = float(budget) if budget is not None else MODES[mode]["wp_budget"]
     scene_budget = agreement.Budget(float(budget) if budget is not None else MODES[mode]["scene_budget"])
@@ -130,6 +133,7 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
         return rows
 
     agree += timed("scene agreement", "scenes", scenes, [])
+    agree += timed("calculix agreement", "scenes", lambda: calculix.rows(inv, cache, say), [])
     wp = timed("work-precision", "workprecision",
                lambda: [workprecision.study(label, sc, MODES[mode]["wp_sizes"], inv, cache, wp_budget,
                                                    MODES[mode]["wp_plan"])

@@ -1,13 +1,16 @@
 """CalculiX (ccx 2.20) with the project's generated Abaqus UMATs linked in: the ``calculix`` backend.
 
 What is CalculiX's: the elements (C3D8R hexahedra), the time integration (``*STATIC`` or
-``*DYNAMIC``, fixed increments), the Newton iteration and equation solver (SPOOLES), boundary
-conditions and reaction forces. What is the project's: the material (the UMAT generated from the
-material's single definition, :mod:`cfm_core.export`), the adaptor between ccx's PK2 convention
-and the UMAT's Cauchy / Jaumann one (:file:`adaptor.f`), the build (:mod:`.build`, ``cfm calculix
-build``), the deck (:mod:`.deck`) and the reading of results (:mod:`.runner`).
+``*DYNAMIC``, fixed increments for prescribed motion, automatic ones for the drop test), the
+Newton iteration and equation solver (SPOOLES), boundary conditions, reaction forces, the rigid
+body and the penalty contact (``SURFACE TO SURFACE``). What is the project's: the material (the
+UMAT generated from the material's single definition, :mod:`cfm_core.export`), the adaptor
+between ccx's PK2 convention and the UMAT's Cauchy / Jaumann one (:file:`adaptor.f`), the build
+(:mod:`.build`, ``cfm calculix build``), the decks (:mod:`.deck`, :mod:`.drop`), the reading of
+results and the stop after separation (:mod:`.runner`, :mod:`.dropread`).
 
-Result.info: solver, element, deck_lines, increments, threads, setup_time (s), ccx (path), build (key).
+Result.info: solver, element, deck_lines, increments, threads, setup_time (s), ccx (path), build (key);
+drop test also stop ("separated" or "end_time") and umat_cutbacks (iterates the UMAT refused).
 """
 
 from __future__ import annotations
@@ -20,19 +23,21 @@ __all__ = ["CalculixBackend"]
 
 
 class CalculixBackend(Backend):
-    """CalculiX ccx with the generated UMAT: prescribed-motion scenes (single element, relaxation)."""
+    """CalculiX ccx with the generated UMAT: single element, relaxation and the drop test."""
 
     name = "calculix"
     kind = "implicit"
     quasi_static = True
     description = ("CalculiX ccx 2.20 (Debian source, built by 'cfm calculix build') with the generated Abaqus "
-                   "UMAT linked in: C3D8R, *STATIC / *DYNAMIC, fixed increments")
+                   "UMAT linked in: C3D8R, *STATIC / *DYNAMIC; drop test with a rigid impactor cap and "
+                   "frictionless penalty contact")
     options_class = CalculixOptions
     needs_tangent = True
     devices = ("cpu",)
     dtypes = ("float64",)
-    #: Not in the automatic backend set of ``cfm verify`` (it runs no drop test yet): verified
-    #: when named (``cfm verify --backends calculix``) and by tests/backends/test_calculix_*.py.
+    #: Not in the automatic backend set of ``cfm verify`` (it needs a local build and its drop
+    #: test takes tens of minutes): verified when named (``cfm verify --backends calculix``) and
+    #: by tests/backends/test_calculix_*.py.
     experimental = True
 
     def available(self) -> tuple[bool, str]:
@@ -90,7 +95,8 @@ class CalculixBackend(Backend):
         rec = find(model.material) or {}
         ccx = check_ccx(rec.get("ccx"))
         res = run_ccx(ccx, model, threads=opts.threads, max_increment=opts.max_increment, native=opts.native,
-                      keep=opts.keep)
+                      keep=opts.keep, separation_time=opts.separation_time, progress=progress,
+                      penalty=opts.contact_stiffness)
         res.info.update({"ccx": ccx, "build": rec.get("key")})
         if progress is not None:
             progress(float(res.t[-1]))

@@ -5,8 +5,10 @@
 !     The generated routines are renamed CFMU_<n>; the dispatch on the
 !     material name (after the ABAQUS prefix) is generated with them
 !     in place of the line CFM-DISPATCH. A material error of the UMAT
-!     (PNEWDT < 1, which ccx ignores) stops ccx with the line
-!     'CFM-UMAT-ERROR element point code' instead of a wrong result.
+!     (its PNEWDT < 1: J <= 0, overflow) is passed to ccx as PNEWDT =
+!     0.25 (ccx starts from -1) with the line 'CFM-UMAT-CUTBACK element
+!     point time': ccx rejects the iterate and cuts the increment back,
+!     or stops (fixed increments, minimum increment) with an error.
       subroutine umat(stress,statev,ddsdde,sse,spd,scd,
      &  rpl,ddsddt,drplde,drpldt,
      &  stran,dstran,time,dtime,temp,dtemp,predef,dpred,cmname,
@@ -21,12 +23,25 @@
      &  dtime,temp,dtemp,predef(*),dpred(*),props(*),coords(3),
      &  drot(3,3),pnewdt,celent,dfgrd0(3,3),dfgrd1(3,3)
       double precision sig(6),dd(6,6),f(3,3),fi(3,3),t(3,3),s(3,3),
-     &  c4(3,3,3,3),tau(3,3),xj,xj0,pnew,e1,e2,e3,e4,e5,e6,e7
+     &  c4(3,3,3,3),tau(3,3),xj,xj0,pnew,e1,e2,e3,e4,e5,e6,e7,dtl
+      logical first
       double precision cfmad_det
       integer ia(6),ja(6),iv(3,3),a,b,i,j,k,l,p,q,r,m,found
       data ia /1,2,3,1,1,2/
       data ja /1,2,3,2,3,3/
       data iv /1,4,5,4,2,6,5,6,3/
+!     *DYNAMIC's initial-acceleration call (total time -1, DTIME 1):
+!     ccx integrates C3D8R there at 8 points and hands in states and
+!     stresses it never initialised. The material starts undeformed
+!     and unloaded: zero state and stress in, no time passing (DTIME
+!     0), and the state left at zero for the first increment.
+      first = time(2) .lt. 0.0d0
+      dtl = dtime
+      if (first) then
+        statev(1:nstatv) = 0.0d0
+        stress = 0.0d0
+        dtl = 0.0d0
+      end if
 !     Cauchy stress at the start from ccx's PK2: sigma = F S F^T / J
       xj0 = cfmad_det(dfgrd0)
       do k = 1, 6
@@ -54,10 +69,16 @@
         stop 3
       end if
       if (pnew .lt. 1.0d0) then
-        write (*,'(a,i0,a,i0,a,g0)') ' CFM-UMAT-ERROR element ', noel,
+!       ccx 2.20 passes pnewdt = -1 and cuts the increment back when a
+!       material returns 0 < pnewdt < 1 (automatic increments; fixed
+!       ones stop with a divergence error). The iterate is rejected,
+!       so the stress and tangent are left as they came in.
+        write (*,'(a,i0,a,i0,a,g0)') ' CFM-UMAT-CUTBACK element ', noel,
      &    ' point ', npt, ' time ', time(2) + dtime
-        stop 3
+        if (pnewdt .le. 0.0d0 .or. pnewdt .gt. 0.25d0) pnewdt = 0.25d0
+        return
       end if
+      if (first) statev(1:nstatv) = 0.0d0
 !     PK2 at the end: S = J F^-1 sigma F^-T
       f = dfgrd1
       xj = cfmad_det(f)

@@ -40,6 +40,22 @@ ADAPTOR = Path(__file__).with_name("adaptor.f")
 #: C3D8R hourglass force of the stress-only call (resultsmech.f, hgforce) then reads an undefined
 #: elas(1) and the elements distort. The link stage compiles a copy that always returns it.
 UMAT_ABAQUS_PATCH = ("      if(icmd.ne.3) then", "      if(.true.) then")
+#: Version of the dispatch written by :func:`linked_source`; raise it when that template changes.
+LINK_VERSION = 2
+
+
+def link_digest() -> str:
+    """Digest of what the project links around the UMATs (adaptor, umat_abaqus.f patch, dispatch).
+
+    :func:`find` uses only builds with the current one, so that a changed adaptor is never run
+    from an older build (``cfm calculix build`` relinks in seconds).
+
+    Returns
+    -------
+    str
+        20 hex digits.
+    """
+    return digest({"adaptor": ADAPTOR.read_text(), "patch": UMAT_ABAQUS_PATCH, "link": LINK_VERSION})[:20]
 
 
 def tag(name: str) -> str:
@@ -165,7 +181,7 @@ def linked_source(mats, sources=None) -> tuple[str, dict]:
         dispatch += [f"      if (cmname(1:{len(t) + 1}) .eq. '{t} ') then",
                      "        found = 1",
                      f"        call cfmu_{n}(sig, statev, dd, e1, e2, e3, e4, ddsddt,",
-                     "     &    drplde, e5, stran, dstran, time, dtime, temp, dtemp, predef,",
+                     "     &    drplde, e5, stran, dstran, time, dtl, temp, dtemp, predef,",
                      "     &    dpred, cmname, ndi, nshr, ntens, nstatv, props, nprops,",
                      "     &    coords, drot, pnew, celent, dfgrd0, dfgrd1, noel, npt,",
                      "     &    layer, kspt, kstep(1), kinc)",
@@ -204,7 +220,8 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     mats = [make_material(name) for name in dict.fromkeys(materials)]
     sources = {m.spec.name: _umat_code(m) for m in mats}
     adaptor = ADAPTOR.read_text()
-    key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "cflags": CFLAGS,
+    key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "link": LINK_VERSION,
+                  "cflags": CFLAGS,
                   "fflags": FFLAGS,
                   "umats": {k: _code_only(v) for k, v in sources.items()}})[:20]
     out = cache_dir("calculix", key)
@@ -240,14 +257,15 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
               *LIBS], cwd=stage, log=log)
         shutil.move(str(stage / "ccx"), out / "ccx")
         shutil.rmtree(stage, ignore_errors=True)
-    record = {"ccx": str(out / "ccx"), "key": key, "version": VERSION, "materials": names,
+    record = {"ccx": str(out / "ccx"), "key": key, "version": VERSION, "materials": names, "link": link_digest(),
               "library_seconds": lib_seconds, "link_seconds": time.perf_counter() - t1 - lib_seconds}
     record_path.write_text(json.dumps(record, indent=2) + "\n")
     return {**record, "cached": False, "seconds": time.perf_counter() - t0}
 
 
 def find(material=None) -> dict | None:
-    """The newest cached build (holding ``material``'s current definition, when given), or None.
+    """The newest cached build with the current adaptor (:func:`link_digest`) and, when given,
+    ``material``'s current definition; or None.
 
     Parameters
     ----------
@@ -266,7 +284,7 @@ def find(material=None) -> dict | None:
             rec = json.loads(path.read_text())
         except (OSError, ValueError):
             continue
-        if not Path(rec.get("ccx", "")).exists():
+        if not Path(rec.get("ccx", "")).exists() or rec.get("link") != link_digest():
             continue
         if want is not None and rec["materials"].get(want[0], {}).get("definition") != want[1]:
             continue

@@ -107,28 +107,39 @@ def increments(model, max_increment: float) -> list[tuple[float, float]]:
     return steps
 
 
-def write_deck(model, path, max_increment: float = np.inf, native: bool = False) -> None:
+def write_deck(model, path, max_increment: float = np.inf, native: bool = False,
+               penalty: float | None = None) -> None:
     """Write the CalculiX input deck of ``model`` to ``path``.
 
     Parameters
     ----------
     model : Model
-        A prescribed-motion model (single element, relaxation); the drop test is not written yet.
+        A prescribed-motion model (single element, relaxation), or a drop test (written by
+        :func:`.drop.drop_deck_lines`, automatic increments up to ``max_increment``, 50 us when
+        infinite, to the model's end time).
     path : path-like
         The ``.inp`` file.
     max_increment : float
         Largest time increment (s).
     native : bool
         CalculiX's own neo-Hookean material instead of the UMAT (:func:`material_card`).
+    penalty : float, optional
+        Drop test: contact penalty stiffness (Pa/m); default :data:`.drop.PENALTY`.
 
     Raises
     ------
     InputError
-        The model has a rigid body (the drop test is not supported yet) or no prescribed motion.
+        The model has neither prescribed motion nor an impactor, or a drop test the deck cannot
+        write (:func:`.drop.drop_deck_lines`).
     """
     if model.sphere is not None or model.plane is not None:
-        raise InputError(f"calculix backend: the scene '{model.name}' has rigid bodies (the drop test); this "
-                         f"backend runs the prescribed-motion scenes (single-element, relaxation) so far.")
+        from .drop import DROP_INCREMENT, drop_deck_lines
+
+        dt = DROP_INCREMENT if not np.isfinite(max_increment) else float(max_increment)
+        with open(path, "w") as f:
+            f.write("\n".join(drop_deck_lines(model, dt, float(model.end_time), native=native,
+                                                penalty=penalty)) + "\n")
+        return
     if model.prescribed is None:
         raise InputError(f"calculix backend: the scene '{model.name}' has no prescribed motion.")
     dynamic = not model.meta.get("quasi_static") and model.density > 0.0

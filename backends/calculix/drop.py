@@ -8,18 +8,21 @@ node made ccx's impact rules cut every increment to the minimum); contact is fri
 lift-off (a fixed support raised the peak and added a 1 kHz ring), here a layer of hexahedra
 with every node fixed.
 
-Not wired into the backend yet (:func:`.deck.write_deck` refuses rigid bodies). Found so far:
-before the umat_abaqus.f patch of :mod:`.build`, C3D8R specimen elements distorted in the first
-50 us increment (the hourglass force read an undefined tangent); C3D8 ran but slowly (29
-increments of 50 us in 300 s on a loaded 2-core machine). With the patch, the first UMAT call
-at t = 0 (the initial accelerations of ``*INITIAL CONDITIONS, TYPE=VELOCITY``) gets an invalid
-deformation gradient or state (error 1 or 2, varying from build to build: uninitialised input
-on ccx's side). The same deck with the generated neo-Hookean UMAT (one state variable) runs,
-as does CalculiX's native NEO HOOKE, so the CFM's 25 state variables are the suspect (not
-zero at the start in this deck: try ``*INITIAL CONDITIONS, TYPE=SOLUTION``). With ``DIRECT``
-increments ccx's impact rules want a smaller increment and the native run stopped after 13
-increments (6 s each on the loaded machine): use ``*DYNAMIC`` with automatic increments.
-Kept as the starting point of the drop test in CalculiX.
+Found when it was wired in (with the CFM's 25 state variables):
+
+- ``*DYNAMIC`` first computes the initial accelerations with C3D8R integrated at 8 points
+  (``resultsmech.f``, ``intscheme = 1``), reading states and stresses ccx never initialised
+  there (the failures "at the first call", error 1 or 2 varying from build to build). The
+  adaptor (:file:`adaptor.f`) answers that call from the undeformed, unloaded state; the plate
+  is C3D8 (fully integrated, all its nodes fixed, so its element type changes nothing) so that
+  ccx's state array has room for 8 points per element and that call stays inside it.
+- The penalty: with 1e10 Pa/m (enough for a neo-Hookean specimen) the CFM's peak came out 4.8 %
+  low and its contact 4.3 % long against numba on the same mesh; 1e11 Pa/m (:data:`PENALTY`)
+  agrees to 0.03 % and 0.2 %, at about 30 % more increments.
+- Fixed increments (``DIRECT``) stop at the first increment ("solution seems to diverge"):
+  ccx's impact rules want a smaller one. Automatic increments (:data:`MIN_INCREMENT` up to the
+  largest increment, 50 us by default) run, and a UMAT error in a Newton iterate (J <= 0 far
+  from the solution) cuts the increment back through PNEWDT instead of stopping ccx.
 """
 
 from __future__ import annotations
@@ -32,10 +35,16 @@ from cfm_core.errors import InputError
 
 from .deck import _int_lines, material_card
 
-#: Penalty stiffness of the contact (Pa/m), ``PRESSURE-OVERCLOSURE=LINEAR`` (issue 22: about 1e10).
-PENALTY = 1e10
+#: Penalty stiffness of the contact (Pa/m), ``PRESSURE-OVERCLOSURE=LINEAR``. The hand-built
+#: neo-Hookean deck of issue 22 used about 1e10; with the CFM, whose force rises steeply near the
+#: peak, 1e10 Pa/m put the 8 mm peak 4.8 % below numba's (2 mm mesh) and 1e11 within 0.03 %.
+PENALTY = 1e11
 #: Thickness of the impactor cap and of the plate layer, relative to the element size (-).
 LAYER = 1.0
+#: Smallest automatic increment (s) before ccx gives up (then a NumericalError).
+MIN_INCREMENT = 1e-8
+#: Largest increment (s) of the drop test when none is given (issue 22: 50 us resolved the CFC 600 band).
+DROP_INCREMENT = 5e-5
 
 
 def _grid(n_x: int, extent: float) -> np.ndarray:
@@ -56,19 +65,22 @@ def _hex_block(coords_bottom, coords_top, n: int, first_node: int, first_elem: i
     return nodes, np.array(elems), ids
 
 
-def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> list[str]:
+def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
+                    penalty: float | None = None) -> list[str]:
     """Deck lines of a quarter (or full) drop-test model.
 
     Parameters
     ----------
     model : Model
-        A drop-test model (sphere and plane present, frictionless).
+        A drop-test model (a hemisphere impactor moving along z, a plane, frictionless).
     dt : float
-        Fixed time increment (s).
+        Largest (and first) time increment (s); ccx's automatic incrementation may cut it.
     end_time : float
         End of the step (s).
     native : bool
         CalculiX's own neo-Hookean material (:func:`.deck.material_card`).
+    penalty : float, optional
+        Contact penalty stiffness (Pa/m) of both contact pairs; default :data:`PENALTY`.
 
     Returns
     -------
@@ -79,12 +91,23 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     Raises
     ------
     InputError
-        Friction (only frictionless contact is written), or gravity.
+        Friction (only frictionless contact is written), gravity, several parts, or an impactor
+        other than the hemisphere moving along z.
     """
     if model.friction != 0.0 or model.gravity != 0.0:
         raise InputError(f"calculix backend: the drop test is written frictionless and without gravity; the scene "
                          f"has friction = {model.friction:g}, gravity = {model.gravity:g} m/s^2.")
     sph = model.sphere
+    if sph is None or model.plane is None:
+        raise InputError(f"calculix backend: the drop-test deck needs an impactor and a plate; scene '{model.name}' "
+                         f"lacks one.")
+    if getattr(sph, "shape", "hemisphere") != "hemisphere" or getattr(sph, "lateral", False):
+        raise InputError(f"calculix backend: the drop test is written for the hemisphere moving along z (the "
+                         f"paper's); scene '{model.name}' has impactor shape '{sph.shape}'"
+                         f"{' moving in x or y' if sph.lateral else ''}.")
+    if getattr(model, "multi_material", False):
+        raise InputError(f"calculix backend: one material per specimen so far; scene '{model.name}' has parts "
+                         f"{[p.name for p in model.part_list()]}.")
     x = model.nodes
     h = float(np.min(np.linalg.norm(x[model.hexes[:, 1]] - x[model.hexes[:, 0]], axis=1)))
     quarter = model.symmetry_factor > 1.0
@@ -121,9 +144,9 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     out += [f"{ref}, {c[0]:.14g}, {c[1]:.14g}, {c[2]:.14g}", f"{rot}, {c[0]:.14g}, {c[1]:.14g}, {c[2]:.14g}"]
     out.append("*ELEMENT, TYPE=C3D8R, ELSET=ESPEC")
     out += [f"{e + 1}, " + ", ".join(str(int(v) + 1) for v in hx) for e, hx in enumerate(model.hexes)]
-    out.append("*ELEMENT, TYPE=C3D8R, ELSET=ECAP")
+    out.append("*ELEMENT, TYPE=C3D8, ELSET=ECAP")  # rigid; its mass integrated exactly (2x2x2)
     out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(cap_ids, cap_elems)]
-    out.append("*ELEMENT, TYPE=C3D8R, ELSET=EPLATE")
+    out.append("*ELEMENT, TYPE=C3D8, ELSET=EPLATE")  # see the module docstring
     out += [f"{e}, " + ", ".join(str(int(v)) for v in hx) for e, hx in zip(plate_ids, plate_elems)]
     out.append("*NSET, NSET=NCAP")
     out += _int_lines(range(n_spec + 1, n_spec + 1 + len(cap_nodes)))
@@ -150,7 +173,7 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
             "*MATERIAL, NAME=PLATE", "*ELASTIC", "1e9, 0.3", "*DENSITY", "1000.",
             "*SOLID SECTION, ELSET=EPLATE, MATERIAL=PLATE",
             f"*RIGID BODY, ELSET=ECAP, REF NODE={ref}, ROT NODE={rot}"]
-    out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{PENALTY:.6g}, 0.1",
+    out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{PENALTY if penalty is None else penalty:.6g}, 0.1",
             "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "STOP, SCAP",
             "*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "SBOT, SPLATE"]
     out.append("*BOUNDARY")
@@ -158,18 +181,50 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False) -> 
     out += ["NPLATE, 1, 3", f"{ref}, 1, 2", f"{rot}, 1, 3"]
     out.append("*INITIAL CONDITIONS, TYPE=VELOCITY")
     out += ["NCAP, 3, " + f"{sph.velocity:.14g}", f"{ref}, 3, {sph.velocity:.14g}"]
+    if not (dt > 0.0 and end_time > 0.0):
+        raise InputError(f"calculix backend: increment and end time must be > 0 s; got {dt!r}, {end_time!r}.")
+    dt = min(dt, end_time)
     steps = int(math.ceil(end_time / dt - 1e-9))
-    out += [f"*STEP, NLGEOM, INC={steps + 10}", "*DYNAMIC, DIRECT", f"{end_time / steps:.14g}, {end_time:.14g}",
+    out += [f"*STEP, NLGEOM, INC={100 * steps + 1000}", "*DYNAMIC",
+            f"{dt:.14g}, {end_time:.14g}, {min(MIN_INCREMENT, dt):.14g}, {dt:.14g}",
             "*NODE PRINT, NSET=NREF", "U, V", "*CONTACT PRINT, SLAVE=STOP, MASTER=SCAP", "CF", "*END STEP"]
     return out
 
 
-def _cap_volume(nodes, elems) -> float:
-    """Volume (m^3) of the cap's hexahedra (each split into 6 tetrahedra)."""
-    tets = ((0, 1, 3, 4), (1, 2, 3, 6), (1, 3, 4, 6), (3, 4, 6, 7), (1, 4, 5, 6))
+def _cap_volume(nodes, elems, order: int = 2) -> float:
+    """Volume (m^3) of the cap's trilinear hexahedra: Gauss-Legendre (``order`` per direction) of det J.
+
+    det J of a trilinear map is of degree 2 in each reference coordinate, so 2 points per
+    direction integrate it exactly, as ccx does for the C3D8 cap's mass (2 x 2 x 2 points).
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates (m).
+    elems : ndarray, shape (e, 8)
+        Hexahedra (C3D8 node order), indices into ``nodes``.
+    order : int
+        Gauss points per direction (>= 2 is exact).
+
+    Returns
+    -------
+    float
+        The volume (m^3).
+    """
+    xg, wg = np.polynomial.legendre.leggauss(order)
+    sign = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
+    p = np.asarray(nodes, dtype=float)[np.asarray(elems)]  # (e, 8, 3)
     vol = 0.0
-    for hx in elems:
-        p = nodes[hx]
-        for a, b, cc, d in tets:
-            vol += abs(np.linalg.det(np.stack([p[b] - p[a], p[cc] - p[a], p[d] - p[a]]))) / 6.0
+    for a, wa in zip(xg, wg):
+        for b, wb in zip(xg, wg):
+            for c, wc in zip(xg, wg):
+                q = np.array([a, b, c])
+                # dN_k/dxi_j = s_kj / 8 * prod_{m != j} (1 + s_km q_m)
+                grad = np.empty((8, 3))
+                for j in range(3):
+                    others = [m for m in range(3) if m != j]
+                    grad[:, j] = sign[:, j] / 8.0 * np.prod(1.0 + sign[:, others] * q[others], axis=1)
+                jac = np.einsum("eki,kj->eij", p, grad)
+                vol += wa * wb * wc * float(np.abs(np.linalg.det(jac)).sum())
     return vol

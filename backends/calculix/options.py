@@ -17,10 +17,14 @@ class CalculixOptions(Options):
 
     threads: int = option(1, "-", "threads of ccx (OMP_NUM_THREADS, CCX_NPROC_EQUATION_SOLVER)", kind="int",
                           low=1, high=256)
-    max_increment: float = option(math.inf, "s", "largest time increment (fixed increments, DIRECT); the output "
-                                  "interval and 20 increments per prescribed segment bound it too", low=0.0,
-                                  low_open=True)
+    max_increment: float = option(math.inf, "s", "largest time increment: prescribed motion, fixed increments "
+                                  "(DIRECT) also bounded by the output interval and 20 per prescribed segment; drop "
+                                  "test, automatic increments up to it (inf: 50 us)", low=0.0, low_open=True)
     native: bool = option(False, "-", "CalculiX's own *HYPERELASTIC, NEO HOOKE instead of the generated UMAT "
                           "(neo-hookean material only)", kind="bool")
+    separation_time: float = option(2e-4, "s", "drop test: stop this long after the impactor left the specimen "
+                                    "(as the other backends)", low=0.0)
+    contact_stiffness: float = option(1e11, "Pa/m", "drop test: penalty stiffness of the impactor and plate "
+                                      "contact (PRESSURE-OVERCLOSURE=LINEAR)", low=0.0, low_open=True)
     keep: str = option(None, "-", "folder to run ccx in and keep (deck, .dat, .frd, .sta)", kind="str",
                        none="a temporary folder")

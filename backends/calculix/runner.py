@@ -18,6 +18,7 @@ from .deck import write_deck
 
 _TOTAL = re.compile(r"total force \(fx,fy,fz\) for set (\S+) and time\s+(\S+)\s*\n\s*\n\s*(\S+)\s+(\S+)\s+(\S+)")
 _UMAT_ERROR = re.compile(r"CFM-UMAT-ERROR (.*)")
+_UMAT_CUTBACK = re.compile(r"umat \S+: error .*")
 
 
 def read_totals(text: str, nset: str) -> tuple[np.ndarray, np.ndarray]:
@@ -47,7 +48,8 @@ def read_totals(text: str, nset: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, native: bool = False,
-            keep: str | None = None) -> Result:
+            keep: str | None = None, separation_time: float = 2e-4, progress=None,
+            penalty: float | None = None) -> Result:
     """Write the deck of ``model``, run ``ccx`` on it, return the histories as a :class:`Result`.
 
     Parameters
@@ -55,7 +57,7 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
     ccx : str
         Path of the ccx executable (the project's build).
     model : Model
-        A prescribed-motion model.
+        A prescribed-motion model, or a drop test (:mod:`.drop`, :mod:`.dropread`).
     threads : int
         ``OMP_NUM_THREADS`` / ``CCX_NPROC_EQUATION_SOLVER`` for ccx.
     max_increment : float
@@ -64,41 +66,63 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
         CalculiX's own neo-Hookean material instead of the UMAT.
     keep : str, optional
         A folder to run in and keep (deck, ``.dat``, ``.frd``, ``.sta``); default a temporary one.
+    separation_time : float
+        Drop test: stop this long (s) after the impactor left the specimen (as the other backends).
+    progress : callable, optional
+        Drop test: called with the simulated time (s) while ccx runs.
+    penalty : float, optional
+        Drop test: contact penalty stiffness (Pa/m); default :data:`.drop.PENALTY`.
 
     Returns
     -------
     Result
-        ``reaction_force`` (N, full model: times the symmetry factor) at the increments' ends,
-        with t = 0 prepended at zero force; ``info`` has ``deck_lines``, ``increments``.
+        Prescribed motion: ``reaction_force`` (N, full model: times the symmetry factor) at the
+        increments' ends, with t = 0 prepended at zero force. Drop test: see
+        :func:`.dropread.drop_result`. ``info`` has ``deck_lines``, ``increments``.
 
     Raises
     ------
     NumericalError
-        ccx stopped (a UMAT error, naming element, point and time; or no convergence).
+        ccx stopped (no convergence, the smallest increment reached; the UMAT's error lines,
+        naming element, point and time, are quoted).
     """
+    from .dropread import drop_result, watch_ccx
+
     t0 = time.perf_counter()
+    drop = model.sphere is not None
     with tempfile.TemporaryDirectory(prefix="cfm-ccx-") as tmp:
         work = Path(keep) if keep else Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         deck = work / "job.inp"
-        write_deck(model, deck, max_increment=max_increment, native=native)
+        write_deck(model, deck, max_increment=max_increment, native=native, penalty=penalty)
         env = {**os.environ, "OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads),
                "CCX_NPROC_RESULTS": str(threads)}
         t1 = time.perf_counter()
-        proc = subprocess.run([ccx, "-i", "job"], cwd=work, capture_output=True, text=True, env=env)
+        if drop:
+            code, log, dat, stopped = watch_ccx([ccx, "-i", "job"], work, env, model,
+                                                separation_time=separation_time, progress=progress)
+        else:
+            proc = subprocess.run([ccx, "-i", "job"], cwd=work, capture_output=True, text=True, env=env)
+            code, log, stopped = proc.returncode, proc.stdout + proc.stderr, False
+            (work / "ccx.log").write_text(log)
+            dat = (work / "job.dat").read_text() if (work / "job.dat").exists() else ""
         wall = time.perf_counter() - t1
-        log = proc.stdout + proc.stderr
-        (work / "ccx.log").write_text(log)
-        dat = (work / "job.dat").read_text() if (work / "job.dat").exists() else ""
         err = _UMAT_ERROR.search(log)
         if err:
             raise NumericalError(f"calculix backend: the generated UMAT stopped ccx: {err.group(1)} (model "
                                  f"'{model.name}').", quantity="umat")
-        if proc.returncode != 0 or "*ERROR" in log:
+        if not stopped and (code != 0 or "*ERROR" in log):
             msg = "\n".join(ln for ln in log.splitlines() if "ERROR" in ln)[:1500] or log[-1500:]
-            raise NumericalError(f"calculix backend: ccx failed (exit {proc.returncode}) on model '{model.name}':\n"
+            umat = _UMAT_CUTBACK.findall(log)
+            if umat:
+                msg += f"\nthe UMAT refused {len(umat)} iterate(s), the last: {umat[-1].strip()}"
+            raise NumericalError(f"calculix backend: ccx failed (exit {code}) on model '{model.name}':\n"
                                  f"{msg}", quantity="ccx")
         n_lines = len(deck.read_text().splitlines())
+    if drop:
+        info = {"solver": "CalculiX ccx 2.20", "element": "C3D8R", "deck_lines": n_lines, "threads": threads,
+                "setup_time": t1 - t0, "umat_cutbacks": len(_UMAT_CUTBACK.findall(log))}
+        return drop_result(model, dat, wall=wall, separation_time=separation_time, info=info)
     t, force = read_totals(dat, "NPRESC")
     if t.size == 0:
         raise NumericalError(f"calculix backend: ccx printed no reaction force for model '{model.name}'.",

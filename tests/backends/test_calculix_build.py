@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from cfm_backends.calculix.build import find, linked_source, tag
+from cfm_backends.calculix.build import find, link_digest, linked_source, tag
 from cfm_core.errors import InputError
 from cfm_core.material import make_material
 from cfm_core.material.cache import spec_fingerprint
@@ -22,7 +22,7 @@ def _fake_build(root, material, definition):
     folder = root / "calculix" / "k1"
     folder.mkdir(parents=True)
     (folder / "ccx").write_text("")
-    rec = {"ccx": str(folder / "ccx"), "key": "k1", "version": "2.20",
+    rec = {"ccx": str(folder / "ccx"), "key": "k1", "version": "2.20", "link": link_digest(),
            "materials": {material: {"tag": tag(material), "definition": definition}}}
     (folder / "build.json").write_text(json.dumps(rec))
     return rec
@@ -43,6 +43,17 @@ def test_find_returns_the_build_with_the_material(tmp_path, monkeypatch):
     cfm = make_material("cfm")
     rec = _fake_build(tmp_path, "cfm", spec_fingerprint(cfm.spec))
     assert find(cfm)["ccx"] == rec["ccx"]
+
+
+def test_find_skips_a_build_linked_with_another_adaptor(tmp_path, monkeypatch):
+    monkeypatch.setenv("CFM_CACHE_DIR", str(tmp_path))
+    cfm = make_material("cfm")
+    rec = _fake_build(tmp_path, "cfm", spec_fingerprint(cfm.spec))
+    path = tmp_path / "calculix" / "k1" / "build.json"
+    path.write_text(json.dumps({**rec, "link": "an-older-adaptor"}))
+    assert find(cfm) is None and find() is None
+    path.write_text(json.dumps({k: v for k, v in rec.items() if k != "link"}))  # builds from before the field
+    assert find(cfm) is None
 
 
 def test_without_a_build_the_user_is_told_how_to_get_it(tmp_path, monkeypatch):

@@ -87,10 +87,11 @@ def test_native_refuses_other_materials(ccx):
         ccx.run(m, native=True)
 
 
-def test_drop_test_refused_clearly():
-    """The drop test is not run in CalculiX yet: an InputError naming the scene, before any ccx run."""
+def test_drop_test_deck_is_written(tmp_path):
+    """The drop test goes through the same deck writer (tests/backends/test_calculix_drop.py checks it)."""
     from cfm_backends.calculix.deck import write_deck
 
     m = build_model(builtin_scene("drop-test").with_overrides(element_size=0.002))
-    with pytest.raises(InputError, match="rigid bodies"):
-        write_deck(m, "unused.inp")
+    write_deck(m, tmp_path / "job.inp")
+    text = (tmp_path / "job.inp").read_text()
+    assert "*RIGID BODY" in text and "*DYNAMIC\n5e-05," in text
