@@ -51,7 +51,7 @@ class NumbaExplicitBackend(Backend):
     name = "numba"
     kind = "explicit"
     description = ("explicit total Lagrangian hex8 (one-point, viscous hourglass), kinematic contact "
-                   "with rigid sphere and plane, numba on the CPU")
+                   "with a rigid impactor (hemisphere, sphere, flat, plane) and plane, parts, numba on the CPU")
     needs_tangent = False
     devices = ("cpu",)
     dtypes = ("float64",)

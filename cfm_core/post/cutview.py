@@ -98,7 +98,7 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
         element crossed by the plane.
     """
     import meshio
-    from matplotlib.collections import PolyCollection
+    from matplotlib.collections import LineCollection, PolyCollection
 
     from .plots import _figure, _save
 
@@ -115,7 +115,11 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     value, name = _cell_value(mesh, field)
     hexes = mesh.cells_dict["hexahedron"]
     x = mesh.points
-    y = x[hexes][:, :, 1]
+    # the material section: the elements the plane crossed in the reference configuration (X = x - u),
+    # drawn deformed; a section taken on the deformed y would lose elements that moved across it
+    disp = next((a for k_, a in mesh.point_data.items() if k_.startswith("displacement")), None)
+    ref = x - disp if disp is not None else x
+    y = ref[hexes][:, :, 1]
     cut = (y.min(axis=1) <= y_cut + 1e-12) & (y.max(axis=1) >= y_cut - 1e-12)
     if (cut & (y.mean(axis=1) >= y_cut)).any():  # a plane on element faces: the layer on its +y side
         cut &= y.mean(axis=1) >= y_cut
@@ -124,7 +128,7 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     faces = []
     for e in np.flatnonzero(cut):
         corners = x[hexes[e]]
-        near = np.argsort(np.abs(corners[:, 1] - y_cut))[:4]
+        near = np.argsort(np.abs(ref[hexes[e]][:, 1] - y_cut))[:4]
         quad = corners[near][:, [0, 2]]
         c = quad.mean(axis=0)
         quad = quad[np.argsort(np.arctan2(quad[:, 1] - c[1], quad[:, 0] - c[0]))]
@@ -142,9 +146,13 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     pc = PolyCollection(faces, array=v * scale, cmap="viridis", edgecolors="face", linewidths=0.2)
     ax.add_collection(pc)
     if imp_file is not None:
-        xs, zs = _outline(meshio.read(imp_file).points, y_cut, quarter, notes.get("impactor_shape"))
-        if len(xs):
-            ax.plot(xs * 1e3, zs * 1e3, color="0.3", lw=1.0, label="impactor")
+        imp = meshio.read(imp_file)
+        tri = imp.cells_dict.get("triangle", np.zeros((0, 3), dtype=np.int64))
+        seg = section(imp.points, tri, y_cut)
+        if quarter and len(seg):                 # the clipped quarter surface, mirrored about x = 0
+            seg = np.concatenate([seg, seg * np.array([-1.0, 1.0])])
+        if len(seg):
+            ax.add_collection(LineCollection(seg * 1e3, colors="0.3", linewidths=1.0, label="impactor"))
     pts = np.concatenate(faces)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     pad = 0.05 * (hi[0] - lo[0])
@@ -161,24 +169,43 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     return {"t": t, "file": spec_file.name, "min": float(np.nanmin(v)), "max": float(np.nanmax(v)), "unit": unit}
 
 
-def _outline(points, y_cut: float, quarter: bool, shape) -> tuple[np.ndarray, np.ndarray]:
-    """x, z (m) of the impactor surface's section with the plane y = y_cut, as one polyline.
+def section(points, triangles, y_cut: float) -> np.ndarray:
+    """The section of a triangulated surface with the plane y = y_cut, as line segments.
 
-    The surfaces of :mod:`cfm_core.post.impactor_mesh` list their vertices meridian by meridian,
-    so the vertices on the plane come in meridian order on each side of the axis; a quarter
-    surface is mirrored about its axis. A plane's patch is drawn as the line at its height.
+    Every triangle with vertices on both sides of the plane gives the segment between the two
+    points where its edges cross it (linear interpolation along the edge); this draws the exact
+    section of the triangulation for any impactor shape, position and cut. The plane is moved by
+    a round-off margin into +y, so that a surface clipped at the plane (a quarter model's) is cut
+    just inside its edge.
+
+    Parameters
+    ----------
+    points : ndarray, shape (p, 3)
+        Surface vertices (m).
+    triangles : ndarray, shape (t, 3)
+        Vertex indices of each triangle.
+    y_cut : float
+        The plane (m).
+
+    Returns
+    -------
+    ndarray, shape (s, 2, 2)
+        Segments, each two (x, z) points (m); empty when the plane misses the surface.
     """
-    tol = 1e-9 + 1e-6 * float(np.ptp(points))
-    ring = points[np.abs(points[:, 1] - y_cut) <= tol]
-    if shape == "plane" or not len(ring):
-        if shape == "plane" and len(points):
-            return np.array([points[:, 0].min(), points[:, 0].max()]), np.full(2, points[0, 2])
-        return np.zeros(0), np.zeros(0)
-    axis = float(points[:, 0].min()) if quarter else 0.5 * float(points[:, 0].min() + points[:, 0].max())
-    right, left = ring[ring[:, 0] >= axis], ring[ring[:, 0] < axis]
-    if quarter:
-        left = right[right[:, 0] > axis] * np.array([-1.0, 1.0, 1.0]) + np.array([2.0 * axis, 0.0, 0.0])
-    line = np.concatenate([left[::-1], right])
-    if shape == "sphere":
-        line = np.concatenate([line, line[:1]])
-    return line[:, 0], line[:, 2]
+    points = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if not len(tri):
+        return np.zeros((0, 2, 2))
+    eps = 1e-9 * (1.0 + float(np.ptp(points))) if len(points) else 0.0
+    d = points[:, 1] - (y_cut + eps)
+    out = []
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):   # the vertex alone on its side, the other two
+        i, j, k = tri[:, a], tri[:, b], tri[:, c]
+        lone = (np.sign(d[i]) != np.sign(d[j])) & (np.sign(d[j]) == np.sign(d[k])) & (d[j] != 0.0)
+        if not lone.any():
+            continue
+        i, j, k = i[lone], j[lone], k[lone]
+        p1 = points[i] + (d[i] / (d[i] - d[j]))[:, None] * (points[j] - points[i])
+        p2 = points[i] + (d[i] / (d[i] - d[k]))[:, None] * (points[k] - points[i])
+        out.append(np.stack([p1[:, [0, 2]], p2[:, [0, 2]]], axis=1))
+    return np.concatenate(out) if out else np.zeros((0, 2, 2))

@@ -55,5 +55,6 @@ def describe_model(model) -> str:
     text = ", ".join(f"{p.name} ({p.material.name}, {float(p.density):g} kg/m^3, {len(p.elements)} elements)"
                      for p in parts)
     imp = f"; {model.sphere.shape} impactor" if model.sphere is not None else ""
-    return f"model: {sym} symmetry{planes.get(sym, '')}, {len(parts)} part{'s' if len(parts) > 1 else ''}: {text}{imp}"
+    word = "no" if sym == "none" else sym
+    return f"model: {word} symmetry{planes.get(sym, '')}, {len(parts)} part{'s' if len(parts) > 1 else ''}: {text}{imp}"
 

@@ -204,7 +204,8 @@ def resolve_symmetry(specimen, impactor: Impactor, requested: str) -> tuple[str,
                              f"{' and '.join(breaks[mesh_sym])}, so the impact is not symmetric about its symmetry "
                              f"plane(s). Give a full mesh centred at x = y = 0 with symmetry = 'none', or a centred, "
                              f"vertical impact.")
-        return mesh_sym, f"the mesh '{_file_name(specimen.mesh)}' is a {mesh_sym} model"
+        kind = "a whole-specimen (no symmetry)" if mesh_sym == "none" else f"a {mesh_sym}"
+        return mesh_sym, f"the mesh '{_file_name(specimen.mesh)}' is {kind} model"
     if requested in ("quarter", "half"):
         if breaks[requested]:
             plane = "planes x = 0 and y = 0" if requested == "quarter" else "plane y = 0"
