@@ -43,7 +43,7 @@ templates_path = ["_templates"]
 exclude_patterns = [
     "_build", "examples/*", "auto_examples/*.ipynb", "auto_examples/*.py",
     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5",
-    "paper/*.md", "septa/*.md", "skfem/*.md", "skfem/*-*mm/*",
+    "paper/*.md", "scenes/*.md", "septa/*.md", "skfem/*.md", "skfem/*-*mm/*",
 ]
 
 # MyST: $...$ math, ::: fences, headings get anchors for cross-page links (docs/user/*.md#...)
