@@ -102,3 +102,13 @@ def test_auto_is_written_as_asked(tmp_path):
 def test_specimen_alone_keeps_the_request():
     sp = Specimen()
     assert sp.symmetry == "auto" and sp.requested_symmetry == "auto" and sp.grid == (25, 25, 8)
+
+
+def test_a_rim_the_mesh_does_not_resolve_is_warned_about():
+    from cfm_core.scene.plausible import check_plausible
+
+    flat = builtin_scene("flat-impactor")
+    assert check_plausible(flat) == []                       # 3 mm rim on 1 mm elements
+    (w,) = check_plausible(flat.with_overrides(edge_radius=0.001))
+    assert "edge_radius = 0.001 m" in w and "2 element sizes" in w
+    assert check_plausible(builtin_scene("drop-test")) == []  # the hemisphere has no rim
