@@ -48,6 +48,12 @@ TOLERANCES = {
                           "hourglass control vs 2x2x2 mean dilatation) agree to their discretisation error (measured "
                           "rel L2 <= 6e-3, peak <= 3e-3 on the quick drop test)."),
     "implicit-implicit": (2e-2, 1e-2, 1e-4, 2e-4, "independent implicit discretisations agree to discretisation error."),
+    "explicit-implicit, beyond the paper": (
+        6e-2, 3e-2, 2e-4, 5e-4,
+        "the scenes beyond the paper's drop test (parts, a flat impactor): issue 21's 3 % on the filtered peak "
+        "between implicit and explicit on the same mesh; a flat face meets the whole top surface at once, an "
+        "impulsive load whose ringing the explicit central differences carry and generalized-alpha damps "
+        "(measured on the 2 mm flat impactor: rel L2 5.2e-2, peak 1.3e-2; layered tissue: peak 1.6e-2)."),
     "quasistatic-explicit": (1e-2, 5e-3, 0.0, 0.0,
                              "a 1 mm cube loaded over 5 ms is quasi-static (wave transit ~40 us) and homogeneous, so the "
                              "element's force equals the uniaxial-stress solution up to the dynamic start-up ringing "
@@ -271,12 +277,17 @@ def scene_agreement(label: str, scene, run_rows, cache, budget: Budget | None = 
         else:
             rows.append(energy_row(label, name, r))
     drop = scene.type == "drop-test"
+    beyond = drop and (scene.impactor.shape not in ("hemisphere", "sphere") or bool(scene.specimen.layers)
+                       or bool(getattr(scene, "parts", None)))
     for a, b in itertools.combinations(sorted(runs), 2):
         ra, rb = runs[a], runs[b]
         if not (ra["ok"] and rb["ok"]):
             continue
         m = compare_union(rb["t"], rb["y"], ra["t"], ra["y"], fill=0.0 if drop else None)
-        r = row(label, label, a, b, pair_kind(kinds[a], kinds[b]), m, signal="acceleration" if drop else "")
+        kind = pair_kind(kinds[a], kinds[b])
+        if beyond and kind == "explicit-implicit":
+            kind = "explicit-implicit, beyond the paper"
+        r = row(label, label, a, b, kind, m, signal="acceleration" if drop else "")
         extent, text = shared("scene", a, b)
         r["shared"] = text
         if extent == "all":

@@ -153,3 +153,26 @@ def test_stored_paper_results_need_a_stamp_and_a_reproduction(tmp_path):
     assert check["passed"] and rows
     check, rows = stored_check("numba", _Cache({**row, "peak_g": 56.8 * 1.002}), path)
     assert check["passed"] is False and "not reproduced" in check["reason"] and "peak_g" in check["reason"]
+
+
+def test_scenes_beyond_the_paper_are_judged_by_issue_21s_implicit_explicit_limit():
+    """The flat impactor's explicit-implicit pair: 3 % on the peak (issue 21), not the paper's
+    drop test's 1 %; the paper's drop test keeps its own limit."""
+    import numpy as np
+
+    from cfm_core.scene.scene import builtin_scene
+    from cfm_verification import agreement
+
+    t = np.linspace(0.0, 0.01, 501)
+    pulse = np.sin(np.pi * t / 0.01)
+
+    class Cache:
+        def run(self, scene, name):  # skfem 2 % below numba: within 3 %, beyond 1 %
+            y = pulse * (0.98 if name == "skfem" else 1.0)
+            return {"ok": True, "t": t, "y": y, "energy_error": 0.0, "message": "", "total": 0.0}
+
+    backends = [{"name": "numba", "kind": "explicit"}, {"name": "skfem", "kind": "implicit"}]
+    for scene, passed in ((builtin_scene("flat-impactor"), True), (builtin_scene("drop-test"), False)):
+        rows, _ = agreement.scene_agreement("x", scene, backends, Cache())
+        (pair,) = [r for r in rows if r.get("pair") not in ("energy",) and r["a"] != r["b"]]
+        assert pair["passed"] is passed, pair
