@@ -197,7 +197,8 @@ class Budget:
         self.seconds = float(seconds)
         self.spent: dict[str, float] = {}
         self.last: dict[str, tuple] = {}
-        self._counted: set[int] = set()
+        # the runs counted, by id; held here so that a run's id cannot be reused by a later one
+        self._counted: dict[int, dict] = {}
         self._sizes: dict[str, tuple] = {}
 
     def _size(self, scene):
@@ -231,7 +232,7 @@ class Budget:
     def record(self, backend: str, scene, run: dict) -> None:
         if id(run) in self._counted:  # a cached run shared by two checks costs once
             return
-        self._counted.add(id(run))
+        self._counted[id(run)] = run
         self.spent[backend] = self.spent.get(backend, 0.0) + float(run["total"])
         size = self._size(scene)
         if size is not None and run["ok"]:

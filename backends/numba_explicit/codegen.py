@@ -245,16 +245,14 @@ def _parts_function(n_materials: int) -> str:
 
 def distinct(material) -> tuple[tuple, list[int]]:
     """The distinct materials of ``material`` (one, or a tuple with one per part; materials with
-    the same name and numba source share compiled code, whatever their parameters) in order of
-    first appearance, and the index among them of each part's material."""
-    uniq, keys, index = [], [], []
+    the same name and numba source share compiled code, whatever their parameters) in a canonical
+    order (by name, then source: models whose parts use the same materials in another order share
+    one compiled module), and the index among them of each part's material."""
+    first = {}
     for m in _materials(material):
-        key = (m.name, m.numba_source())
-        if key not in keys:
-            uniq.append(m)
-            keys.append(key)
-        index.append(keys.index(key))
-    return tuple(uniq), index
+        first.setdefault((m.name, m.numba_source()), m)
+    keys = sorted(first)
+    return tuple(first[k] for k in keys), [keys.index((m.name, m.numba_source())) for m in _materials(material)]
 
 
 def module_source(material) -> str:
