@@ -201,19 +201,6 @@ def test_watch_stops_a_run_once_separated(model, tmp_path):
     assert np.all(r.contact_force[1:11] > 0) and np.all(r.contact_force[11:] == 0)
 
 
-@pytest.fixture(scope="module")
-def ccx():
-    from cfm_core.simulation.registry import get_backend
-
-    b = get_backend("calculix")
-    ok, why = b.available()
-    if not ok:
-        if os.environ.get("CFM_REQUIRE_CALCULIX") == "1":
-            pytest.fail(f"{why}; CFM_REQUIRE_CALCULIX=1 requires it")
-        pytest.skip(why)
-    return b
-
-
 @pytest.mark.slow
 def test_cfm_drop_test_agrees_with_numba_on_the_same_mesh(ccx):
     """Issue 22: peak within 3 % and contact duration within 5 % of numba, 8 mm, 2 mm quarter mesh (25 min).

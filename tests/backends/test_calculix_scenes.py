@@ -6,7 +6,6 @@ uniaxial material-point driver (its own lateral solution) and the skfem backend;
 ``*HYPERELASTIC, NEO HOOKE`` against the generated neo-Hookean UMAT.
 """
 
-import os
 
 import numpy as np
 import pytest
@@ -16,17 +15,6 @@ from cfm_core.scene.builder import build_model
 from cfm_core.scene.scene import builtin_scene
 from cfm_core.simulation.point import uniaxial
 from cfm_core.simulation.registry import get_backend
-
-
-@pytest.fixture(scope="module")
-def ccx():
-    b = get_backend("calculix")
-    ok, why = b.available()
-    if not ok:
-        if os.environ.get("CFM_REQUIRE_CALCULIX") == "1":
-            pytest.fail(f"{why}; CFM_REQUIRE_CALCULIX=1 requires it")
-        pytest.skip(why)
-    return b
 
 
 def _rel(a, b):
