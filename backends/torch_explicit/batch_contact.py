@@ -133,6 +133,27 @@ def sphere_contact(u, v, dvc, sp: BatchSphere, cx: float, cy: float, Z, V, R: fl
     return dZ, dV, pen, checks, unconverged
 
 
+def coulomb(u, v, dvc, sp, inside, q, rel, n, mu, dt):
+    """Coulomb stick / slip of the touching nodes (the one formula of the batch contacts).
+
+    The tangential part t of each node's velocity relative to the impactor ``rel`` (3, B, s)
+    (m/s), with the components of fixed dofs removed, is removed (stick) when that takes an impulse
+    of at most mu times the normal impulse ``q`` (B, s) (kg m), else reduced by it (slip); ``n``
+    (3, B, s) is the impactor's outward normal, ``inside`` (B, s) the candidates. Corrects v, u
+    (by dv dt) and dvc in place; returns the velocity change removed, dvt (3, B, s) (m/s).
+    """
+    rn = (rel * n).sum(0)
+    t = (rel - rn * n) * sp.free
+    tn = torch.sqrt((t * t).sum(0))
+    ok = inside & (q > 0.0) & (tn != 0.0)
+    fac = torch.clamp(mu * (q / dt[:, None]) / (sp.mass * torch.where(ok, tn, 1.0)), max=1.0)
+    dvt = torch.where(ok, fac * t, 0.0)
+    v.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
+    u.index_add_(1, sp.nodes, (-dvt * dt[:, None]).reshape(3, -1))
+    dvc.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
+    return dvt
+
+
 def _friction(u, v, dvc, sp, c: _Cand, q, cx, cy, Z, V, dZ, dV, M, mu, dt):
     """Coulomb stick / slip of the touching nodes relative to each run's sphere; (dZ, dV) (B,)."""
     B, s = sp.mass.shape
@@ -141,14 +162,6 @@ def _friction(u, v, dvc, sp, c: _Cand, q, cx, cy, Z, V, dZ, dV, M, mu, dt):
     P = torch.stack([xs[0] - cx, xs[1] - cy, xs[2] - (Z + dZ)[:, None]])
     n = P / torch.sqrt((P * P).sum(0))
     r = torch.stack([vs[0], vs[1], vs[2] - (V + dV)[:, None]])
-    rn = (r * n).sum(0)
-    t = (r - rn * n) * sp.free
-    tn = torch.sqrt((t * t).sum(0))
-    ok = c.inside & (q > 0.0) & (tn != 0.0)
-    fac = torch.clamp(mu * (q / dt[:, None]) / (sp.mass * torch.where(ok, tn, 1.0)), max=1.0)
-    dvt = torch.where(ok, fac * t, 0.0)
-    v.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
-    u.index_add_(1, sp.nodes, (-dvt * dt[:, None]).reshape(3, -1))
-    dvc.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
+    dvt = coulomb(u, v, dvc, sp, c.inside, q, r, n, mu, dt)
     mz = (sp.mass * dvt[2]).sum(1)
     return dZ + mz * dt / M, dV + mz / M

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import torch
 
-from .batch_contact import BatchSphere, _gather
+from .batch_contact import BatchSphere, _gather, coulomb
 from .impactor import gap, land
 
 ITERATIONS = 16        # Newton iterations of the sync-free step
@@ -160,14 +160,6 @@ def _friction(u, v, dvc, sp, c: _Cand, q, C, V, dC, dV, M, mu, dt):
     _, n = gap(c.shape, c.R, c.r, _gather(u, sp) - (C + dC)[:, :, None])
     vs = v.index_select(1, sp.nodes).view(3, B, s)
     rel = vs - (V + dV)[:, :, None]
-    rn = (rel * n).sum(0)
-    t = (rel - rn * n) * sp.free
-    tn = torch.sqrt((t * t).sum(0))
-    ok = c.inside & (q > 0.0) & (tn != 0.0)
-    fac = torch.clamp(mu * (q / dt[:, None]) / (sp.mass * torch.where(ok, tn, 1.0)), max=1.0)
-    dvt = torch.where(ok, fac * t, 0.0)
-    v.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
-    u.index_add_(1, sp.nodes, (-dvt * dt[:, None]).reshape(3, -1))
-    dvc.index_add_(1, sp.nodes, -dvt.reshape(3, -1))
+    dvt = coulomb(u, v, dvc, sp, c.inside, q, rel, n, mu, dt)
     mt = (sp.mass * dvt).sum(2) * c.fmask
     return dC + mt * dt / M, dV + mt / M
