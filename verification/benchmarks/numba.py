@@ -73,22 +73,14 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
     (:data:`STAGES`); the rest of a step is the serial part (contact, step minimum, history row,
     chunk loop).
     """
-    import numba
     import numpy as np
 
-    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_backends.numba_explicit import solver
     from cfm_backends.numba_explicit.kernels import layout as K
-    from cfm_backends.numba_explicit.options import NumbaOptions
 
-    old = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        mod = codegen.load(model.material)
-        solver.warm_up(mod, model.material)
-        prep = solver.prepare(model, NumbaOptions())
-        hist = np.zeros((64, K.H_N))
-        while prep.sc[K.S_T] < t_state:
-            solver.advance(mod, prep, hist, t_state)
+    from .scale import one_thread_run
+
+    with one_thread_run(model, t_state, rows=64) as (mod, prep, _hist):
         ne = model.n_elements
         conn, slot, chunks, mass, free, pmask, hptr, hrow = prep.geo
         p, gam, tau = prep.mat
@@ -121,8 +113,6 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         out.update(_stages(mod, x, v, conn, slot, ed.copy(), eh.copy(), fb.copy(), p, decay, gain,
                            prep.par[K.P_GINF], prep.par[K.P_RHO], prep.par[K.P_HG], cpu))
         return out
-    finally:
-        numba.set_num_threads(old)
 
 
 STAGES = ("kinematics", "eigen", "eigen_fallback", "material", "stress", "prony", "forces", "corners_scatter")

@@ -24,6 +24,7 @@ machine are not meaningful: compare rows of one run, not runs of different days)
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import subprocess
@@ -65,8 +66,11 @@ def memory_per_element(prep, ne: int) -> float:
     return total / ne
 
 
-def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0.4, deform=None) -> dict:
-    """ns per element-cycle (CPU time, one thread) of the compiled loop after t_state (s)."""
+@contextlib.contextmanager
+def one_thread_run(model, t_state: float | None, deform=None, rows: int = 4096):
+    """The compiled module, a prepared run of ``model`` advanced to ``t_state`` (s) and a history
+    buffer of ``rows`` rows, on one numba thread (the caller's count restored afterwards).
+    ``deform(prep)`` may change the prepared state before the advance."""
     import numba
 
     from cfm_backends.numba_explicit import codegen, solver
@@ -81,10 +85,21 @@ def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0
         prep = solver.prepare(model, NumbaOptions())
         if deform is not None:
             deform(prep)
-        hist = np.zeros((4096, K.H_N))
+        hist = np.zeros((rows, K.H_N))
         if t_state:
             while prep.sc[K.S_T] < t_state:
                 solver.advance(mod, prep, hist, t_state)
+        yield mod, prep, hist
+    finally:
+        numba.set_num_threads(old)
+
+
+def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0.4, deform=None) -> dict:
+    """ns per element-cycle (CPU time, one thread) of the compiled loop after t_state (s)."""
+    from cfm_backends.numba_explicit import solver
+    from cfm_backends.numba_explicit.kernels import layout as K
+
+    with one_thread_run(model, t_state, deform) as (mod, prep, hist):
         ne = model.n_elements
         steps = 1
         best = math.inf
@@ -99,8 +114,6 @@ def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0
             best = min(best, dt / n / ne * 1e9)
             steps = int(max(1, min(4000, budget / max(dt / n, 1e-9))))
         return {"ns": best, "bytes": memory_per_element(prep, ne), "ne": ne}
-    finally:
-        numba.set_num_threads(old)
 
 
 def prestrain(model):
