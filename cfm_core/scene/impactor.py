@@ -88,6 +88,43 @@ def gap(shape: str, radius: float, edge_radius: float, center, points) -> tuple[
     raise ValueError(f"unknown impactor shape {shape!r}")
 
 
+def bounds(shape: str, radius: float, center) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned box holding every point of an impactor where :func:`gap` can be negative.
+
+    Parameters
+    ----------
+    shape : str
+        ``"hemisphere"``, ``"sphere"``, ``"flat"`` or ``"plane"``.
+    radius : float
+        Radius (m); a flat impactor's rim lies inside it.
+    center : array_like, shape (3,)
+        Current reference point (m).
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (3,)
+        Corners of the box (m); +-inf where the shape is unbounded (the flat punch and the plane
+        upwards, the plane sideways). A point outside the box has g >= 0.
+
+    Raises
+    ------
+    ValueError
+        Unknown shape.
+    """
+    c = np.asarray(center, dtype=np.float64).reshape(3)
+    r = float(radius)
+    inf = np.inf
+    if shape == "sphere":
+        return c - r, c + r
+    if shape == "hemisphere":
+        return c - r, np.array([c[0] + r, c[1] + r, c[2]])
+    if shape == "flat":
+        return np.array([c[0] - r, c[1] - r, c[2]]), np.array([c[0] + r, c[1] + r, inf])
+    if shape == "plane":
+        return np.array([-inf, -inf, c[2]]), np.array([inf, inf, inf])
+    raise ValueError(f"unknown impactor shape {shape!r}")
+
+
 def impactor_gap(impactor, position, points) -> tuple[np.ndarray, np.ndarray]:
     """:func:`gap` of a :class:`cfm_core.scene.model.RigidSphere` at the current reference point
     ``position`` (m, shape (3,)); see :func:`gap` for the returns."""

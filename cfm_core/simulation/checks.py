@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.impactor import impactor_gap
+from ..scene.impactor import bounds, impactor_gap
 from ..errors import NumericalError
 from ..scene.mesh import HEX_REFERENCE
 
@@ -252,6 +252,7 @@ class Monitor:
         self.planes = symmetry_planes(model)
         self.hexes = np.asarray(model.hexes, dtype=np.int64)
         self.ref_det = _numpy_corner_volumes(model.nodes, self.hexes)
+        self._ratio = np.empty_like(self.ref_det)
         self.interval = float(model.end_time) / max(int(checks), 1)
         if float(model.output_interval) > 0.0:
             self.interval = min(self.interval, OUTPUTS_PER_CHECK * float(model.output_interval))
@@ -328,12 +329,15 @@ class Monitor:
         sph = m.sphere
         if sph is not None and impactor_z is not None:
             c = impactor_position(sph, impactor_z)
-            depth = -impactor_gap(sph, c, x)[0]
-            i = int(np.argmax(depth))
-            self.worst["sphere"] = max(self.worst["sphere"], float(depth[i]))
-            if depth[i] > tol:
+            lo, hi = bounds(sph.shape, sph.radius, c)
+            near = np.flatnonzero(((x > lo - tol) & (x < hi + tol)).all(axis=1))  # the rest have gap >= 0
+            depth = -impactor_gap(sph, c, x[near])[0] if near.size else np.zeros(1)
+            k = int(np.argmax(depth))
+            i = int(near[k]) if near.size else 0
+            self.worst["sphere"] = max(self.worst["sphere"], float(depth[k]))
+            if depth[k] > tol:
                 size = f"radius {sph.radius:g} m" if sph.shape != "plane" else "a plane"
-                raise self._error(t, f"node {i} is {_mm(depth[i])} inside the rigid impactor ({sph.shape}, {size}, "
+                raise self._error(t, f"node {i} is {_mm(depth[k])} inside the rigid impactor ({sph.shape}, {size}, "
                                      f"reference point {_pos(c)}; node now at {_pos(x[i])})",
                                   "penetration of the rigid impactor", node=i)
             if plane is not None:
@@ -348,7 +352,7 @@ class Monitor:
                                      f"(now at {_pos(x[i])}): the specimen folds through a plane it may only "
                                      f"slide on", "symmetry plane crossed", node=i)
         if self.hexes.size:
-            ratio = self.corner_volumes(x, self.hexes) / self.ref_det
+            ratio = np.divide(self.corner_volumes(x, self.hexes), self.ref_det, out=self._ratio)
             flat = int(np.argmin(ratio))
             e, corner = divmod(flat, 8)
             self.worst["corner_jacobian_ratio"] = min(self.worst["corner_jacobian_ratio"], float(ratio[e, corner]))

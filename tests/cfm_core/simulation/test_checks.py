@@ -239,3 +239,38 @@ def test_the_scenes_penetration_tolerance_sets_the_bottoming_out_gap(tmp_path, l
             checks.check_result(m, res)
     else:
         assert checks.check_result(m, res) == []
+
+
+@pytest.mark.parametrize("shape,edge", [("hemisphere", 0.0), ("sphere", 0.0), ("flat", 2e-3), ("plane", 0.0)])
+def test_the_box_the_monitor_searches_holds_every_point_inside_the_impactor(shape, edge):
+    """impactor.bounds: every sampled point with a negative gap lies in the box, and the box is
+    not loose (points inside the shape come within a fifth of the radius of each bounded face)."""
+    from cfm_core.scene.impactor import bounds, gap
+
+    rng = np.random.default_rng(7)
+    c = np.array([1e-3, -2e-3, 5e-3])
+    R = 10e-3
+    pts = c + rng.uniform(-2.5 * R, 2.5 * R, size=(200_000, 3))
+    g = gap(shape, R, edge, c, pts)[0]
+    lo, hi = bounds(shape, R, c)
+    inside = pts[g < 0.0]
+    assert inside.shape[0] > 1000
+    assert np.all((inside >= lo) & (inside <= hi))
+    finite = np.isfinite(lo)
+    assert np.allclose(inside.min(axis=0)[finite], lo[finite], atol=0.2 * R)
+    finite = np.isfinite(hi)
+    assert np.allclose(inside.max(axis=0)[finite], hi[finite], atol=0.2 * R)
+
+
+def test_a_node_inside_the_impactor_far_from_the_others_is_found_by_the_searched_box():
+    """The monitor searches only the impactor's box: a node moved into the sphere is still named."""
+    nodes, hexes = structured_hex_mesh(0.02, 0.02, 0.008, 10, 10, 4)
+    sph = RigidSphere(0.01, 0.22, (0.0, 0.0, 0.018), -1.0, shape="sphere")
+    model = Model(name="box", nodes=nodes, hexes=hexes, density=950.0, material=None, end_time=1e-3,
+                  output_interval=1e-4, sphere=sph)
+    mon = checks.Monitor(model)
+    x = nodes.copy()
+    far = int(np.argmax(np.linalg.norm(nodes - np.array(sph.center), axis=1)))
+    x[far] = np.array(sph.center) + np.array([0.0, 0.0, -0.009])   # 1 mm inside the sphere's surface
+    with pytest.raises(NumericalError, match=rf"node {far} is 1 mm inside the rigid impactor"):
+        mon.inspect(1e-4, x, sph.center[2])
