@@ -19,7 +19,8 @@ machine are not meaningful: compare rows of one run, not runs of different days)
 3. Threads at the largest drop-test size: 2 threads against 1 (wall time, alternating, best of
    ``repeat``); then with one core kept busy by a second process this benchmark starts (a
    bounded busy loop, killed at the end), the default thread count (``threads=None``) against
-   one thread and two.
+   one thread and two: numba at the largest drop-test size, torch (eager float64) as a single
+   run and as a batch of 4 on the 1 mm drop test to 0.4 ms.
 """
 
 from __future__ import annotations
@@ -162,6 +163,57 @@ def wall(model, threads, repeat: int) -> dict:
     return {"best": best, "used": used}
 
 
+def torch_wall(models, threads, repeat: int) -> dict:
+    """Best wall time (s) of a torch run (one model) or batch (a list), eager float64 on the CPU,
+    ``repeat`` times per thread setting, alternating settings; with the threads each used."""
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+
+    be = TorchExplicitBackend()
+
+    def once(th):
+        if isinstance(models, list):
+            return be.run_batch(models, threads=th, dtype="float64")[0]
+        return be.run(models, threads=th, dtype="float64")
+
+    once(1)   # first-call costs (imports, allocator) out of the timings
+    best: dict = {}
+    used: dict = {}
+    for _ in range(repeat):
+        for th in threads:
+            t0 = time.perf_counter()
+            r = once(th)
+            best[th] = min(best.get(th, math.inf), time.perf_counter() - t0)
+            used[th] = r.info["threads"]
+    return {"best": best, "used": used}
+
+
+def busy_rows(big, repeat: int, torch: bool, say=print, small=None) -> None:
+    """Default thread count against 1 and 2 threads with one core kept busy by a second process:
+    numba on ``big``; torch (single run and a batch of 4) on ``small`` (default: the 1 mm drop
+    test to 0.4 ms)."""
+    from dataclasses import replace
+
+    proc = busy_core(3600.0)
+    try:
+        time.sleep(1.0)
+        cases = [("numba", lambda th: wall(big, th, repeat))]
+        if torch:
+            small = small if small is not None else drop_model(1e-3, end_time=0.4e-3)
+            batch = [replace(small) for _ in range(4)]
+            cases += [("torch single run", lambda th: torch_wall(small, th, repeat)),
+                      ("torch batch of 4", lambda th: torch_wall(batch, th, repeat))]
+        for name, timed in cases:
+            w = timed((None, 1, 2))
+            b = w["best"]
+            say(f"  one core busy (second process), {name}: default ({w['used'][None]} threads) {b[None]:.2f} s, "
+                f"1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s; 1 thread / default {b[1] / b[None]:.2f} "
+                f"(target >= 1: never slower{'; the default chose one thread, so both ran alike' if w['used'][None] == 1 else ''})"
+                f"  ({load()})")
+    finally:
+        proc.kill()
+        proc.wait()
+
+
 def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: bool, say=print) -> None:
     say(f"numba, one thread, CPU time per element-cycle ({load()}):")
     rows = {}
@@ -188,14 +240,4 @@ def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: boo
         say(f"  threads, {big.n_elements} hexahedra to 1.6 ms: 1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s, "
             f"speed-up {b[1] / b[2]:.2f} (target >= 1.8 on an idle 2-core machine)  ({load()})")
     if busy:
-        proc = busy_core(3600.0)
-        try:
-            time.sleep(1.0)
-            w = wall(big, (None, 1, 2), repeat)
-            b = w["best"]
-            say(f"  one core busy (second process): default ({w['used'][None]} threads) {b[None]:.2f} s, "
-                f"1 thread {b[1]:.2f} s, 2 threads {b[2]:.2f} s; 1 thread / default {b[1] / b[None]:.2f} "
-                f"(target >= 1: never slower)  ({load()})")
-        finally:
-            proc.kill()
-            proc.wait()
+        busy_rows(big, repeat, torch, say)

@@ -1,0 +1,20 @@
+"""The scale benchmark's rows run and print what they measure (small models; timings not judged)."""
+
+import re
+
+from cfm_verification.benchmarks import scale
+
+
+def test_busy_core_rows_print_the_default_threads_for_numba_torch_and_a_torch_batch():
+    lines = []
+    tiny = scale.drop_model(2.5e-3, end_time=5e-5)
+    scale.busy_rows(tiny, 1, True, say=lines.append, small=tiny)
+    assert [ln.split(":")[0].split(", ")[-1] for ln in lines] == ["numba", "torch single run", "torch batch of 4"]
+    for ln in lines:
+        m = re.search(r"default \((\d+) threads\) ([\d.]+) s, 1 thread ([\d.]+) s, 2 threads ([\d.]+) s", ln)
+        assert m and 1 <= int(m[1]) <= 2 and all(float(v) >= 0 for v in m.groups()[1:])
+
+
+def test_per_cycle_and_memory_of_a_small_block():
+    r = scale.per_cycle(scale.block_model(6), None, deform=scale.prestrain(None), segments=1, budget=0.05)
+    assert r["ne"] == 216 and r["ns"] > 0 and 300 < r["bytes"] < 3000
