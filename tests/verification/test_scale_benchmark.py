@@ -18,3 +18,7 @@ def test_busy_core_rows_print_the_default_threads_for_numba_torch_and_a_torch_ba
 def test_per_cycle_and_memory_of_a_small_block():
     r = scale.per_cycle(scale.block_model(6), None, deform=scale.prestrain(None), segments=1, budget=0.05)
     assert r["ne"] == 216 and r["ns"] > 0 and 300 < r["bytes"] < 3000
+
+
+def test_the_machines_own_two_thread_ceiling_is_a_plausible_ratio():
+    assert 0.3 < scale.ceiling(0.05) < 3.0
