@@ -248,8 +248,8 @@ CORE = """\
 """
 
 TANGENT = """\
-      subroutine {P}cmj(f, xj, sig, em, q, gt, ht, jaum, ia, ja,
-     &  dd)
+      subroutine {P}cmj(f, xj, sig, em, q, gt, ht,
+     &  jaum, ia, ja, dd)
 !     spatial tangent c / J (push-forward of dS/dE over J: the
 !     Truesdell rate of Kirchhoff stress / J, LS-DYNA's utan es); with
 !     jaum the Jaumann rate instead (plus the stress term: Abaqus's

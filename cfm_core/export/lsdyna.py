@@ -85,7 +85,9 @@ UMAT41 = """\
       hsv(1:{NH}) = hnew(1:{NH})
       hsv(nhv) = 0.0d0
       end subroutine umat{N}
+"""
 
+UTAN41 = """\
       subroutine utan{N}(cm, eps, sig, epsp, hsv, dt1, unsym, capa,
      &  etype, tt, temper, es, crv, nnpcrv, failel, cma, qmat)
 !     implicit tangent: es = c / J in the order xx, yy, zz, xy, yz, zx
@@ -171,8 +173,9 @@ def card(name: str, entries, nstate: int, density: float, number: int) -> str:
     Returns
     -------
     str
-        Keyword text: comment lines (the routines, the constants), title, card 1 (MID, RO, MT, LMC, NHV, IORTHO, IBULK, IG), card 2 (IVECT,
-        IFAIL, ITHERM, IHYPER = 1, IEOS), then the constants 8 per line in fields of 10.
+        Keyword text: comment lines (the routines, the constants), title, card 1 (MID, RO, MT, LMC,
+        NHV, IORTHO, IBULK, IG), card 2 (IVECT, IFAIL, ITHERM, IHYPER = 1, IEOS), then the constants
+        8 per line in fields of 10.
     """
     n = len(entries)
     lines = [f"$ material '{name}' for the generated umat{number} (SI units: m, s, kg, Pa); double-precision LS-DYNA",

@@ -26,15 +26,31 @@ def _steps(n):
     return sorted({1, 2, n // 3, n // 2, (3 * n) // 4, n - 1})
 
 
-def _worst(material, lib, t, F, nhv, steps):
-    """Largest |es - truth| / max |truth| over the steps, and the run."""
-    _, states = expected.history(material, t, F)
+def _worst(material, lib, t, F, nhv, steps, eps=1e-6):
+    """Largest |es - truth| / max |truth| over the steps, against two perturbation truths:
+
+    - from the step's own Prony state, where that is well conditioned: its round-off,
+      1e-16 |tau| / eps, below 1e-8 of the tangent (after a 1e17 Pa peak of the stiff material
+      the held history stress is 1e7 times the tangent and the difference loses those digits);
+    - from a relaxed start (state None), at every step: the Truesdell tangent of a step does not
+      depend on the state (the recurrence is affine in it, and the push-forward of an
+      F-independent S has no Lie derivative), so both truths are the same tangent.
+
+    Returns the two errors, the number of steps checked against the first, and the run.
+    """
+    sigma, states = expected.history(material, t, F)
     out = run_lsdyna(lib, layout.props(material, lsdyna=True), t, F, nhv, tangent=True)
-    worst = 0.0
+    held, relaxed, checked = 0.0, 0.0, 0
     for k in steps:
-        ref = expected.rate_tangent(material, F[k], states[k - 1], t[k] - t[k - 1], "truesdell", LSDYNA)
-        worst = max(worst, np.abs(out["es"][k] - ref).max() / np.abs(ref).max())
-    return worst, out
+        dt = t[k] - t[k - 1]
+        ref = expected.rate_tangent(material, F[k], None, dt, "truesdell", LSDYNA, eps)
+        relaxed = max(relaxed, np.abs(out["es"][k] - ref).max() / np.abs(ref).max())
+        tau = np.linalg.det(F[k]) * np.abs(sigma[k]).max()
+        if 1e-16 * tau / eps <= 1e-8 * np.abs(ref).max():
+            ref = expected.rate_tangent(material, F[k], states[k - 1], dt, "truesdell", LSDYNA, eps)
+            held = max(held, np.abs(out["es"][k] - ref).max() / np.abs(ref).max())
+            checked += 1
+    return held, relaxed, checked, out
 
 
 @pytest.mark.parametrize("values", list(MATERIALS))
@@ -44,8 +60,10 @@ def test_utan_is_the_spatial_tangent_of_the_step(libs, nstate, name, values):
     shear, random); kappa = 2 kPa so that the shear part is not hidden behind the bulk modulus."""
     material = make_material("cfm", MATERIALS[values])
     t, F = HISTORIES[name]()
-    worst, out = _worst(material, libs["lsdyna-umat"], t, F, nstate, _steps(len(t)))
-    assert worst <= 1e-6, worst
+    steps = _steps(len(t))
+    held, relaxed, checked, out = _worst(material, libs["lsdyna-umat"], t, F, nstate, steps)
+    assert held <= 1e-6 and relaxed <= 1e-6, (held, relaxed)
+    assert checked >= len(steps) - 1
     assert not out["reject"].any() and not out["unsym"][1:].any()
     es = out["es"][1:]
     assert np.abs(es - np.swapaxes(es, 1, 2)).max() <= 1e-12 * np.abs(es).max()
