@@ -179,8 +179,8 @@ def card(name: str, entries, nstate: int, density: float, number: int) -> str:
     """
     n = len(entries)
     lines = [f"$ material '{name}' for the generated umat{number} (SI units: m, s, kg, Pa); double-precision LS-DYNA",
-             f"$ implicit runs: the same source has utan{number}, the tangent (es = c/J, symmetric); verified "
-             f"through the calling convention by cfm's harness only, not run in LS-DYNA here"]
+             f"$ implicit runs: the same source has utan{number}, the tangent (es = c/J, symmetric)",
+             "$ both verified through the calling convention by cfm's harness only, not run in LS-DYNA here"]
     lines += [f"$   cm({i:>2}) {e.name:<8} [{e.unit}] {e.meaning}" for i, e in enumerate(entries, 1)]
     lines += ["*MAT_USER_DEFINED_MATERIAL_MODELS_TITLE", name,
               "$      MID        RO        MT       LMC       NHV    IORTHO     IBULK        IG",
