@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
         Where the ``export`` parser is added.
     """
     p = sub.add_parser(
-        "export", help="write a material as a Fortran user material (Abaqus UMAT/VUMAT, LS-DYNA umat41)",
+        "export", help="write a material as a Fortran user material (Abaqus UMAT/VUMAT, LS-DYNA umat41/utan41)",
         description="Generate a Fortran user material from the material's single definition (energy terms, "
                     "Prony series, moduli convention): the source (fixed form, double precision), a ready "
                     "material card with the material's values (SI units: m, s, kg, Pa) and manifest.json "

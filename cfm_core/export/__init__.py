@@ -1,4 +1,4 @@
-"""Generated user materials for other solvers (Abaqus UMAT and VUMAT, LS-DYNA umat41).
+"""Generated user materials for other solvers (Abaqus UMAT and VUMAT, LS-DYNA umat41 and utan41).
 
 One material definition (the sympy energy every backend compiles) becomes a fixed-form Fortran
 source with the Prony series, the moduli convention and the solver's calling convention

@@ -98,7 +98,8 @@ UMAT = """\
       do k = 1, 6
         stress(k) = sig(ia(k),ja(k))
       end do
-      call {P}cmj(dfgrd1, xj, sig, em, q, gt, ht, dd)
+      call {P}cmj(dfgrd1, xj, sig, em, q, gt, ht,
+     &  .true., ia, ja, dd)
       ddsdde(1:6,1:6) = dd
       statev(1:{NH}) = hnew(1:{NH})
       statev({NS}) = 0.0d0

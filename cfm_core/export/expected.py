@@ -8,7 +8,9 @@ DDSDDE (Miehe 1996; Sun et al. 2008) evaluated with the reference, by central di
     C^MJ_ijkl = [tau_ij(F + dF_kl) - tau_ij(F - dF_kl)] / (2 J eps),
     dF_kl = eps/2 (e_k (x) e_l + e_l (x) e_k) F,
 
-with the Prony state of the previous step held fixed (the consistent tangent of the step).
+with the Prony state of the previous step held fixed (the consistent tangent of the step);
+:func:`rate_tangent` is the same loop for either rate: with the Truesdell rate (the Jaumann
+stress terms d tau + tau d taken off) it gives LS-DYNA's utan es = c / J.
 """
 
 from __future__ import annotations
@@ -86,20 +88,63 @@ def jaumann_tangent(material, F, state, dt: float, eps: float = 1e-6) -> np.ndar
     ndarray, shape (6, 6)
         C^MJ (Pa), rows and columns in the order 11, 22, 33, 12, 13, 23.
     """
+    return rate_tangent(material, F, state, dt, "jaumann", ORDER_STANDARD, eps)
+
+
+def rate_tangent(material, F, state, dt: float, rate: str, order, eps: float = 1e-6) -> np.ndarray:
+    """Tangent of a rate of the Kirchhoff stress over J, by the perturbation formula (central
+    differences): a velocity gradient d = sym(e_k (x) e_l), no spin (dF = eps d F), so that
+
+    - ``"jaumann"``: J C^MJ : d = d tau / d eps (Abaqus's DDSDDE; Miehe 1996, Sun et al. 2008);
+    - ``"truesdell"``: c : d = d tau / d eps - (d tau + tau d), the Lie derivative of tau: c / J is
+      the push-forward of dS/dE over J (LS-DYNA's utan es).
+
+    Parameters
+    ----------
+    material : Material
+        A bound material.
+    F : array_like, shape (3, 3)
+        Deformation gradient at the end of the step (-).
+    state : tuple or None
+        Prony state at the start of the step (from :func:`history`), held fixed: the consistent
+        tangent of the step.
+    dt : float
+        Step (s).
+    rate : {"jaumann", "truesdell"}
+        Objective rate.
+    order : sequence of (int, int)
+        The six index pairs of rows and columns (e.g. :data:`ORDER_STANDARD`); shear columns for
+        engineering shear strain.
+    eps : float
+        Perturbation size (-).
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+        The tangent (Pa).
+
+    Raises
+    ------
+    ValueError
+        ``rate`` is not one of the two.
+    """
+    if rate not in ("jaumann", "truesdell"):
+        raise ValueError(f"rate {rate!r}: use 'jaumann' or 'truesdell'")
     F = np.asarray(F, dtype=np.float64)
     J = np.linalg.det(F)
+    tau = J * _stress(material, state, dt, F)[0] if rate == "truesdell" else np.zeros((3, 3))
     out = np.empty((6, 6))
-    for col, (k, l) in enumerate(ORDER_STANDARD):
-        E = np.zeros((3, 3))
-        E[k, l] += 0.5 * eps
-        E[l, k] += 0.5 * eps
+    for col, (k, l) in enumerate(order):
+        d = np.zeros((3, 3))
+        d[k, l] += 0.5
+        d[l, k] += 0.5
         taus = []
         for sign in (1.0, -1.0):
-            Fp = F + sign * E @ F
+            Fp = F + sign * eps * d @ F
             sig, _ = _stress(material, state, dt, Fp)
             taus.append(np.linalg.det(Fp) * sig)
-        dtau = (taus[0] - taus[1]) / (2.0 * J * eps)
-        out[:, col] = [dtau[a, b] for a, b in ORDER_STANDARD]
+        dtau = ((taus[0] - taus[1]) / (2.0 * eps) - (d @ tau + tau @ d)) / J
+        out[:, col] = [dtau[a, b] for a, b in order]
     return out
 
 

@@ -288,9 +288,12 @@ def run_vumat(lib: Library, props, t, F, nstatev: int, density: float = 950.0, s
     return out
 
 
-def run_lsdyna(lib: Library, cm, t, F, nhv: int, hsv=None, etype: str = "solid") -> dict:
+def run_lsdyna(lib: Library, cm, t, F, nhv: int, hsv=None, etype: str = "solid", tangent: bool = False) -> dict:
     """Call ``umat41`` along a history as LS-DYNA does with ``IHYPER = 1``: F written into
-    ``hsv(nhv+1 .. nhv+9)`` column-major before each call, the stress of the last step passed in.
+    ``hsv(nhv+1 .. nhv+9)`` column-major before each call, the stress of the last step passed in;
+    with ``tangent`` also ``utan41`` after ``umat41`` at each step, as LS-DYNA's implicit solver
+    asks for the material tangent: the same ``cm``, ``hsv`` (as umat41 left it, F behind the user
+    variables), ``dt1`` and stress.
 
     Parameters
     ----------
@@ -308,20 +311,26 @@ def run_lsdyna(lib: Library, cm, t, F, nhv: int, hsv=None, etype: str = "solid")
         User history variables at t[0] (default zero).
     etype : str
         Element type passed (``"solid"``).
+    tangent : bool
+        Call ``utan41`` too.
 
     Returns
     -------
     dict
         ``stress`` (n, 6) Cauchy xx, yy, zz, xy, yz, zx (Pa), ``hsv`` (n, nhv), ``reject`` (n,) bool,
-        ``failel`` (n,) bool.
+        ``failel`` (n,) bool; with ``tangent`` also ``es`` (n, 6, 6) (Pa; row 0 zero, no call there)
+        and ``unsym`` (n,) bool.
     """
     fn = lib.function("umat41")
+    fn_tan = lib.function("utan41") if tangent else None
     cm = np.ascontiguousarray(cm, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)
     F = np.asarray(F, dtype=np.float64)
     n = t.size
     out = {"stress": np.zeros((n, 6)), "hsv": np.zeros((n, nhv)), "reject": np.zeros(n, bool),
            "failel": np.zeros(n, bool)}
+    if tangent:
+        out.update(es=np.zeros((n, 6, 6)), unsym=np.zeros(n, bool))
     if hsv is not None:
         out["hsv"][0] = hsv
     d = lambda v=0.0: np.array([v], dtype=np.float64)  # noqa: E731
@@ -341,4 +350,11 @@ def run_lsdyna(lib: Library, cm, t, F, nhv: int, hsv=None, etype: str = "solid")
             d(1e-3), i(0), reject)], ctypes.c_size_t(5))
         out["stress"][k], out["hsv"][k] = sig, h[:nhv]
         out["reject"][k], out["failel"][k] = bool(reject[0]), bool(failel[0])
+        if tangent:
+            es, unsym = np.full((6, 6), np.nan, order="F"), i(1)
+            args = [cm, eps, sig, d(), h, d(t[k] - t[k - 1]), unsym, d(1.0)]
+            fn_tan(*[_p(a) for a in args], et, *[_p(a) for a in (
+                d(t[k]), d(), es, np.zeros(1), np.zeros(1, np.int32), failel, np.zeros(1),
+                np.asfortranarray(np.eye(3)))], ctypes.c_size_t(5))
+            out["es"][k], out["unsym"][k] = es, bool(unsym[0])
     return out

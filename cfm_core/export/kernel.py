@@ -14,8 +14,10 @@ Formulae of the numpy reference (:mod:`cfm_core.material.reference`, :mod:`~cfm_
   part with the exact exponential factors (docs/conventions.md section 2), the total S, the new
   history; with ``wantt`` also the principal derivatives of the consistent tangent (isochoric
   part times gamma_inf + sum gain_i).
-- ``<p>cmj``: the Jaumann-rate tangent of the Kirchhoff stress divided by J (Abaqus's DDSDDE):
-  c = J^-1 F F F F : CC plus 1/2 (d_ik s_jl + d_il s_jk + d_jk s_il + d_jl s_ik).
+- ``<p>cmj``: the spatial tangent c / J = J^-1 F F F F : CC (the Truesdell rate of the Kirchhoff
+  stress divided by J: LS-DYNA's ``utan`` es) or, with ``jaum``, the Jaumann-rate tangent (Abaqus's
+  DDSDDE): that plus 1/2 (d_ik s_jl + d_il s_jk + d_jk s_il + d_jl s_ik); rows and columns in the
+  component order the caller passes (``ia``, ``ja``), shear columns for engineering shear strain.
 """
 
 from __future__ import annotations
@@ -246,18 +248,21 @@ CORE = """\
 """
 
 TANGENT = """\
-      subroutine {P}cmj(f, xj, sig, em, q, gt, ht, dd)
-!     DDSDDE: Jaumann-rate tangent of Kirchhoff stress / J, order
-!     11, 22, 33, 12, 13, 23 (Abaqus/Standard)
+      subroutine {P}cmj(f, xj, sig, em, q, gt, ht,
+     &  jaum, ia, ja, dd)
+!     spatial tangent c / J (push-forward of dS/dE over J: the
+!     Truesdell rate of Kirchhoff stress / J, LS-DYNA's utan es); with
+!     jaum the Jaumann rate instead (plus the stress term: Abaqus's
+!     DDSDDE); component k of rows and columns is (ia(k), ja(k))
       implicit none
 {DP}
       real(dp), intent(in) :: f(3,3), xj, sig(3,3), em(3), q(3,3)
       real(dp), intent(in) :: gt(3), ht(6)
+      logical, intent(in) :: jaum
+      integer, intent(in) :: ia(6), ja(6)
       real(dp), intent(out) :: dd(6,6)
       real(dp) :: v(3,3), hm(3,3), th(3,3), d(3,3), c, dm
       integer :: a, b, i, j, k, l, ka, kb, n
-      integer, parameter :: ia(6) = [1, 2, 3, 1, 1, 2]
-      integer, parameter :: ja(6) = [1, 2, 3, 2, 3, 3]
       integer, parameter :: pa(3) = [1, 2, 1], pb(3) = [2, 3, 3]
       v = matmul(f, q)
       d = 0.0d0
@@ -296,8 +301,12 @@ TANGENT = """\
               end if
             end do
           end do
-          dd(ka,kb) = c / xj + 0.5d0 * (d(i,k) * sig(j,l)
-     &      + d(i,l) * sig(j,k) + d(j,k) * sig(i,l) + d(j,l) * sig(i,k))
+          dd(ka,kb) = c / xj
+          if (jaum) then
+            dd(ka,kb) = dd(ka,kb) + 0.5d0 * (d(i,k) * sig(j,l)
+     &        + d(i,l) * sig(j,k) + d(j,k) * sig(i,l)
+     &        + d(j,l) * sig(i,k))
+          end if
         end do
       end do
       end subroutine {P}cmj
@@ -315,7 +324,7 @@ def core_source(prefix: str, sizes: dict, tangent: bool) -> str:
         ``NC`` constants, ``NK`` energy parameters + 1 (s_iso), ``NP`` Prony terms, ``NPD`` =
         max(NP, 1), ``NHD`` = max(6 (NP + 1), 1) history length; ``DP`` the kind line.
     tangent : bool
-        Include ``<p>cmj`` (the UMAT's DDSDDE).
+        Include ``<p>cmj`` (the UMAT's DDSDDE, LS-DYNA's utan41 es).
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""LS-DYNA interface: ``umat4N`` (N = 41..50) with ``IHYPER = 1`` for solid elements.
+"""LS-DYNA interface: ``umat4N`` and ``utan4N`` (N = 41..50) with ``IHYPER = 1`` for solid elements.
 
 Calling convention of LS-DYNA's user-material package (dyn21umats.f, R10 and later):
 ``umat4N(cm, eps, sig, epsp, hsv, dt1, capa, etype, tt, temper, failel, crv, nnpcrv, cma, qmat,
@@ -11,7 +11,18 @@ and in the manifest, or F is read from the wrong place (the routine cannot tell)
 An error keeps the stress of the previous step, writes the code into the last user history
 variable and a line to unit 6, and sets ``reject`` (an implicit step is then retried with a
 smaller step; an explicit run has no rejection: watch the error variable). ``failel`` (element
-deletion) is never touched. The implicit tangent routine ``utan4N`` is not generated.
+deletion) is never touched.
+
+For implicit runs the same source holds the tangent routine (dyn21utan.f):
+``utan4N(cm, eps, sig, epsp, hsv, dt1, unsym, capa, etype, tt, temper, es, crv, nnpcrv, failel,
+cma, qmat)``. ``es(6,6)`` is the spatial tangent c / J, the push-forward of dS/dE divided by J (the
+Truesdell rate of the Kirchhoff stress over J, without the Jaumann stress terms of Abaqus's
+DDSDDE), rows and columns xx, yy, zz, xy, yz, zx, shear columns for engineering shear strain;
+with a Prony series the consistent tangent of the step dt1 (the isochoric part times gamma_inf +
+sum gain_i, as the UMAT's). ``unsym = .false.``: es is symmetric. It is computed from F
+(``hsv(NHV+1 .. NHV+9)``), ``dt1`` and ``cm`` only (the tangent does not depend on the Prony
+history). An error (constants invalid, element type, J <= 0, overflow) leaves ``es`` zero and
+writes a line to unit 6; umat4N reports the same error for the step through ``reject``.
 """
 
 from __future__ import annotations
@@ -76,6 +87,71 @@ UMAT41 = """\
       end subroutine umat{N}
 """
 
+UTAN41 = """\
+      subroutine utan{N}(cm, eps, sig, epsp, hsv, dt1, unsym, capa,
+     &  etype, tt, temper, es, crv, nnpcrv, failel, cma, qmat)
+!     implicit tangent: es = c / J in the order xx, yy, zz, xy, yz, zx
+      implicit none
+{DP}
+      real(dp), intent(in) :: cm(*), eps(6), sig(6), epsp, hsv(*)
+      real(dp), intent(in) :: dt1, capa, tt, temper
+      logical, intent(inout) :: unsym, failel
+      character(len=5), intent(in) :: etype
+      real(dp), intent(inout) :: es(6,*)
+      real(dp), intent(in) :: crv(*), cma(*), qmat(3,3)
+      integer, intent(in) :: nnpcrv(*)
+      real(dp), external :: {P}det3
+      logical, external :: {P}finite
+      real(dp) :: pv({NK}), gam({NPD}), tau({NPD}), hnew({NHD})
+      real(dp) :: h0({NHD}), f(3,3), s(3,3), z(3,3), em(3), q(3,3)
+      real(dp) :: gt(3), ht(6), dd(6,6), xj, sse
+      integer :: ierr, j, k
+      integer, parameter :: nhv = {NS}
+      integer, parameter :: ia(6) = [1, 2, 3, 1, 2, 3]
+      integer, parameter :: ja(6) = [1, 2, 3, 2, 3, 1]
+      ierr = 0
+      unsym = .false.
+      es(1:6,1:6) = 0.0d0
+!     arguments this material does not use, referenced once so that
+!     compilers do not warn about them
+      if (.false.) then
+        xj = eps(1) + sig(1) + epsp + capa + temper + crv(1) + cma(1)
+     &    + qmat(1,1) + dble(nnpcrv(1))
+        failel = .false.
+      end if
+      if (etype .ne. 'solid' .and. etype .ne. 'sph') then
+        ierr = 4
+      else
+        call {P}params(cm(1:{NC}), pv, gam, tau, ierr)
+      end if
+      do j = 1, 3
+        do k = 1, 3
+          f(k,j) = hsv(nhv + k + 3 * (j - 1))
+        end do
+      end do
+      xj = {P}det3(f)
+      if (ierr .eq. 0 .and. .not. xj .gt. 0.0d0) ierr = 1
+      if (ierr .eq. 0) then
+!       the tangent does not depend on the history: a zero one
+        h0 = 0.0d0
+        call {P}point(matmul(transpose(f), f), dt1, h0, pv, gam, tau,
+     &    .true., s, hnew, sse, em, q, gt, ht, ierr)
+      end if
+      if (ierr .eq. 0) then
+        z = 0.0d0
+        call {P}cmj(f, xj, z, em, q, gt, ht, .false., ia, ja, dd)
+        if (.not. {P}finite(dd, 36)) ierr = 2
+      end if
+      if (ierr .ne. 0) then
+        write (6, '(a,a,i2,a,es12.4,a)') ' utan{N} {NAME}: ', 'error ',
+     &    ierr, ' at time ', tt,
+     &    ' (see the error codes in the file header); es = 0'
+        return
+      end if
+      es(1:6,1:6) = dd
+      end subroutine utan{N}
+"""
+
 
 def card(name: str, entries, nstate: int, density: float, number: int) -> str:
     """``*MAT_USER_DEFINED_MATERIAL_MODELS`` keyword block (LS-DYNA, SI units).
@@ -97,11 +173,14 @@ def card(name: str, entries, nstate: int, density: float, number: int) -> str:
     Returns
     -------
     str
-        Keyword text: title, card 1 (MID, RO, MT, LMC, NHV, IORTHO, IBULK, IG), card 2 (IVECT,
-        IFAIL, ITHERM, IHYPER = 1, IEOS), then the constants 8 per line in fields of 10.
+        Keyword text: comment lines (the routines, the constants), title, card 1 (MID, RO, MT, LMC,
+        NHV, IORTHO, IBULK, IG), card 2 (IVECT, IFAIL, ITHERM, IHYPER = 1, IEOS), then the constants
+        8 per line in fields of 10.
     """
     n = len(entries)
-    lines = [f"$ material '{name}' for the generated umat{number} (SI units: m, s, kg, Pa); double-precision LS-DYNA"]
+    lines = [f"$ material '{name}' for the generated umat{number} (SI units: m, s, kg, Pa); double-precision LS-DYNA",
+             f"$ implicit runs: the same source has utan{number}, the tangent (es = c/J, symmetric)",
+             "$ both verified through the calling convention by cfm's harness only, not run in LS-DYNA here"]
     lines += [f"$   cm({i:>2}) {e.name:<8} [{e.unit}] {e.meaning}" for i, e in enumerate(entries, 1)]
     lines += ["*MAT_USER_DEFINED_MATERIAL_MODELS_TITLE", name,
               "$      MID        RO        MT       LMC       NHV    IORTHO     IBULK        IG",
