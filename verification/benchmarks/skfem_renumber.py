@@ -173,15 +173,6 @@ def envelope(pattern, m: int) -> tuple[int, int, float]:
     return int(width.max(initial=0)), int(width.sum()), float(np.square(width.astype(np.float64)).sum())
 
 
-def _best(fn, repeat: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeat):
-        tic = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - tic)
-    return best, out
-
-
 class _NoFallback:
     """The CG's direct fallback, refused: a system CG cannot solve is reported, not factorised."""
 
@@ -189,9 +180,14 @@ class _NoFallback:
         raise RuntimeError("block-Jacobi CG did not converge")
 
 
-def measure(system: NewtonSystem, ordering: str, repeat: int = 5, direct_dofs: int = 40_000,
-            natural_work: float = 1e11, x_ref: np.ndarray | None = None) -> dict:
-    """One row of the table for ``ordering`` (see the module docstring); times in s."""
+def prepare(system: NewtonSystem, ordering: str, direct_dofs: int = 40_000, natural_work: float = 1e11) -> dict:
+    """The structure of one row for ``ordering``: the permuted system, its envelope and fills, its solver.
+
+    Returns a dict with ``ordering``, ``dofs``, ``nnz``, ``bandwidth``, ``profile``, ``work``
+    (see :func:`envelope`), ``natural`` / ``colamd`` (SuperLU's nnz(L) + nnz(U), None where
+    skipped), ``pardiso`` (PARDISO's predicted factor non-zeros, None without pypardiso), and the
+    private ``_order``, ``_data``, ``_b``, ``_A``, ``_cg`` that :func:`time_rows` uses.
+    """
     import scipy.sparse as sps
     import scipy.sparse.linalg as sla
 
@@ -199,19 +195,11 @@ def measure(system: NewtonSystem, ordering: str, repeat: int = 5, direct_dofs: i
 
     order = dof_order(node_order(ordering, system.nodes, system.hexes), system.pattern.n)
     pat, data, b = permute(system, order)
-    m = 3 * system.n_nodes
-    bw, prof, work = envelope(pat, m)
-    row = {"ordering": ordering, "dofs": pat.n, "nnz": pat.nnz, "bandwidth": bw, "profile": prof, "work": work}
+    bw, prof, work = envelope(pat, 3 * system.n_nodes)
     A = sps.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.n, pat.n))
-    cg = linear.BlockJacobiCG(pat, system.n_nodes, system.rtol, system.maxiter, _NoFallback())
-    row["cg_time"], (x, row["cg_iterations"]) = _best(lambda: cg.solve(data, b, system.rtol), repeat)
-    xs = np.empty_like(x)
-    xs[order] = x  # back to the mesh numbering
-    row["x"] = xs
-    row["x_diff"] = (float(np.abs(xs - x_ref).max() / np.abs(x_ref).max()) if x_ref is not None else 0.0)
-    v = np.random.default_rng(1).standard_normal(pat.n)
-    row["matvec"], _ = _best(lambda: A @ v, max(20, 4 * repeat))
-    row["natural"] = row["colamd"] = row["pardiso"] = None
+    row = {"ordering": ordering, "dofs": pat.n, "nnz": pat.nnz, "bandwidth": bw, "profile": prof, "work": work,
+           "natural": None, "colamd": None, "pardiso": None, "_order": order, "_data": data, "_b": b, "_A": A,
+           "_cg": linear.BlockJacobiCG(pat, system.n_nodes, system.rtol, system.maxiter, _NoFallback())}
     if work <= natural_work:
         # the numbering's own order: no column ordering, diagonal pivots, the symmetric etree
         lu = sla.splu(A.tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
@@ -226,6 +214,48 @@ def measure(system: NewtonSystem, ordering: str, repeat: int = 5, direct_dofs: i
         row["pardiso"] = int(p.iparm[17])
         p.release()
     return row
+
+
+def time_rows(rows: list[dict], rtol: float, repeat: int = 5, matvecs: int = 10) -> None:
+    """Time the rows' CG solves and mat-vecs, interleaved (round r times every row once), in place.
+
+    Adds ``cg_iterations``, ``cg_time`` (best CPU time of a solve, preconditioner set-up included,
+    s), ``matvec`` (best CPU time of one CSR product, s), ``x`` (the CG solution in the mesh's
+    numbering) and ``x_diff`` (max |x - x of the first row| / max |x of the first row|). CPU time
+    of this process: the solve is single-threaded, and other processes on the machine disturb it
+    less than the wall time.
+    """
+    if not rows:
+        return
+    v = np.random.default_rng(1).standard_normal(rows[0]["dofs"])
+    for r in rows:
+        r["cg_time"] = r["matvec"] = np.inf
+    for _ in range(repeat):
+        for r in rows:
+            tic = time.process_time()
+            x, r["cg_iterations"] = r["_cg"].solve(r["_data"], r["_b"], rtol)
+            r["cg_time"] = min(r["cg_time"], time.process_time() - tic)
+            r["x"] = np.empty_like(x)
+            r["x"][r["_order"]] = x  # back to the mesh numbering
+            vp = v[r["_order"]]
+            for _ in range(matvecs):
+                tic = time.process_time()
+                r["_A"] @ vp
+                r["matvec"] = min(r["matvec"], time.process_time() - tic)
+    x0 = rows[0]["x"]
+    for r in rows:
+        r["x_diff"] = float(np.abs(r["x"] - x0).max() / np.abs(x0).max())
+
+
+def measure(system: NewtonSystem, orderings=ORDERINGS, repeat: int = 5, direct_dofs: int = 40_000,
+            natural_work: float = 1e11) -> list[dict]:
+    """The rows of the table for ``orderings`` (:func:`prepare`, then :func:`time_rows`), private keys dropped."""
+    rows = [prepare(system, name, direct_dofs, natural_work) for name in orderings]
+    time_rows(rows, system.rtol, repeat)
+    for r in rows:
+        for k in [k for k in r if k.startswith("_")]:
+            del r[k]
+    return rows
 
 
 def _fmt(v, missing="skipped"):
@@ -264,15 +294,10 @@ def run(sizes=(1e-3, 5e-4), capture_time: float = 5e-4, repeat: int = 5, direct_
         out(f"element size {h * 1e3:g} mm: {len(model.hexes):,} hexahedra; skfem run to t = {capture_time:g} s "
             f"in {time.perf_counter() - tic:.1f} s; CG tolerance {system.rtol:.1e} "
             f"(load {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores)")
-        rows, x_ref = [], None
-        for name in orderings:
-            r = measure(system, name, repeat, direct_dofs, natural_work, x_ref)
-            if x_ref is None:
-                x_ref = r["x"]
-            rows.append(r)
+        rows = measure(system, orderings, repeat, direct_dofs, natural_work)
         out(table(rows, f"{h * 1e3:g} mm"))
         out(f"(load {os.getloadavg()[0]:.2f}; bandwidth and profile of the node-dof block, the impactor's dof "
             f"last; LU fill nnz(L) + nnz(U); own order skipped above {natural_work:.0e} envelope multiply-adds, "
-            f"COLAMD above {direct_dofs:,} dofs; PARDISO n/a: pypardiso's MKL not found; times best of {repeat} (mat-vec of {max(20, 4 * repeat)}))")
+            f"COLAMD above {direct_dofs:,} dofs; PARDISO n/a: pypardiso's MKL not found; CPU times of this process, best of {repeat} interleaved rounds)")
         tables.append(rows)
     return tables
