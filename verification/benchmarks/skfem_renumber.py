@@ -80,6 +80,23 @@ def capture(model, **options) -> NewtonSystem:
 
     The backend's linear solver is wrapped for the run (its ``solve`` records a copy of the CSR
     data, the right-hand side and the tolerance, then solves as before); nothing else changes.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.model.Model
+        A model the skfem backend runs (its end time sets the system captured).
+    **options
+        Options of the skfem backend (:class:`cfm_backends.skfem_implicit.options.SkfemOptions`).
+
+    Returns
+    -------
+    NewtonSystem
+        The last system the backend's linear solver received.
+
+    Raises
+    ------
+    RuntimeError
+        The run solved no linear system.
     """
     from cfm_backends.skfem_implicit import solver as driver
 
@@ -145,9 +162,24 @@ def dof_order(nodes_new_to_old: np.ndarray, n_dofs: int) -> np.ndarray:
 def permute(system: NewtonSystem, order: np.ndarray):
     """The system P A P^T, P b in the backend's own CSR form: (Pattern, data, b).
 
-    ``order`` (n,) new -> old dofs (:func:`dof_order`). The pattern is built by the backend's
-    :class:`Pattern` from the renumbered entries, so the solver sees what it would see had the
-    mesh been numbered that way.
+    The pattern is built by the backend's :class:`Pattern` from the renumbered entries, so the
+    solver sees what it would see had the mesh been numbered that way.
+
+    Parameters
+    ----------
+    system : NewtonSystem
+        The system in the mesh's numbering.
+    order : (n,) ndarray of int64
+        New -> old dofs (:func:`dof_order`).
+
+    Returns
+    -------
+    pattern : Pattern
+        The renumbered CSR pattern (same non-zero count).
+    data : (nnz,) ndarray
+        The CSR data of P A P^T in it (N/m).
+    b : (n,) ndarray
+        P b (N).
     """
     from cfm_backends.skfem_implicit.linear import Pattern
 
@@ -283,7 +315,32 @@ def drop_model(size: float, end_time: float, **geometry):
 
 def run(sizes=(1e-3, 5e-4), capture_time: float = 5e-4, repeat: int = 5, direct_dofs: int = 40_000,
         natural_work: float = 1e11, geometry: dict | None = None, orderings=ORDERINGS, out=print) -> list[list[dict]]:
-    """The benchmark: one table per element size (m), printed with ``out``; returns the rows."""
+    """The benchmark: one table per element size, printed with ``out``.
+
+    Parameters
+    ----------
+    sizes : tuple of float
+        Element sizes of the drop test (m).
+    capture_time : float
+        End time of the skfem run whose last Newton system is measured (s).
+    repeat : int
+        Interleaved timing rounds (the best is kept).
+    direct_dofs : int
+        Largest system factorised with COLAMD.
+    natural_work : float
+        Largest envelope work (multiply-adds) factorised in the numbering's own order.
+    geometry : dict, optional
+        Further overrides of the drop-test scene (``width``, ``thickness``, m).
+    orderings : tuple of str
+        Numberings of :data:`ORDERINGS`, the first the reference of the solution difference.
+    out : callable
+        Receives each printed line.
+
+    Returns
+    -------
+    list of list of dict
+        The rows of each table (:func:`measure`).
+    """
     out("== skfem: node numbering and the Newton system (drop test, last Newton system before "
         f"t = {capture_time * 1e3:g} ms) ==")
     tables = []
