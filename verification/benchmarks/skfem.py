@@ -19,6 +19,10 @@ Sections (default: all; pick some with ``--only newton,point,...``):
 - drop:       drop test at the numba backend's mesh (quarter, 1 mm elements) for 5 mm and 8 mm:
               filtered peak difference and relative L2 of the filtered history (CFC 600, 50 kHz)
 
+``--renumber`` (alone): the node numbering and the Newton system at 1 mm and 0.5 mm elements
+(bandwidth, profile, fill of the direct factorisations, block-Jacobi CG iterations and time,
+mat-vec time for the mesh's numbering, RCM, Morton and a random one; :mod:`.skfem_renumber`).
+
 Times are wall-clock seconds on this machine; accelerations in g (9.80665 m/s^2).
 """
 
@@ -251,7 +255,16 @@ def main(argv=None):
     p.add_argument("--only", default=",".join(SECTIONS), help=f"comma-separated sections of {SECTIONS}")
     p.add_argument("--thickness", type=float, action="append",
                    help="drop section: specimen thickness in m (repeatable; default 0.005 and 0.008)")
+    p.add_argument("--renumber", action="store_true", help="only the node numberings' Newton systems "
+                   "(bandwidth, fill, CG; see cfm_verification.benchmarks.skfem_renumber)")
+    p.add_argument("--renumber-sizes", default="0.001,0.0005", help="--renumber: element sizes (m)")
+    p.add_argument("--repeat", type=int, default=5, help="--renumber: timed solves per numbering (best kept)")
     args = p.parse_args(argv)
+    if args.renumber:
+        from . import skfem_renumber
+
+        skfem_renumber.run(tuple(float(x) for x in args.renumber_sizes.split(",")), repeat=args.repeat)
+        return
     chosen = [s.strip() for s in args.only.split(",") if s.strip()]
     for s in chosen:
         if s not in SECTIONS:
