@@ -193,3 +193,55 @@ def _relaxation_row(scene, run) -> dict:
     m = compare_union(tu[hold], got, tu[hold], ref[hold], fill=None)
     m["t_peak_diff"] = m["duration_diff"] = None
     return agreement.row("calculix relaxation", label, "uniaxial driver", "calculix", kind, m)
+
+
+#: Rows :func:`rows` writes when CalculiX is available (native point, single element against the
+#: truth and skfem, relaxation, native drop window, drop test against numba).
+ROWS = 6
+
+
+def check_report(path) -> list[str]:
+    """Problems with the calculix rows of a ``cfm verify --backends calculix`` report (none: all
+    present and passed).
+
+    Parameters
+    ----------
+    path : str or Path
+        The run's ``report.json``.
+
+    Returns
+    -------
+    list of str
+        One line per missing, failed or unjudged row; empty when all :data:`ROWS` passed.
+    """
+    import json
+    from pathlib import Path
+
+    rep = json.loads(Path(path).read_text(encoding="utf-8"))
+    mine = [r for r in rep.get("agreement", []) if str(r.get("check", "")).startswith("calculix")]
+    out = [f"{r['check']} / {r['case']}: {'FAILED: ' + r['error'] if r['passed'] is False else 'not judged'}"
+           for r in mine if r.get("passed") is not True]
+    if len(mine) < ROWS:
+        out.append(f"{len(mine)} calculix rows in the report, {ROWS} expected (is CalculiX available?)")
+    return out
+
+
+def main(argv=None) -> int:
+    """``python -m cfm_verification.calculix --check DIR/report.json``: exit 0 when every calculix
+    row of that report passed, 1 (naming the rows) otherwise; CI's gate after ``cfm verify``."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m cfm_verification.calculix",
+                                 description="Check the calculix rows of a 'cfm verify --backends calculix' report.")
+    ap.add_argument("--check", required=True, metavar="REPORT_JSON", help="the report.json written by cfm verify")
+    args = ap.parse_args(argv)
+    problems = check_report(args.check)
+    for p in problems:
+        print(f"calculix rows: {p}")
+    if not problems:
+        print(f"calculix rows: all {ROWS} passed ({args.check})")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

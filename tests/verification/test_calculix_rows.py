@@ -50,3 +50,23 @@ def test_native_drop_row_compares_the_shared_increments_only():
 def test_no_rows_unless_calculix_is_selected_and_available():
     assert calculix.rows([{"name": "calculix", "status": "not selected"}], cache=None) == []
     assert calculix.rows([], cache=None) == []
+
+
+def test_the_ci_gate_passes_only_a_report_with_every_calculix_row_passed(tmp_path, capsys):
+    import json
+
+    def report(rows):
+        p = tmp_path / "report.json"
+        p.write_text(json.dumps({"agreement": rows}))
+        return p
+
+    good = [{"check": f"calculix check {i}", "case": "c", "passed": True, "error": ""} for i in range(calculix.ROWS)]
+    other = {"check": "scene", "case": "x", "passed": False, "error": "not ours"}
+    assert calculix.main(["--check", str(report(good + [other]))]) == 0
+    assert "all 6 passed" in capsys.readouterr().out
+    bad = good[:-1] + [{"check": "calculix drop", "case": "drop 8 mm", "passed": False, "error": "peak 4 % beyond 0.03"}]
+    assert calculix.main(["--check", str(report(bad))]) == 1
+    assert "calculix drop / drop 8 mm: FAILED: peak 4 % beyond 0.03" in capsys.readouterr().out
+    assert calculix.main(["--check", str(report(good[:3]))]) == 1
+    assert "3 calculix rows in the report, 6 expected" in capsys.readouterr().out
+    assert calculix.check_report(report(good[:-1] + [dict(good[0], passed=None)])) == ["calculix check 0 / c: not judged"]
