@@ -94,7 +94,9 @@ class CalculixBackend(Backend):
         opts = CalculixOptions.from_mapping(options)
         rec = find(model.material) or {}
         ccx = check_ccx(rec.get("ccx"))
-        res = run_ccx(ccx, model, threads=opts.threads, max_increment=opts.max_increment, native=opts.native,
+        from cfm_backends.threads import free_cores
+
+        res = run_ccx(ccx, model, threads=opts.threads or free_cores(), max_increment=opts.max_increment, native=opts.native,
                       keep=opts.keep, separation_time=opts.separation_time, progress=progress,
                       penalty=opts.contact_stiffness)
         res.info.update({"ccx": ccx, "build": rec.get("key")})

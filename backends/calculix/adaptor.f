@@ -9,6 +9,9 @@
 !     0.25 (ccx starts from -1) with the line 'CFM-UMAT-CUTBACK element
 !     point time': ccx rejects the iterate and cuts the increment back,
 !     or stops (fixed increments, minimum increment) with an error.
+!     The 3x3 determinant and inverse (cfmad_det3, cfmad_inv3) are the
+!     export's own routines, generated in place of the line CFM-HELPERS
+!     from the same templates as the UMATs (build.py, adaptor_source).
       subroutine umat(stress,statev,ddsdde,sse,spd,scd,
      &  rpl,ddsddt,drplde,drpldt,
      &  stran,dstran,time,dtime,temp,dtemp,predef,dpred,cmname,
@@ -25,7 +28,7 @@
       double precision sig(6),dd(6,6),f(3,3),fi(3,3),t(3,3),s(3,3),
      &  c4(3,3,3,3),tau(3,3),xj,xj0,pnew,e1,e2,e3,e4,e5,e6,e7,dtl
       logical first
-      double precision cfmad_det
+      double precision cfmad_det3
       integer ia(6),ja(6),iv(3,3),a,b,i,j,k,l,p,q,r,m,found
       data ia /1,2,3,1,1,2/
       data ja /1,2,3,2,3,3/
@@ -43,7 +46,7 @@
         dtl = 0.0d0
       end if
 !     Cauchy stress at the start from ccx's PK2: sigma = F S F^T / J
-      xj0 = cfmad_det(dfgrd0)
+      xj0 = cfmad_det3(dfgrd0)
       do k = 1, 6
         s(ia(k),ja(k)) = stress(k)
         s(ja(k),ia(k)) = stress(k)
@@ -81,17 +84,8 @@
       if (first) statev(1:nstatv) = 0.0d0
 !     PK2 at the end: S = J F^-1 sigma F^-T
       f = dfgrd1
-      xj = cfmad_det(f)
-      fi(1,1) = f(2,2)*f(3,3) - f(2,3)*f(3,2)
-      fi(1,2) = f(1,3)*f(3,2) - f(1,2)*f(3,3)
-      fi(1,3) = f(1,2)*f(2,3) - f(1,3)*f(2,2)
-      fi(2,1) = f(2,3)*f(3,1) - f(2,1)*f(3,3)
-      fi(2,2) = f(1,1)*f(3,3) - f(1,3)*f(3,1)
-      fi(2,3) = f(1,3)*f(2,1) - f(1,1)*f(2,3)
-      fi(3,1) = f(2,1)*f(3,2) - f(2,2)*f(3,1)
-      fi(3,2) = f(1,2)*f(3,1) - f(1,1)*f(3,2)
-      fi(3,3) = f(1,1)*f(2,2) - f(1,2)*f(2,1)
-      fi = fi / xj
+      xj = cfmad_det3(f)
+      call cfmad_inv3(f, fi)
       do k = 1, 6
         t(ia(k),ja(k)) = sig(k)
         t(ja(k),ia(k)) = sig(k)
@@ -145,10 +139,4 @@
       end if
       end subroutine umat
 
-      double precision function cfmad_det(a)
-      implicit none
-      double precision a(3,3)
-      cfmad_det = a(1,1)*(a(2,2)*a(3,3) - a(2,3)*a(3,2))
-     &  - a(1,2)*(a(2,1)*a(3,3) - a(2,3)*a(3,1))
-     &  + a(1,3)*(a(2,1)*a(3,2) - a(2,2)*a(3,1))
-      end function cfmad_det
+!     CFM-HELPERS

@@ -41,10 +41,22 @@ from .deck import _int_lines, material_card
 PENALTY = 1e11
 #: Thickness of the impactor cap and of the plate layer, relative to the element size (-).
 LAYER = 1.0
+#: Hexahedra along each side of the plate (flat, so any count is exact). ccx's surface-to-surface
+#: contact cuts each slave face by the master triangles it overlaps and puts 7 points in each
+#: piece: a plate meshed like the cap (about one master face per specimen face, not aligned)
+#: gave ~110 points per slave face, one plate face ~30.
+PLATE_CELLS = 1
 #: Smallest automatic increment (s) before ccx gives up (then a NumericalError).
 MIN_INCREMENT = 1e-8
 #: Largest increment (s) of the drop test when none is given (issue 22: 50 us resolved the CFC 600 band).
 DROP_INCREMENT = 5e-5
+#: The energies printed at every increment, as totals (:func:`.dropread.read_energies`): the
+#: specimen's internal energy (ccx integrates S : dE of each point, so the Prony series' dissipated
+#: work is in it) and kinetic energy, the rigid cap's kinetic energy, and the elastic energy of
+#: every penalty contact element (both pairs). ccx computes them in every implicit dynamic run
+#: (``dynamics.f`` sets them on), so printing them changes nothing in the solution.
+ENERGY_PRINTS = ["*EL PRINT, ELSET=ESPEC, TOTALS=ONLY", "ELSE, ELKE", "*EL PRINT, ELSET=ECAP, TOTALS=ONLY", "ELKE",
+                 "*CONTACT PRINT, TOTALS=ONLY", "CELS"]
 
 
 def _grid(n_x: int, extent: float) -> np.ndarray:
@@ -66,7 +78,7 @@ def _hex_block(coords_bottom, coords_top, n: int, first_node: int, first_elem: i
 
 
 def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
-                    penalty: float | None = None) -> list[str]:
+                    penalty: float | None = None, plate_cells: int | None = None) -> list[str]:
     """Deck lines of a quarter (or full) drop-test model.
 
     Parameters
@@ -81,6 +93,8 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
         CalculiX's own neo-Hookean material (:func:`.deck.material_card`).
     penalty : float, optional
         Contact penalty stiffness (Pa/m) of both contact pairs; default :data:`PENALTY`.
+    plate_cells : int, optional
+        Hexahedra along each side of the (flat, fixed) plate; default :data:`PLATE_CELLS`.
 
     Returns
     -------
@@ -130,11 +144,14 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
     t_cap = LAYER * h
     inner = c + (outer - c) * (sph.radius - t_cap) / sph.radius
     cap_nodes, cap_elems, cap_ids = _hex_block(outer, inner, n, n_spec + 1, model.n_elements + 1)
-    # plate: a layer below z = plane.z, every node fixed
-    p0 = np.stack([X, Y, np.full_like(X, model.plane.z - LAYER * h)], axis=1)
-    p1 = np.stack([X, Y, np.full_like(X, model.plane.z)], axis=1)
+    # plate: a layer below z = plane.z, every node fixed, PLATE_CELLS hexahedra a side (it is flat)
+    npl = int(PLATE_CELLS if plate_cells is None else plate_cells)
+    gp = _grid(npl, span) if quarter else np.linspace(-span / 2, span / 2, npl + 1)
+    PX, PY = (a.ravel() for a in np.meshgrid(gp, gp))
+    p0 = np.stack([PX, PY, np.full_like(PX, model.plane.z - LAYER * h)], axis=1)
+    p1 = np.stack([PX, PY, np.full_like(PX, model.plane.z)], axis=1)
     first_plate = n_spec + 1 + cap_nodes.shape[0]
-    plate_nodes, plate_elems, plate_ids = _hex_block(p0, p1, n, first_plate, cap_ids[-1] + 1)
+    plate_nodes, plate_elems, plate_ids = _hex_block(p0, p1, npl, first_plate, cap_ids[-1] + 1)
     ref = first_plate + plate_nodes.shape[0]
     rot = ref + 1
     out += [f"{first_node}, {a:.14g}, {b:.14g}, {cc:.14g}"
@@ -187,7 +204,8 @@ def drop_deck_lines(model, dt: float, end_time: float, native: bool = False,
     steps = int(math.ceil(end_time / dt - 1e-9))
     out += [f"*STEP, NLGEOM, INC={100 * steps + 1000}", "*DYNAMIC",
             f"{dt:.14g}, {end_time:.14g}, {min(MIN_INCREMENT, dt):.14g}, {dt:.14g}",
-            "*NODE PRINT, NSET=NREF", "U, V", "*CONTACT PRINT, SLAVE=STOP, MASTER=SCAP", "CF", "*END STEP"]
+            "*NODE PRINT, NSET=NREF", "U, V", "*CONTACT PRINT, SLAVE=STOP, MASTER=SCAP", "CF"]
+    out += ENERGY_PRINTS + ["*END STEP"]
     return out
 
 

@@ -96,6 +96,17 @@ def _hex_volume(p):
     return abs(v)
 
 
+def test_deck_prints_the_energy_totals(model):
+    """Every increment prints the specimen's internal and kinetic energy, the cap's kinetic energy
+    and the contact springs' energy, as totals, inside the step."""
+    lines = _deck(model)
+    step = lines[lines.index("*DYNAMIC"):lines.index("*END STEP")]
+    for card, labels in (("*EL PRINT, ELSET=ESPEC, TOTALS=ONLY", {"ELSE", "ELKE"}),
+                         ("*EL PRINT, ELSET=ECAP, TOTALS=ONLY", {"ELKE"}), ("*CONTACT PRINT, TOTALS=ONLY", {"CELS"})):
+        assert card in step
+        assert {v.strip() for v in step[step.index(card) + 1].split(",")} == labels
+
+
 def test_deck_refuses_what_it_cannot_write(model):
     import dataclasses
 
@@ -132,6 +143,77 @@ DAT = """
 
       1881  0.000000E+00  0.000000E+00 -9.998919E-01
 """
+
+
+# ccx 2.20's own format of the energy totals (printout.f, formats 116, 120 and 125), appended to DAT
+ENERGY_DAT = DAT + """
+ total internal energy for set ESPEC and time  0.5000000E-04
+
+       1.250000E-04
+
+ total kinetic energy for set ESPEC and time  0.5000000E-04
+
+       2.000000E-05
+
+ total kinetic energy for set ECAP and time  0.5000000E-04
+
+       2.749800E-02
+
+ total contact spring energy for time  0.5000000E-04
+
+       3.000000E-07
+
+ total internal energy for set ESPEC and time  0.1000000E-03
+
+       4.000000E-04
+
+ total kinetic energy for set ESPEC and time  0.1000000E-03
+
+       6.000000E-05
+
+ total kinetic energy for set ECAP and time  0.1000000E-03
+
+       2.749000E-02
+
+ total contact spring energy for time  0.1000000E-03
+
+       0.000000E+00
+"""
+
+
+def test_energies_read_from_the_dat(model):
+    """The energy histories (full model) and their balance from ccx's printed totals."""
+    from cfm_backends.calculix.dropread import drop_result, read_energies
+
+    e = read_energies(ENERGY_DAT)
+    assert e[1e-4] == {"internal ESPEC": 4e-4, "kinetic ESPEC": 6e-5, "kinetic ECAP": 2.749e-2, "contact": 0.0}
+    r = drop_result(model, ENERGY_DAT, wall=1.0, separation_time=2e-4, info={})
+    k, m, v0 = model.symmetry_factor, model.sphere.mass, model.sphere.velocity
+    np.testing.assert_allclose(r.energies["kinetic"], k * np.array([0.5 * m * v0 ** 2, 2.0e-5 + 2.7498e-2,
+                                                                     6.0e-5 + 2.749e-2]), rtol=1e-15)
+    np.testing.assert_allclose(r.energies["internal"], k * np.array([0.0, 1.25e-4, 4.0e-4]), rtol=1e-15)
+    np.testing.assert_allclose(r.energies["contact"], k * np.array([0.0, 3e-7, 0.0]), rtol=1e-15)
+    assert not r.energies["external"].any() and not r.energies["hourglass"].any()
+    total = r.energies["kinetic"] + r.energies["internal"] + r.energies["contact"]
+    scale = max((r.energies["kinetic"] + r.energies["internal"]).max(), 1e-300)
+    assert r.energy_error() == pytest.approx(np.abs(total - total[0]).max() / scale, rel=1e-12)
+    assert "hourglass" in r.info["hourglass_note"] and "alpha method" in r.info["energy_note"]
+
+
+def test_summary_says_why_a_balance_is_missing(model):
+    """A .dat without the energy totals gives no energies, and the summary and the CLI line say so (no NaN)."""
+    from cfm_backends.calculix.dropread import drop_result
+    from cfm_core.post.summary import summarize
+
+    r = drop_result(model, DAT, wall=1.0, separation_time=2e-4, info={})
+    assert r.energies == {}
+    s = summarize(r, {"impactor_mass": model.mass_full})
+    assert "energy_error" not in s and s["energy_error_note"].startswith("n/a: ccx printed no energy totals")
+    full = drop_result(model, ENERGY_DAT, wall=1.0, separation_time=2e-4, info={})
+    s = summarize(full, {"impactor_mass": model.mass_full})
+    assert s["energy_error"] == pytest.approx(full.energy_error())
+    assert s["hourglass_ratio"] is None and s["hourglass_ratio_note"].startswith("n/a: CalculiX does not report")
+    assert "alpha method" in s["energy_error_note"]
 
 
 def test_read_drop_zero_force_where_ccx_printed_no_contact():
