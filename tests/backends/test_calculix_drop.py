@@ -107,6 +107,28 @@ def test_deck_prints_the_energy_totals(model):
         assert {v.strip() for v in step[step.index(card) + 1].split(",")} == labels
 
 
+def test_deck_contact_controls_and_one_plate_face(model):
+    """The step relaxes ccx's contact-element stability criterion and its iteration budget for
+    face-to-face contact (kept at ccx's defaults otherwise); the flat plate is one hexahedron
+    covering the cap's footprint."""
+    from cfm_backends.calculix.drop import CONTACT_DELCON, CONTACT_ITERATIONS
+
+    lines = _deck(model)
+    i = lines.index("*CONTROLS, PARAMETERS=CONTACT")
+    assert lines[i - 1].startswith("*STEP, NLGEOM") and lines[i + 2] == "*DYNAMIC"
+    assert [float(v) for v in lines[i + 1].split(",")] == [CONTACT_DELCON, 0.1, 100.0, CONTACT_ITERATIONS]
+    nodes = _node_table(lines)
+    plate = np.array(_elements(lines, "C3D8", "EPLATE"))
+    assert plate.shape == (1, 8)
+    xyz = np.array([nodes[k] for k in plate[0]])
+    top = xyz[4:]
+    assert np.all(top[:, 2] == model.plane.z)
+    spec = model.nodes[model.plane_nodes]
+    # the plate's top face covers the specimen's bottom with room for it to spread
+    assert top[:, 0].min() <= spec[:, 0].min() and top[:, 0].max() >= 1.03 * spec[:, 0].max()
+    assert top[:, 1].min() <= spec[:, 1].min() and top[:, 1].max() >= 1.03 * spec[:, 1].max()
+
+
 def test_deck_refuses_what_it_cannot_write(model):
     import dataclasses
 
