@@ -96,8 +96,8 @@ class CalculixBackend(Backend):
         ccx = check_ccx(rec.get("ccx"))
         from cfm_backends.threads import free_cores
 
-        res = run_ccx(ccx, model, threads=opts.threads or free_cores(), max_increment=opts.max_increment, native=opts.native,
-                      keep=opts.keep, separation_time=opts.separation_time, progress=progress,
+        res = run_ccx(ccx, model, threads=opts.threads or free_cores(), max_increment=opts.max_increment,
+                      native=opts.native, keep=opts.keep, separation_time=opts.separation_time, progress=progress,
                       penalty=opts.contact_stiffness)
         res.info.update({"ccx": ccx, "build": rec.get("key")})
         if progress is not None:

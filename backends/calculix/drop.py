@@ -51,13 +51,13 @@ PENALTY = 1e11
 LAYER = 1.0
 #: Hexahedra along each side of the plate (flat, so any count is exact). ccx's surface-to-surface
 #: contact cuts each slave face by the master triangles it overlaps and puts 7 points in each
-#: piece: a plate meshed like the cap (about one master face per specimen face, not aligned)
-#: gave ~110 points per slave face, one plate face ~30.
+#: piece: with a plate meshed like the cap (not aligned with the specimen) ccx generated about
+#: 38 000 candidate points per increment in the 2 mm drop test, with one plate face 23 600.
 PLATE_CELLS = 1
 #: ``*CONTROLS, PARAMETERS=CONTACT`` delcon: the relative change of the number of contact
 #: elements between two Newton iterations below which ccx may call the increment converged (the
-#: force and correction criteria hold as well). ccx's default, 0.001, is less than one element
-#: of the ~1000 here: elements at the edge of the contact zone, carrying no force, flickered in and
+#: force and correction criteria hold as well). ccx's default, 0.001, is about two elements of
+#: the ~2000 here: elements at the edge of the contact zone, carrying no force, flickered in and
 #: out and kept converged iterates going.
 CONTACT_DELCON = 0.05
 #: ``*CONTROLS, PARAMETERS=CONTACT`` itf2f: Newton iterations of a surface-to-surface contact

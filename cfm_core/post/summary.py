@@ -15,7 +15,8 @@ SUMMARY_UNITS = {
     "peak_g": "g (9.80665 m/s^2)", "t_peak": "s", "duration": "s", "pulse_width": "s",
     "loading_time": "s", "unloading_time": "s", "t5_start": "s", "t5_end": "s", "steps": "-",
     "elements": "-", "wall_time": "s", "energy_error": "-", "hourglass_ratio": "- (null: n/a, see hourglass_ratio_note)",
-    "hourglass_ratio_note": "text", "energy_error_note": "text (what the energy balance leaves out, or why there is none)", "dt_min": "s",
+    "hourglass_ratio_note": "text",
+    "energy_error_note": "text (what the energy balance leaves out, or why there is none)", "dt_min": "s",
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
     "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
     "final_over_peak": "-", "compile_time": "s", "hourglass_coefficient": "-", "newton_iterations": "-",
@@ -54,7 +55,8 @@ def summarize(result, model_info: dict, histories: tuple | None = None) -> dict:
     the backend recorded no energies, then ``energy_error_note`` says why (``result.info["energy_note"]``,
     which otherwise says what the balance leaves out); hourglass_ratio None with a ``hourglass_ratio_note``
     when ``result.info["hourglass_control"]`` is False: a backend without hourglass modes, or
-    ``result.info["hourglass_note"]`` (that text): a backend that reports no hourglass energy), dt_min/dt_max (s, when finite), backend, model_info (among
+    ``result.info["hourglass_note"]`` (that text): a backend that reports no hourglass energy),
+    dt_min/dt_max (s, when finite), backend, model_info (among
     it "warnings": the run checks' warnings, :mod:`cfm_core.simulation.checks`, text) and "units".
     Non-finite histories raise NumericalError. ``histories``: (t, a_raw, a_cfc) already computed
     by :func:`cfm_core.post.acceleration_histories` with the same mass, rate and CFC (not
