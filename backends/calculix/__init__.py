@@ -36,7 +36,7 @@ class CalculixBackend(Backend):
     devices = ("cpu",)
     dtypes = ("float64",)
     #: Not in the automatic backend set of ``cfm verify`` (it needs a local build and its drop
-    #: test takes tens of minutes): verified when named (``cfm verify --backends calculix``) and
+    #: test takes minutes): verified when named (``cfm verify --backends calculix``) and
     #: by tests/backends/test_calculix_*.py.
     experimental = True
 
