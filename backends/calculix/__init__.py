@@ -10,7 +10,8 @@ between ccx's PK2 convention and the UMAT's Cauchy / Jaumann one (:file:`adaptor
 results and the stop after separation (:mod:`.runner`, :mod:`.dropread`).
 
 Result.info: solver, element, deck_lines, increments, threads, setup_time (s), ccx (path), build (key);
-drop test also stop ("separated" or "end_time") and umat_cutbacks (iterates the UMAT refused).
+drop test also stop ("separated" or "end_time"), umat_cutbacks (iterates the UMAT refused),
+energy_note (what the energy balance leaves out, or why there are no energies) and hourglass_note.
 """
 
 from __future__ import annotations
