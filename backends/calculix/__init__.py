@@ -10,7 +10,8 @@ between ccx's PK2 convention and the UMAT's Cauchy / Jaumann one (:file:`adaptor
 results and the stop after separation (:mod:`.runner`, :mod:`.dropread`).
 
 Result.info: solver, element, deck_lines, increments, threads, setup_time (s), ccx (path), build (key);
-drop test also stop ("separated" or "end_time") and umat_cutbacks (iterates the UMAT refused).
+drop test also stop ("separated" or "end_time"), umat_cutbacks (iterates the UMAT refused),
+energy_note (what the energy balance leaves out, or why there are no energies) and hourglass_note.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ class CalculixBackend(Backend):
     devices = ("cpu",)
     dtypes = ("float64",)
     #: Not in the automatic backend set of ``cfm verify`` (it needs a local build and its drop
-    #: test takes tens of minutes): verified when named (``cfm verify --backends calculix``) and
+    #: test takes minutes): verified when named (``cfm verify --backends calculix``) and
     #: by tests/backends/test_calculix_*.py.
     experimental = True
 
@@ -94,8 +95,10 @@ class CalculixBackend(Backend):
         opts = CalculixOptions.from_mapping(options)
         rec = find(model.material) or {}
         ccx = check_ccx(rec.get("ccx"))
-        res = run_ccx(ccx, model, threads=opts.threads, max_increment=opts.max_increment, native=opts.native,
-                      keep=opts.keep, separation_time=opts.separation_time, progress=progress,
+        from cfm_backends.threads import free_cores
+
+        res = run_ccx(ccx, model, threads=opts.threads or free_cores(), max_increment=opts.max_increment,
+                      native=opts.native, keep=opts.keep, separation_time=opts.separation_time, progress=progress,
                       penalty=opts.contact_stiffness)
         res.info.update({"ccx": ccx, "build": rec.get("key")})
         if progress is not None:

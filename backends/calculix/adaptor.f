@@ -6,9 +6,15 @@
 !     material name (after the ABAQUS prefix) is generated with them
 !     in place of the line CFM-DISPATCH. A material error of the UMAT
 !     (its PNEWDT < 1: J <= 0, overflow) is passed to ccx as PNEWDT =
-!     0.25 (ccx starts from -1) with the line 'CFM-UMAT-CUTBACK element
-!     point time': ccx rejects the iterate and cuts the increment back,
+!     0.5 (ccx starts from -1) with the line 'CFM-UMAT-CUTBACK element
+!     point time': ccx rejects the iterate and halves the increment,
 !     or stops (fixed increments, minimum increment) with an error.
+!     Not the UMAT's 0.25: ccx's contact rules let an increment grow
+!     by 10 % per increment only, so each quarter cut cost ~15 small
+!     increments in the drop test; a half cut costs ~7.
+!     The 3x3 determinant and inverse (cfmad_det3, cfmad_inv3) are the
+!     export's own routines, generated in place of the line CFM-HELPERS
+!     from the same templates as the UMATs (build.py, adaptor_source).
       subroutine umat(stress,statev,ddsdde,sse,spd,scd,
      &  rpl,ddsddt,drplde,drpldt,
      &  stran,dstran,time,dtime,temp,dtemp,predef,dpred,cmname,
@@ -25,7 +31,7 @@
       double precision sig(6),dd(6,6),f(3,3),fi(3,3),t(3,3),s(3,3),
      &  c4(3,3,3,3),tau(3,3),xj,xj0,pnew,e1,e2,e3,e4,e5,e6,e7,dtl
       logical first
-      double precision cfmad_det
+      double precision cfmad_det3
       integer ia(6),ja(6),iv(3,3),a,b,i,j,k,l,p,q,r,m,found
       data ia /1,2,3,1,1,2/
       data ja /1,2,3,2,3,3/
@@ -43,7 +49,7 @@
         dtl = 0.0d0
       end if
 !     Cauchy stress at the start from ccx's PK2: sigma = F S F^T / J
-      xj0 = cfmad_det(dfgrd0)
+      xj0 = cfmad_det3(dfgrd0)
       do k = 1, 6
         s(ia(k),ja(k)) = stress(k)
         s(ja(k),ia(k)) = stress(k)
@@ -75,23 +81,14 @@
 !       so the stress and tangent are left as they came in.
         write (*,'(a,i0,a,i0,a,g0)') ' CFM-UMAT-CUTBACK element ', noel,
      &    ' point ', npt, ' time ', time(2) + dtime
-        if (pnewdt .le. 0.0d0 .or. pnewdt .gt. 0.25d0) pnewdt = 0.25d0
+        if (pnewdt .le. 0.0d0 .or. pnewdt .gt. 0.5d0) pnewdt = 0.5d0
         return
       end if
       if (first) statev(1:nstatv) = 0.0d0
 !     PK2 at the end: S = J F^-1 sigma F^-T
       f = dfgrd1
-      xj = cfmad_det(f)
-      fi(1,1) = f(2,2)*f(3,3) - f(2,3)*f(3,2)
-      fi(1,2) = f(1,3)*f(3,2) - f(1,2)*f(3,3)
-      fi(1,3) = f(1,2)*f(2,3) - f(1,3)*f(2,2)
-      fi(2,1) = f(2,3)*f(3,1) - f(2,1)*f(3,3)
-      fi(2,2) = f(1,1)*f(3,3) - f(1,3)*f(3,1)
-      fi(2,3) = f(1,3)*f(2,1) - f(1,1)*f(2,3)
-      fi(3,1) = f(2,1)*f(3,2) - f(2,2)*f(3,1)
-      fi(3,2) = f(1,2)*f(3,1) - f(1,1)*f(3,2)
-      fi(3,3) = f(1,1)*f(2,2) - f(1,2)*f(2,1)
-      fi = fi / xj
+      xj = cfmad_det3(f)
+      call cfmad_inv3(f, fi)
       do k = 1, 6
         t(ia(k),ja(k)) = sig(k)
         t(ja(k),ia(k)) = sig(k)
@@ -145,10 +142,4 @@
       end if
       end subroutine umat
 
-      double precision function cfmad_det(a)
-      implicit none
-      double precision a(3,3)
-      cfmad_det = a(1,1)*(a(2,2)*a(3,3) - a(2,3)*a(3,2))
-     &  - a(1,2)*(a(2,1)*a(3,3) - a(2,3)*a(3,1))
-     &  + a(1,3)*(a(2,1)*a(3,2) - a(2,2)*a(3,1))
-      end function cfmad_det
+!     CFM-HELPERS

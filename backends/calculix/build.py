@@ -44,6 +44,33 @@ UMAT_ABAQUS_PATCH = ("      if(icmd.ne.3) then", "      if(.true.) then")
 LINK_VERSION = 2
 
 
+def _template_routine(template: str, kind: str, name: str) -> str:
+    """The text of one routine (``kind`` ``{P}<name>``) of an export template, unformatted."""
+    m = re.search(rf"(?ms)^      {kind} \{{P\}}{name}\(.*?^      end {kind} \{{P\}}{name}\n", template)
+    if m is None:
+        raise InputError(f"CalculiX build: the export's templates have no {kind} {{P}}{name}; the adaptor needs it.")
+    return m.group(0)
+
+
+def adaptor_source() -> str:
+    """:file:`adaptor.f` with its 3x3 helpers ``cfmad_det3`` and ``cfmad_inv3`` in place of the line
+    ``CFM-HELPERS``: the export's own ``{P}det3`` (:data:`cfm_core.export.kernel.CORE`) and
+    ``{P}inv3`` (:data:`cfm_core.export.abaqus.UMAT`) with the prefix ``cfmad_``, so that the
+    adaptor and the UMATs invert F with the same code.
+
+    Returns
+    -------
+    str
+        The fixed-form Fortran source of ccx's ``umat`` entry (its dispatch still a marker).
+    """
+    from cfm_core.export import abaqus, fortran, kernel
+
+    helpers = (_template_routine(kernel.CORE, "function", "det3") + "\n"
+               + _template_routine(abaqus.UMAT, "subroutine", "inv3"))
+    helpers = helpers.replace("{P}", "cfmad_").replace("{DP}", fortran.DP)
+    return ADAPTOR.read_text().replace("!     CFM-HELPERS\n", helpers)
+
+
 def link_digest() -> str:
     """Digest of what the project links around the UMATs (adaptor, umat_abaqus.f patch, dispatch).
 
@@ -55,7 +82,7 @@ def link_digest() -> str:
     str
         20 hex digits.
     """
-    return digest({"adaptor": ADAPTOR.read_text(), "patch": UMAT_ABAQUS_PATCH, "link": LINK_VERSION})[:20]
+    return digest({"adaptor": adaptor_source(), "patch": UMAT_ABAQUS_PATCH, "link": LINK_VERSION})[:20]
 
 
 def tag(name: str) -> str:
@@ -187,7 +214,7 @@ def linked_source(mats, sources=None) -> tuple[str, dict]:
                      "     &    layer, kspt, kstep(1), kinc)",
                      "      end if"]
         names[m.spec.name] = {"tag": t, "definition": spec_fingerprint(m.spec)}
-    adaptor = ADAPTOR.read_text().replace("!     CFM-DISPATCH\n", "\n".join(dispatch) + "\n")
+    adaptor = adaptor_source().replace("!     CFM-DISPATCH\n", "\n".join(dispatch) + "\n")
     return "\n".join([adaptor, *parts]), names
 
 
@@ -219,7 +246,7 @@ def build(materials=DEFAULT_MATERIALS, say=print) -> dict:
     t0 = time.perf_counter()
     mats = [make_material(name) for name in dict.fromkeys(materials)]
     sources = {m.spec.name: _umat_code(m) for m in mats}
-    adaptor = ADAPTOR.read_text()
+    adaptor = adaptor_source()
     key = digest({"version": VERSION, "adaptor": adaptor, "patch": UMAT_ABAQUS_PATCH, "link": LINK_VERSION,
                   "cflags": CFLAGS,
                   "fflags": FFLAGS,

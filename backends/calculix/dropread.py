@@ -4,7 +4,8 @@ The deck (:func:`.drop.drop_deck_lines`) prints, at every converged increment, t
 reference node's displacement and velocity (``*NODE PRINT, NSET=NREF``: U, V) and the contact
 statistics of the specimen's top surface against the impactor (``*CONTACT PRINT``: the total
 surface force on the slave surface, N). ccx prints no statistics block at an increment without
-contact: the force is zero there.
+contact: the force is zero there. It also prints the energy totals of :data:`.drop.ENERGY_PRINTS`
+(:func:`read_energies`), from which the Result's energy histories and balance come.
 """
 
 from __future__ import annotations
@@ -21,6 +22,77 @@ _NODE = re.compile(rf"(displacements|velocities) \(vx,vy,vz\) for set NREF and t
                    rf"\s*\d+\s+({_NUM})\s+({_NUM})\s+({_NUM})")
 _STAT = re.compile(rf"statistics for slave set STOP, master set SCAP and time\s+({_NUM})\s*\n\s*\n[^\n]*\n\s*\n"
                    rf"\s*({_NUM})\s+({_NUM})\s+({_NUM})")
+
+_ETOT = re.compile(rf"total (internal|kinetic) energy for set (\S+) and time\s+({_NUM})\s*\n\s*\n\s*({_NUM})")
+_CELS = re.compile(rf"total contact spring energy for time\s+({_NUM})\s*\n\s*\n\s*({_NUM})")
+#: What the energy balance of a CalculiX drop test leaves out (Result.info["energy_note"]).
+ENERGY_NOTE = ("CalculiX prints no hourglass energy and no numerical dissipation: the work of its C3D8R "
+               "hourglass forces and the energy its alpha method removes count as energy-balance error")
+#: Result.info["hourglass_note"] of a CalculiX drop test (the summary's hourglass_ratio_note).
+HOURGLASS_NOTE = ("n/a: CalculiX does not report the energy of its C3D8R hourglass control (the hourglass "
+                  "history is zero, not measured)")
+
+
+def read_energies(text: str) -> dict[float, dict[str, float]]:
+    """The energy totals of each printed increment of a drop-test ``.dat`` (:data:`.drop.ENERGY_PRINTS`).
+
+    Parameters
+    ----------
+    text : str
+        The ``.dat`` file's content.
+
+    Returns
+    -------
+    dict
+        Increment end time (s) to a dict with ``"internal ESPEC"``, ``"kinetic ESPEC"``,
+        ``"kinetic ECAP"`` (J, quarter model as ccx ran it, when printed) and ``"contact"`` (J,
+        elastic energy of every contact element; ccx prints it as 0 when none exists).
+    """
+    out: dict[float, dict[str, float]] = {}
+    for m in _ETOT.finditer(text):
+        out.setdefault(float(m.group(3)), {})[f"{m.group(1)} {m.group(2).upper()}"] = float(m.group(4))
+    for m in _CELS.finditer(text):
+        out.setdefault(float(m.group(1)), {})["contact"] = float(m.group(2))
+    return out
+
+
+def energy_histories(model, text: str, t: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+    """The Result's energy histories (J, full model) of a drop test, or {} when ccx printed none.
+
+    Parameters
+    ----------
+    model : Model
+        The drop-test model that ran (symmetry factor, impactor mass and velocity).
+    text : str
+        The ``.dat`` file's content.
+    t : ndarray, shape (m,)
+        The Result's times (s), t[0] = 0 (the start, printed by no increment).
+    v : ndarray, shape (m,)
+        Impactor velocity (m/s), for the start's kinetic energy.
+
+    Returns
+    -------
+    dict
+        ``kinetic`` (specimen + impactor cap), ``internal`` (specimen: ccx's integral of S : dE,
+        the viscous work included), ``contact`` (penalty springs of both contact pairs),
+        ``hourglass`` and ``external`` (zeros: ccx reports no hourglass energy, see
+        :data:`HOURGLASS_NOTE`; the deck has no loads, and fixed and symmetry dofs do no work),
+        each shape (m,); {} when an increment lacks one of the printed totals (a ``.dat`` from a
+        deck without :data:`.drop.ENERGY_PRINTS`).
+    """
+    e = read_energies(text)
+    keys = ("internal ESPEC", "kinetic ESPEC", "kinetic ECAP", "contact")
+    rows = [e.get(float(ti), {}) for ti in t[1:]]
+    if not all(k in r for r in rows for k in keys):
+        return {}
+    k = float(model.symmetry_factor)
+    sph = model.sphere
+    a = np.array([[r[name] for name in keys] for r in rows]).reshape(-1, 4)
+    start = np.array([[0.0, 0.0, 0.5 * sph.mass * float(v[0]) ** 2, 0.0]])  # the specimen at rest, unloaded
+    a = k * np.concatenate([start, a])
+    zero = np.zeros(t.size)
+    return {"kinetic": a[:, 1] + a[:, 2], "internal": a[:, 0], "contact": a[:, 3], "hourglass": zero,
+            "external": zero.copy()}
 
 
 def read_drop(text: str) -> dict[str, np.ndarray]:
@@ -106,7 +178,8 @@ def drop_result(model, text: str, *, wall: float, separation_time: float, info: 
         ``t`` (s, from 0), ``contact_force`` (N, + decelerating), ``impulse`` (N s, the momentum
         the impactor lost: ccx's rigid body integrated by ccx, so the acceleration resampled
         from it is the impactor's), ``acceleration`` (m/s^2), ``impactor_z`` (m, reference point)
-        and ``impactor_v`` (m/s); no energies (ccx's are not read).
+        and ``impactor_v`` (m/s), ``energies`` (J, :func:`energy_histories`; with
+        ``info["energy_note"]`` saying what the balance leaves out, ``info["hourglass_note"]``).
 
     Raises
     ------
@@ -133,10 +206,18 @@ def drop_result(model, text: str, *, wall: float, separation_time: float, info: 
     impulse = sph.mass * k * (v - sph.velocity)
     dts = np.diff(t)
     info = {**info, "increments": int(n), "stop": "separated" if stop is not None else "end_time"}
+    energies = energy_histories(model, text, t, v)
+    for name, e in energies.items():
+        if not np.isfinite(e).all():
+            raise NumericalError(f"calculix backend: non-finite {name} energy in '{model.name}'.", quantity=name)
+    if energies:
+        info.update(energy_note=ENERGY_NOTE, hourglass_note=HOURGLASS_NOTE)
+    else:
+        info["energy_note"] = "ccx printed no energy totals (a deck without the energy print requests)"
     mass_full = model.mass_full if model.mass_full else sph.mass * k
     return Result(t=t, backend="calculix", steps=int(n), wall_time=wall, contact_force=force, impulse=impulse,
-                  acceleration=force / mass_full, impactor_z=z, impactor_v=v, dt_min=float(dts.min()),
-                  dt_max=float(dts.max()), info=info)
+                  acceleration=force / mass_full, impactor_z=z, impactor_v=v, energies=energies,
+                  dt_min=float(dts.min()), dt_max=float(dts.max()), info=info)
 
 
 def watch_ccx(cmd, work, env, model, *, separation_time: float, poll: float = 1.0, progress=None):

@@ -15,8 +15,9 @@ class CalculixOptions(Options):
 
     owner = "calculix backend"
 
-    threads: int = option(1, "-", "threads of ccx (OMP_NUM_THREADS, CCX_NPROC_EQUATION_SOLVER)", kind="int",
-                          low=1, high=256)
+    threads: int = option(None, "-", "threads of ccx (OMP_NUM_THREADS, CCX_NPROC_EQUATION_SOLVER, CCX_NPROC_RESULTS, "
+                          "CCX_NPROC_STIFFNESS)", kind="int", low=1, high=256,
+                          none="the cores free to this process (cfm_backends.threads.free_cores)")
     max_increment: float = option(math.inf, "s", "largest time increment: prescribed motion, fixed increments "
                                   "(DIRECT) also bounded by the output interval and 20 per prescribed segment; drop "
                                   "test, automatic increments up to it (inf: 50 us)", low=0.0, low_open=True)

@@ -95,8 +95,8 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
         work.mkdir(parents=True, exist_ok=True)
         deck = work / "job.inp"
         write_deck(model, deck, max_increment=max_increment, native=native, penalty=penalty)
-        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads),
-               "CCX_NPROC_RESULTS": str(threads)}
+        env = {**os.environ, **{k: str(threads) for k in ("OMP_NUM_THREADS", "CCX_NPROC_EQUATION_SOLVER",
+                                                            "CCX_NPROC_RESULTS", "CCX_NPROC_STIFFNESS")}}
         t1 = time.perf_counter()
         if drop:
             code, log, dat, stopped = watch_ccx([ccx, "-i", "job"], work, env, model,

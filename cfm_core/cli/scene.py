@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from ..errors import InputError
@@ -117,10 +116,11 @@ def _drop_test(args, scene) -> int:
     """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
     outcome, out, names = _run_and_write(args, scene)
     s = outcome.summary
-    hourglass = "n/a" if s.get("hourglass_ratio", math.nan) is None else f"{100 * s.get('hourglass_ratio', math.nan):.2f} %"
+    hourglass = "n/a" if s.get("hourglass_ratio") is None else f"{100 * s['hourglass_ratio']:.2f} %"
+    energy = (f"energy error {100 * s['energy_error']:.2f} %" if "energy_error" in s
+              else f"energy balance: not available ({s.get('energy_error_note', 'no energies recorded')})")
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "
-          f"{s['steps']} steps, {s['wall_time']:.2f} s solver, energy error {100 * s.get('energy_error', math.nan):.2f} %, "
-          f"hourglass/internal {hourglass}")
+          f"{s['steps']} steps, {s['wall_time']:.2f} s solver, {energy}, hourglass/internal {hourglass}")
     print(f"wrote {out}/: {', '.join(names)}")
     return 0
 

@@ -15,7 +15,8 @@ SUMMARY_UNITS = {
     "peak_g": "g (9.80665 m/s^2)", "t_peak": "s", "duration": "s", "pulse_width": "s",
     "loading_time": "s", "unloading_time": "s", "t5_start": "s", "t5_end": "s", "steps": "-",
     "elements": "-", "wall_time": "s", "energy_error": "-", "hourglass_ratio": "- (null: n/a, see hourglass_ratio_note)",
-    "hourglass_ratio_note": "text", "dt_min": "s",
+    "hourglass_ratio_note": "text",
+    "energy_error_note": "text (what the energy balance leaves out, or why there is none)", "dt_min": "s",
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
     "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
     "final_over_peak": "-", "compile_time": "s", "hourglass_coefficient": "-", "newton_iterations": "-",
@@ -51,8 +52,11 @@ def summarize(result, model_info: dict, histories: tuple | None = None) -> dict:
     (a ``units`` dict in model_info is merged into the summary's).
     Keys: the :func:`drop_test_metrics` of the CFC-filtered acceleration (duration from the raw
     signal), steps, elements, wall_time (s), energy_error and hourglass_ratio (-, left out when
-    the backend recorded no energies; hourglass_ratio None with a ``hourglass_ratio_note`` when
-    ``result.info["hourglass_control"]`` is False: a backend without hourglass modes), dt_min/dt_max (s, when finite), backend, model_info (among
+    the backend recorded no energies, then ``energy_error_note`` says why (``result.info["energy_note"]``,
+    which otherwise says what the balance leaves out); hourglass_ratio None with a ``hourglass_ratio_note``
+    when ``result.info["hourglass_control"]`` is False: a backend without hourglass modes, or
+    ``result.info["hourglass_note"]`` (that text): a backend that reports no hourglass energy),
+    dt_min/dt_max (s, when finite), backend, model_info (among
     it "warnings": the run checks' warnings, :mod:`cfm_core.simulation.checks`, text) and "units".
     Non-finite histories raise NumericalError. ``histories``: (t, a_raw, a_cfc) already computed
     by :func:`cfm_core.post.acceleration_histories` with the same mass, rate and CFC (not
@@ -79,13 +83,21 @@ def _finish_summary(result, out: dict, model_info: dict) -> dict:
         out["elements"] = int(elements)
     if result.energies:
         out["energy_error"] = result.energy_error()
-        if result.info.get("hourglass_control", True):
+        if result.info.get("energy_note"):
+            out["energy_error_note"] = str(result.info["energy_note"])
+        if result.info.get("hourglass_note"):  # a backend with hourglass modes that reports no hourglass energy
+            out["hourglass_ratio"] = None
+            out["hourglass_ratio_note"] = str(result.info["hourglass_note"])
+        elif result.info.get("hourglass_control", True):
             out["hourglass_ratio"] = result.hourglass_ratio()
         else:  # fully integrated elements: no hourglass modes, so no hourglass energy to compare
             out["hourglass_ratio"] = None
             out["hourglass_ratio_note"] = (f"n/a: backend '{result.backend}' has no hourglass control (its elements "
                                            f"are fully integrated, without hourglass modes), so it has no hourglass "
                                            f"energy")
+    else:
+        out["energy_error_note"] = ("n/a: " + str(result.info.get("energy_note") or f"backend '{result.backend}' "
+                                    f"recorded no energies"))
     for name in ("dt_min", "dt_max"):
         v = float(getattr(result, name))
         if math.isfinite(v):

@@ -75,3 +75,15 @@ def test_pk2_and_material_tangent(setup, which):
     assert np.allclose(out["ddsdde"][k], num, atol=1e-6 * scale), (out["ddsdde"][k], num)
     # and the tangent is not trivially zero
     assert scale > 0.0
+
+
+def test_a_refused_iterate_halves_the_increment(setup):
+    """An iterate that inverts the element (J < 0): the UMAT refuses it, the adaptor leaves the
+    stress as it came in and asks ccx for half the increment (PNEWDT = 0.5; the UMAT's own 0.25
+    made ccx crawl back at 10 % per increment after each such cut in the drop test)."""
+    mats, lib, names = setup
+    mat = mats[0]
+    F = np.array([np.eye(3), np.diag([1.0, 1.0, -0.5])])
+    out = _call(lib, mat, names[mat.spec.name]["tag"], np.array([0.0, 1e-4]), F)
+    assert out["pnewdt"][1] == 0.5
+    assert np.array_equal(out["stress"][1], out["stress"][0])

@@ -74,3 +74,20 @@ def test_linked_source_dispatches_on_each_material():
     assert "subroutine cfmu_1(a)" in text and "end subroutine cfmu_2" in text
     assert "!     CFM-DISPATCH\n" not in text  # the marker line is replaced by the dispatch
     assert max(len(line) for line in text.splitlines()) <= 72  # fixed form
+
+
+def test_adaptor_inverts_f_with_the_exports_own_routines():
+    """No second hand-written 3x3 inverse: the adaptor's det3 and inv3 are the export's templates
+    (the UMAT's {P}inv3, the kernel's {P}det3) with the prefix cfmad_."""
+    from cfm_backends.calculix.build import ADAPTOR, _template_routine, adaptor_source
+    from cfm_core.export import abaqus, fortran, kernel
+
+    hand = ADAPTOR.read_text()
+    assert "cfmad_inv3(a, b)" not in hand and "!     CFM-HELPERS\n" in hand
+    text = adaptor_source()
+    for template, kind, name in ((abaqus.UMAT, "subroutine", "inv3"), (kernel.CORE, "function", "det3")):
+        routine = _template_routine(template, kind, name)
+        assert routine.replace("{P}", "cfmad_").replace("{DP}", fortran.DP) in text
+    assert "!     CFM-HELPERS\n" not in text and max(len(line) for line in text.splitlines()) <= 72
+    with pytest.raises(InputError, match="no subroutine"):
+        _template_routine(abaqus.UMAT, "subroutine", "nosuch")
