@@ -38,15 +38,13 @@ UMAT41 = """\
       logical, intent(inout) :: failel, reject
       real(dp), intent(in) :: crv(*), cma(*), qmat(3,3), elsiz
       integer, intent(in) :: nnpcrv(*), idele
-      real(dp), external :: {P}det3
       real(dp) :: pv({NK}), gam({NPD}), tau({NPD}), hnew({NHD})
       real(dp) :: f(3,3), s(3,3), w(3,3), em(3), q(3,3), gt(3), ht(6)
       real(dp) :: xj, sse
-      integer :: ierr, j, k
+      integer :: ierr, k
       integer, parameter :: nhv = {NS}
       integer, parameter :: ia(6) = [1, 2, 3, 1, 2, 3]
       integer, parameter :: ja(6) = [1, 2, 3, 2, 3, 1]
-      ierr = 0
 !     arguments this material does not use, referenced once so that
 !     compilers do not warn about them
       if (.false.) then
@@ -54,18 +52,7 @@ UMAT41 = """\
      &    + elsiz + dble(nnpcrv(1) + idele)
         failel = .false.
       end if
-      if (etype .ne. 'solid' .and. etype .ne. 'sph') then
-        ierr = 4
-      else
-        call {P}params(cm(1:{NC}), pv, gam, tau, ierr)
-      end if
-      do j = 1, 3
-        do k = 1, 3
-          f(k,j) = hsv(nhv + k + 3 * (j - 1))
-        end do
-      end do
-      xj = {P}det3(f)
-      if (ierr .eq. 0 .and. .not. xj .gt. 0.0d0) ierr = 1
+      call {P}dynaf(cm, hsv, etype, pv, gam, tau, f, xj, ierr)
       if (ierr .eq. 0) then
         call {P}point(matmul(transpose(f), f), dt1, hsv(1:{NHD}), pv,
      &    gam, tau, .false., s, hnew, sse, em, q, gt, ht, ierr)
@@ -100,16 +87,13 @@ UTAN41 = """\
       real(dp), intent(inout) :: es(6,*)
       real(dp), intent(in) :: crv(*), cma(*), qmat(3,3)
       integer, intent(in) :: nnpcrv(*)
-      real(dp), external :: {P}det3
       logical, external :: {P}finite
       real(dp) :: pv({NK}), gam({NPD}), tau({NPD}), hnew({NHD})
       real(dp) :: h0({NHD}), f(3,3), s(3,3), z(3,3), em(3), q(3,3)
       real(dp) :: gt(3), ht(6), dd(6,6), xj, sse
-      integer :: ierr, j, k
-      integer, parameter :: nhv = {NS}
+      integer :: ierr
       integer, parameter :: ia(6) = [1, 2, 3, 1, 2, 3]
       integer, parameter :: ja(6) = [1, 2, 3, 2, 3, 1]
-      ierr = 0
       unsym = .false.
       es(1:6,1:6) = 0.0d0
 !     arguments this material does not use, referenced once so that
@@ -119,18 +103,7 @@ UTAN41 = """\
      &    + qmat(1,1) + dble(nnpcrv(1))
         failel = .false.
       end if
-      if (etype .ne. 'solid' .and. etype .ne. 'sph') then
-        ierr = 4
-      else
-        call {P}params(cm(1:{NC}), pv, gam, tau, ierr)
-      end if
-      do j = 1, 3
-        do k = 1, 3
-          f(k,j) = hsv(nhv + k + 3 * (j - 1))
-        end do
-      end do
-      xj = {P}det3(f)
-      if (ierr .eq. 0 .and. .not. xj .gt. 0.0d0) ierr = 1
+      call {P}dynaf(cm, hsv, etype, pv, gam, tau, f, xj, ierr)
       if (ierr .eq. 0) then
 !       the tangent does not depend on the history: a zero one
         h0 = 0.0d0
@@ -150,6 +123,39 @@ UTAN41 = """\
       end if
       es(1:6,1:6) = dd
       end subroutine utan{N}
+
+      subroutine {P}dynaf(cm, hsv, etype, pv, gam, tau, f, xj, ierr)
+!     what umat{N} and utan{N} read from a call: the constants, and F
+!     from hsv(NHV+1 .. NHV+9) column-major with J = det F; ierr 4 for
+!     an element other than solid / sph, 1 for J <= 0, the constants'
+!     own codes from {P}params
+      implicit none
+{DP}
+      real(dp), intent(in) :: cm(*), hsv(*)
+      character(len=5), intent(in) :: etype
+      real(dp), intent(out) :: pv({NK}), gam({NPD}), tau({NPD})
+      real(dp), intent(out) :: f(3,3), xj
+      integer, intent(out) :: ierr
+      real(dp), external :: {P}det3
+      integer :: j, k
+      integer, parameter :: nhv = {NS}
+      ierr = 0
+      pv = 0.0d0
+      gam = 0.0d0
+      tau = 1.0d0
+      if (etype .ne. 'solid' .and. etype .ne. 'sph') then
+        ierr = 4
+      else
+        call {P}params(cm(1:{NC}), pv, gam, tau, ierr)
+      end if
+      do j = 1, 3
+        do k = 1, 3
+          f(k,j) = hsv(nhv + k + 3 * (j - 1))
+        end do
+      end do
+      xj = {P}det3(f)
+      if (ierr .eq. 0 .and. .not. xj .gt. 0.0d0) ierr = 1
+      end subroutine {P}dynaf
 """
 
 
