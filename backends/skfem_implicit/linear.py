@@ -362,11 +362,17 @@ def _count(times: dict, counts: dict, key: str, tic: float) -> None:
 
 def pardiso_available() -> bool:
     """True when MKL PARDISO can be loaded (pypardiso installed)."""
+    return pardiso_problem() is None
+
+
+def pardiso_problem() -> str | None:
+    """Why MKL PARDISO cannot be loaded here (pypardiso absent, or present but its MKL library
+    not found, as in some virtual environments), or None when it can."""
     try:
         _mkl_rt()
-    except (ImportError, OSError):
-        return False
-    return True
+    except (ImportError, OSError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
 
 
 def assemble_vector(edofs: np.ndarray, fe: np.ndarray, n: int) -> np.ndarray:

@@ -237,9 +237,11 @@ def _linear_solver(sys_: System, o: dict, quasi: bool):
     kind = o["linear_solver"]
     if kind == "auto":
         kind = "direct" if quasi else "cg"
-    if kind == "pardiso" and not linear.pardiso_available():
-        raise InputError("skfem backend: linear_solver = 'pardiso' needs pypardiso (pip install pypardiso); "
-                         "use 'superlu' (scipy only) or 'auto'.")
+    why = linear.pardiso_problem() if kind == "pardiso" else None
+    if why is not None:
+        raise InputError(f"skfem backend: linear_solver = 'pardiso' needs MKL PARDISO, which cannot be loaded here "
+                         f"({why}); install pypardiso (pip install pypardiso) where it finds MKL's mkl_rt, or use "
+                         f"'cg', 'superlu' (scipy only) or 'auto'.")
     return linear.make_solver(kind, sys_.pattern, sys_.n_nodes, rtol=o["cg_rtol"], maxiter=o["cg_maxiter"],
                               times=sys_.times, counts=sys_.counts)
 

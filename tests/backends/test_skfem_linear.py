@@ -104,3 +104,18 @@ def test_runs_agree_across_kernels_and_solvers(options):
     assert r.steps == base.steps and r.info["kernels"] == options.get("kernels", "numba")
     np.testing.assert_allclose(r.impulse, base.impulse, rtol=1e-6, atol=1e-9 * np.abs(base.impulse).max())
     np.testing.assert_allclose(r.contact_force, base.contact_force, rtol=1e-5, atol=1e-6 * np.abs(base.contact_force).max())
+
+
+def test_pardiso_that_cannot_load_is_refused_naming_why(monkeypatch):
+    """linear_solver = 'pardiso' where MKL cannot be loaded: an InputError that says why (the
+    loader's own message), not a claim that pypardiso is missing."""
+    from cfm_backends.skfem_implicit import solver
+    from cfm_core.errors import InputError
+
+    def broken():
+        raise ImportError("Shared library mkl_rt not found")
+
+    monkeypatch.setattr(linear, "_mkl_rt", broken)
+    assert linear.pardiso_problem() == "ImportError: Shared library mkl_rt not found"
+    with pytest.raises(InputError, match=r"cannot be loaded here \(ImportError: Shared library mkl_rt not found\)"):
+        solver._linear_solver(None, {"linear_solver": "pardiso"}, False)
