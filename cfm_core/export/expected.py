@@ -68,20 +68,8 @@ def history(material, t, F):
 
 
 def jaumann_tangent(material, F, state, dt: float, eps: float = 1e-6) -> np.ndarray:
-    """DDSDDE of one step by the perturbation formula (central differences), Abaqus order.
-
-    Parameters
-    ----------
-    material : Material
-        A bound material.
-    F : array_like, shape (3, 3)
-        Deformation gradient at the end of the step (-).
-    state : tuple or None
-        Prony state at the start of the step (from :func:`history`).
-    dt : float
-        Step (s).
-    eps : float
-        Perturbation size (-).
+    """DDSDDE of one step by the perturbation formula (central differences), Abaqus order:
+    :func:`rate_tangent` with the Jaumann rate (material, F (3, 3), state, dt in s, eps as there).
 
     Returns
     -------
