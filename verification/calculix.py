@@ -1,7 +1,7 @@
 """CalculiX rows of ``cfm verify --backends calculix``: the generated UMAT proven in a host solver.
 
 The calculix backend is experimental: it needs a local build (``cfm calculix build``) and its
-drop test takes minutes (about 7 on one thread, 2 mm quarter mesh), so it is left out of the generic scene sections (every pair of
+drop test takes minutes (about 10 on 2 cores, 2 mm quarter mesh), so it is left out of the generic scene sections (every pair of
 backends, work-precision, stability) and checked here, when named, against what the issue sets
 (issue 22, item 4):
 
