@@ -331,15 +331,16 @@ class Monitor:
             c = impactor_position(sph, impactor_z)
             lo, hi = bounds(sph.shape, sph.radius, c)
             near = np.flatnonzero(((x > lo - tol) & (x < hi + tol)).all(axis=1))  # the rest have gap >= 0
-            depth = -impactor_gap(sph, c, x[near])[0] if near.size else np.zeros(1)
-            k = int(np.argmax(depth))
-            i = int(near[k]) if near.size else 0
-            self.worst["sphere"] = max(self.worst["sphere"], float(depth[k]))
-            if depth[k] > tol:
-                size = f"radius {sph.radius:g} m" if sph.shape != "plane" else "a plane"
-                raise self._error(t, f"node {i} is {_mm(depth[k])} inside the rigid impactor ({sph.shape}, {size}, "
-                                     f"reference point {_pos(c)}; node now at {_pos(x[i])})",
-                                  "penetration of the rigid impactor", node=i)
+            if near.size:
+                depth = -impactor_gap(sph, c, x[near])[0]
+                k = int(np.argmax(depth))
+                i = int(near[k])
+                self.worst["sphere"] = max(self.worst["sphere"], float(depth[k]))
+                if depth[k] > tol:
+                    size = f"radius {sph.radius:g} m" if sph.shape != "plane" else "a plane"
+                    raise self._error(t, f"node {i} is {_mm(depth[k])} inside the rigid impactor ({sph.shape}, "
+                                         f"{size}, reference point {_pos(c)}; node now at {_pos(x[i])})",
+                                      "penetration of the rigid impactor", node=i)
             if plane is not None:
                 self._bottoming(t, float(c[2]))
         for axis, c, side in self.planes:

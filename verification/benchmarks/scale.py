@@ -148,43 +148,46 @@ def busy_core(seconds: float) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-c", code])
 
 
-def wall(model, threads, repeat: int) -> dict:
-    """Best solver wall time (s) of ``repeat`` runs per thread setting, alternating settings."""
-    from cfm_backends.numba_explicit import NumbaExplicitBackend
-
-    be = NumbaExplicitBackend()
+def best_of(run, threads, repeat: int) -> dict:
+    """Best wall time (s) of ``run(th) -> (seconds, threads used)`` over ``repeat`` rounds of the
+    thread settings ``threads`` (alternating), with the threads each setting used."""
     best: dict = {}
     used: dict = {}
     for _ in range(repeat):
         for th in threads:
-            r = be.run(model, threads=th)
-            best[th] = min(best.get(th, math.inf), r.wall_time)
-            used[th] = r.info["threads"]
+            seconds, used[th] = run(th)
+            best[th] = min(best.get(th, math.inf), seconds)
     return {"best": best, "used": used}
+
+
+def wall(model, threads, repeat: int) -> dict:
+    """Best solver wall time (s) of numba runs of ``model`` per thread setting (:func:`best_of`)."""
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+
+    be = NumbaExplicitBackend()
+
+    def run(th):
+        r = be.run(model, threads=th)
+        return r.wall_time, r.info["threads"]
+
+    return best_of(run, threads, repeat)
 
 
 def torch_wall(models, threads, repeat: int) -> dict:
     """Best wall time (s) of a torch run (one model) or batch (a list), eager float64 on the CPU,
-    ``repeat`` times per thread setting, alternating settings; with the threads each used."""
+    per thread setting (:func:`best_of`), after one untimed run (imports, allocator)."""
     from cfm_backends.torch_explicit import TorchExplicitBackend
 
     be = TorchExplicitBackend()
 
-    def once(th):
-        if isinstance(models, list):
-            return be.run_batch(models, threads=th, dtype="float64")[0]
-        return be.run(models, threads=th, dtype="float64")
+    def run(th):
+        t0 = time.perf_counter()
+        r = (be.run_batch(models, threads=th, dtype="float64")[0] if isinstance(models, list)
+             else be.run(models, threads=th, dtype="float64"))
+        return time.perf_counter() - t0, r.info["threads"]
 
-    once(1)   # first-call costs (imports, allocator) out of the timings
-    best: dict = {}
-    used: dict = {}
-    for _ in range(repeat):
-        for th in threads:
-            t0 = time.perf_counter()
-            r = once(th)
-            best[th] = min(best.get(th, math.inf), time.perf_counter() - t0)
-            used[th] = r.info["threads"]
-    return {"best": best, "used": used}
+    run(1)
+    return best_of(run, threads, repeat)
 
 
 def busy_rows(big, repeat: int, torch: bool, say=print, small=None) -> None:
