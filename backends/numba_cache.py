@@ -132,6 +132,9 @@ def key_on_folder(file_in_folder) -> str:
     str
         The folder's :func:`folder_digest`, computed once per process.
     """
+    from cfm_backends.numba_target import configure
+
+    configure()   # before numba's first compilation in the process
     folder = os.path.dirname(os.path.realpath(file_in_folder))
     if folder in _FOLDERS:
         return _FOLDERS[folder]

@@ -31,6 +31,7 @@ import ast
 import re
 from pathlib import Path
 
+from cfm_backends import numba_target
 from cfm_backends.numba_common import material_functions, strip_standalone
 from cfm_core.material.cache import generated_name, import_generated
 from cfm_core.material import compile_notice
@@ -260,12 +261,14 @@ def module_source(material) -> str:
     (its distinct ones, :func:`distinct`: the first material's functions carry the plain names,
     each further one's the suffix ``__m<j>``; ``element_parts`` calls part i's by its index)."""
     uniq, _ = distinct(material)
-    extra = ""
+    width = numba_target.configure()   # before numba's first compilation; named in the text, so
+    extra = ""                         # each width is a module (and a cache entry) of its own
     for j, m in enumerate(uniq[1:], start=1):
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
                   + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
     layout, *kernels = kernel_text()
-    return (HEADER.format(name=_label(uniq)) + layout + "\n\n# ---- material.numba_source() ----\n"
+    return (HEADER.format(name=_label(uniq)) + f"# preferred vector width: {width or 'default'} "
+            "(cfm_backends.numba_target)\n" + layout + "\n\n# ---- material.numba_source() ----\n"
             + _material_text(uniq[0]) + "\n\n\n" + "\n\n".join(kernels) + extra
             + "\n\n# ---- the parts (generated) ----\n" + _parts_function(len(uniq)))
 

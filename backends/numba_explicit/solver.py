@@ -37,6 +37,7 @@ import numpy as np
 from cfm_backends.explicit import errors, geometry, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity
+from cfm_backends import numba_target
 from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError
 from cfm_core.material.prony import gamma_inf
@@ -379,4 +380,5 @@ def _result(model, prep, h, wall, compile_time, threads, frames, stop, o) -> Res
     return history.assemble(model, h, backend="numba", steps=int(sc[K.S_STEPS]), wall=wall,
                             dt0=float(sc[K.S_DT0]), dtmin=float(sc[K.S_DTMIN]), dtmax=float(sc[K.S_DTMAX]),
                             maxpen=float(sc[K.S_MAXPEN]), frames=frames, stop=stop, options=o,
-                            info={"threads": threads, "compile_time": compile_time})
+                            info={"threads": threads, "compile_time": compile_time,
+                                  "vector_width": numba_target.configure()})

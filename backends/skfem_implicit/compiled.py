@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cfm_backends import numba_target
 from cfm_backends.numba_common import material_functions, strip_standalone
 from cfm_core.material import prony
 from cfm_core.material.cache import import_generated
@@ -53,7 +54,9 @@ def module_source(material) -> str:
                          f"psi_grad and psi_hess(m1, m2, m3, p).")
     wrap = "\n".join(f'{n} = njit(cache=True, fastmath=False, error_model="numpy")({n})' for n in names)
     kernels = strip_standalone(KERNELS_FILE.read_text())
-    return (HEADER.format(name=material.name) + "# ---- material.numba_source() ----\n" + src
+    width = numba_target.configure()  # before numba's first compilation; a module per width
+    return (HEADER.format(name=material.name) + f"# preferred vector width: {width or 'default'} "
+            "(cfm_backends.numba_target)\n# ---- material.numba_source() ----\n" + src
             + "\n\n" + wrap + "\n\n\n# ---- kernels.py ----\n" + kernels)
 
 

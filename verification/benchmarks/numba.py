@@ -3,6 +3,7 @@
     python -m cfm_verification.benchmarks.numba [--thickness 0.008] [--size 0.001] [--no-cold]
     python -m cfm_verification.benchmarks.numba --scale    (cost against mesh size and threads: .scale)
     python -m cfm_verification.benchmarks.numba --parts    (only the layered row)
+    python -m cfm_verification.benchmarks.numba --vector-width   (256- against 512-bit vectors: .vector_width)
 
 Prints the cold time (a fresh process with an empty kernel cache: code generation, compilation,
 run), a warm ``cfm drop-test`` end to end in fresh processes with its phases next to the 2 s target
@@ -217,7 +218,14 @@ def main(argv=None) -> None:
     ap.add_argument("--no-threads", action="store_true", help="--scale: skip 2 threads against 1")
     ap.add_argument("--no-busy", action="store_true", help="--scale: skip the busy-core row")
     ap.add_argument("--parts", action="store_true", help="only the layered (3-part) row against one material")
+    ap.add_argument("--vector-width", action="store_true", help="only the element pass at 256- and 512-bit "
+                    "vectors (module vector_width; --size, --repeat)")
     args = ap.parse_args(argv)
+    if args.vector_width:
+        from . import vector_width
+
+        vector_width.report(args.size, args.repeat)
+        return
     if args.scale:
         from . import scale
 
