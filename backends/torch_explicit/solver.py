@@ -39,7 +39,7 @@ from cfm_backends.explicit import errors, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.history import BASE_COLUMNS, COLUMNS
 from cfm_backends.threads import num_threads
-from cfm_core.errors import NumericalError
+from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -61,6 +61,10 @@ def run_model(model, progress=None, **options) -> Result:
         from .batch import run_parsed
 
         return run_parsed([model], o, progress, True, True, device, dtype)[0]
+    if o.cuda_graph:
+        raise InputError(f"torch backend: option cuda_graph = True is not allowed for model '{model.name}': only a "
+                         f"drop test (a rigid sphere, no prescribed motion, no frame_interval) on CUDA runs as a "
+                         f"CUDA graph; use cuda_graph=None or False.")
     # the run uses a renumbered copy of the model for locality (cfm_backends.explicit.renumber);
     # frames, checks and errors are in the user's numbering
     ren = renumber.plan(*check_model(model), o.renumber, groups=model.element_part() if model.multi_material else None)
