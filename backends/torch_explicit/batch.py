@@ -28,6 +28,7 @@ stopped, and the Newton iteration checks convergence every ``newton_block`` iter
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 
@@ -72,7 +73,8 @@ def run_parsed(models, o: TorchOptions, progress=None, raise_errors: bool = True
         sync_free = device.type == "cuda"
     graph = cuda_graph(o, device, bool(sync_free))
     serial = device.type == "cpu" and models[0].n_elements * len(models) < PARALLEL_MIN
-    with num_threads(torch, o.threads, serial=serial), torch.inference_mode():
+    on_device = torch.cuda.device(device) if graph else contextlib.nullcontext()   # capture on the run's GPU
+    with num_threads(torch, o.threads, serial=serial), torch.inference_mode(), on_device:
         out = _Batch(models, o, device, dtype, progress, bool(sync_free), graph).loop()
     if raise_errors:
         for r in out:
@@ -252,22 +254,13 @@ class _Batch:
         self.nodes0 = np.asarray(self.models[0].nodes, dtype=np.float64)
         self.check_errors: dict = {}
         # CUDA graph: WARM_STEPS eager steps on a side stream, then one step captured and replayed
-        side = torch.cuda.Stream(self.device) if self.cuda_graph else None
-        graph = None
+        graph = batch_step.CudaGraph(self.device) if self.cuda_graph else None
         start = time.perf_counter()
         while True:
-            if graph is not None:
-                graph.replay()
-            elif side is not None and total >= batch_step.WARM_STEPS:
-                graph = batch_step.capture(self, s, side)
-                graph.replay()
-            elif side is not None:
-                side.wait_stream(torch.cuda.current_stream(self.device))
-                with torch.cuda.stream(side):
-                    batch_step.step(self, s)
-                torch.cuda.current_stream(self.device).wait_stream(side)
-            else:
+            if graph is None:
                 batch_step.step(self, s)
+            else:
+                graph(lambda: batch_step.step(self, s))
             total += 1
             if not self.sync_free:          # CPU: stop as soon as every run has (one cheap read)
                 self.syncs += 1
@@ -289,7 +282,7 @@ class _Batch:
         if total > flushed:
             chunks.append(self._rows(s, total - flushed))
         wall = time.perf_counter() - start
-        self.graph_used = graph is not None
+        self.graph_used = graph is not None and graph.used
         self._monitor(s.alive, s.t, self.uv[0:3], s.C if gen else s.Z, final=True,
                       ok=(s.code == OK).to("cpu").numpy())
         host = [x.to("cpu") for x in (s.steps, s.DT0, s.dtmin, s.dtmax, s.maxpen, s.code, s.err, s.separated,

@@ -6,7 +6,7 @@ and is updated in place (``copy_``); the step's history row and live-run mask ar
 (CHUNK, B, columns) and (CHUNK, B) device buffers at the row index ``pos``, itself a device
 tensor incremented by the step. With ``sync_free`` the step so reads nothing back to the host,
 branches on no tensor value, has no data-dependent shape, and every tensor that outlives it keeps
-its address: the conditions for capturing it as a CUDA graph and replaying it (:func:`capture`).
+its address: the conditions for capturing it as a CUDA graph and replaying it (:class:`CudaGraph`).
 Its temporaries are allocated per step (in the graph's own memory pool when captured). The
 arithmetic is the earlier loop's, op for op: the histories are the same to the bit
 (tests/backends/test_torch_batch_graph.py).
@@ -212,19 +212,41 @@ def step(bt, s) -> None:
     s.pos.add_(1)
 
 
-def capture(bt, s, side):
-    """A ``torch.cuda.CUDAGraph`` of one :func:`step` of batch ``bt`` on carry ``s`` (recorded, not run).
-
-    Call after :data:`WARM_STEPS` eager steps on the side stream ``side`` (lazy initialisation,
-    cached constants, allocator state); replaying the graph runs one step.
+class CudaGraph:
+    """Runs a step function: :data:`WARM_STEPS` eager calls on a side stream (lazy initialisation,
+    the cached constants, the allocator's state), then one call captured as a ``torch.cuda.CUDAGraph``
+    (recorded, not run) and replayed, and every later call a replay. ``used``: a graph was captured.
     """
-    import torch
 
-    torch.cuda.current_stream(bt.device).wait_stream(side)
-    graph = torch.cuda.CUDAGraph()
-    with torch.cuda.graph(graph):
-        step(bt, s)
-    return graph
+    def __init__(self, device):
+        import torch
+
+        self.device = device
+        self.side = torch.cuda.Stream(device)
+        self.graph = None
+        self.calls = 0
+
+    @property
+    def used(self) -> bool:
+        return self.graph is not None
+
+    def __call__(self, fn) -> None:
+        import torch
+
+        main = torch.cuda.current_stream(self.device)
+        if self.graph is None and self.calls >= WARM_STEPS:
+            main.wait_stream(self.side)
+            self.graph = torch.cuda.CUDAGraph()
+            with torch.cuda.graph(self.graph):
+                fn()
+        if self.graph is not None:
+            self.graph.replay()
+        else:
+            self.side.wait_stream(main)
+            with torch.cuda.stream(self.side):
+                fn()
+            main.wait_stream(self.side)
+        self.calls += 1
 
 
-__all__ = ["CARRIED", "OK", "WARM_STEPS", "capture", "carry", "step", "tensors"]
+__all__ = ["CARRIED", "OK", "WARM_STEPS", "CudaGraph", "carry", "step", "tensors"]
