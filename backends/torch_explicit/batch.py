@@ -19,8 +19,14 @@ Host synchronisations: none inside a step when ``sync_free`` (default on CUDA): 
 fallback (C isotropic to round-off) takes m = diag C, Q = I under a mask
 (``eigen.patch_fallback_isotropic``), the contact Newton iteration runs a fixed number of
 iterations, and failures, unconverged contacts and stops are flags read once per chunk of
-``CHUNK`` steps together with the history rows, so the step can be captured as a CUDA graph (not
-done yet: no GPU was available to test it). On the CPU (default ``sync_free=False``) a step reads
+``CHUNK`` steps together with the history rows. The step (:mod:`.batch_step`) works on buffers
+allocated before the first step (carried tensors updated in place, history rows written into a
+(CHUNK, B, columns) device buffer at a row index held on the device), so that it can be captured:
+on CUDA with ``cuda_graph`` (default on for the sync-free step without ``torch.compile``) three
+eager warm-up steps run on a side stream, then one step is captured as a ``torch.cuda.CUDAGraph``
+and replayed (``info['cuda_graph']``). Capture-safety is tested on the CPU
+(tests/backends/test_torch_batch_graph.py); the capture itself has not yet run on a GPU (none
+was lent). On the CPU (default ``sync_free=False``) a step reads
 whether any eigen fallback is needed (then Jacobi, as a single run) and whether every run has
 stopped, and the Newton iteration checks convergence every ``newton_block`` iterations;
 ``info['host_syncs_per_step']`` counts them.

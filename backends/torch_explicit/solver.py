@@ -8,7 +8,8 @@ The element work is batched tensor ops on the run's device (``element``), the no
 arithmetic in float64 with numba's formulas.
 
 On CUDA a drop test (sphere, no prescribed motion, no frames) runs through the batched engine
-with one run (``batch``), whose step has no host synchronisation. Otherwise, host
+with one run (``batch``), whose step has no host synchronisation and runs as a captured CUDA graph
+(option ``cuda_graph``; True for any other model is an InputError). Otherwise, host
 synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
 (min step, failures, work: the step size is needed on the host), one to select the nodes inside
 the sphere, while some are: one to start the contact Newton iteration and one per
