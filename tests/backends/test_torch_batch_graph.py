@@ -212,7 +212,7 @@ def test_the_sync_free_batch_equals_the_runs_alone(pair):
         assert r.info["host_syncs_per_step"] < 0.1 and r.info["cuda_graph"] is False
 
 
-def test_cuda_graph_on_the_cpu_is_an_input_error(pair):
+def test_cuda_graph_on_the_cpu_is_an_input_error(pair, monkeypatch):
     with pytest.raises(InputError, match=r"cuda_graph = True.*device = 'cpu'.*device='cuda'"):
         TorchExplicitBackend().run(pair[0], cuda_graph=True)
     with pytest.raises(InputError, match=r"cuda_graph = 'yes'.*None \(automatic\), True or False"):
@@ -221,6 +221,13 @@ def test_cuda_graph_on_the_cpu_is_an_input_error(pair):
         TorchOptions(device="cuda", cuda_graph=True, compile="reduce-overhead")
     with pytest.raises(InputError, match="sync_free=False"):
         batch.cuda_graph(TorchOptions(device="cuda", cuda_graph=True), torch.device("cuda"), False)
+    # on CUDA only drop tests without frames run through the graph (the device stood in for, as in
+    # test_torch_cuda_route: the error comes before anything runs)
+    from cfm_backends.torch_explicit import solver
+
+    monkeypatch.setattr(solver, "resolve_device", lambda name: torch.device("cuda"))
+    with pytest.raises(InputError, match="cuda_graph = True is not allowed for model 'drop-test'.*frame_interval"):
+        solver.run_model(pair[0], device="cuda", cuda_graph=True, frame_interval=1e-4)
     # the defaults: on for the sync-free step on CUDA, off on the CPU and with torch.compile
     assert batch.cuda_graph(TorchOptions(device="cuda"), torch.device("cuda"), True)
     assert not batch.cuda_graph(TorchOptions(device="cuda", compile=True), torch.device("cuda"), True)
