@@ -39,8 +39,8 @@ class TorchOptions(ExplicitOptions):
                              kind="any")
     newton_block: int = option(None, "-", "contact Newton iterations between host checks (the result does not "
                                "depend on it)", kind="int", low=1, none="1 on the CPU, 4 on CUDA")
-    cuda_graph: object = option(None, "-", "run the drop-test step as a captured CUDA graph (needs device='cuda' "
-                                "and the sync-free step)", kind="any",
+    cuda_graph: bool = option(None, "-", "run the drop-test step as a captured CUDA graph (needs device='cuda' "
+                              "and the sync-free step)", kind="bool",
                                 none="on for a sync-free drop test on CUDA without compile, else off")
 
     def __post_init__(self):
@@ -54,11 +54,8 @@ class TorchOptions(ExplicitOptions):
 
 
 def check_cuda_graph(value, device: str, compile_mode) -> None:
-    """InputError unless ``cuda_graph`` is None, False, or True with a CUDA device and no
-    'reduce-overhead' compile (which captures CUDA graphs of its own)."""
-    if value is not None and not isinstance(value, bool):
-        raise InputError(f"torch backend: option cuda_graph = {value!r} is not allowed; use None (automatic), "
-                         f"True or False.")
+    """InputError unless ``cuda_graph`` (None, True or False: checked by its declaration) is True
+    only with a CUDA device and without 'reduce-overhead' compile (which captures graphs of its own)."""
     if value and not device.startswith("cuda"):
         raise InputError(f"torch backend: option cuda_graph = True is not allowed with device = '{device}'; CUDA "
                          f"graphs need device='cuda' (or 'cuda:N'); on the CPU use cuda_graph=None or False.")
