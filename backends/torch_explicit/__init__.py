@@ -80,7 +80,9 @@ class TorchExplicitBackend(Backend):
             True: raise the first run's NumericalError; False: put it in the list in place of the
             Result (the other runs are unaffected).
         sync_free : bool, optional
-            No host synchronisation inside a step (default: True on CUDA, False on the CPU).
+            No host synchronisation inside a step (default: True on CUDA, False on the CPU); on
+            CUDA such a step runs as a captured CUDA graph unless the option ``cuda_graph=False``
+            (``info['cuda_graph']`` says whether it did).
         **options
             The options of :meth:`run` (shared by all runs; ``frame_interval`` is not supported).
 
@@ -94,7 +96,8 @@ class TorchExplicitBackend(Backend):
         Raises
         ------
         InputError
-            Models that cannot share a batch (the message names the differing field), bad options.
+            Models that cannot share a batch (the message names the differing field), bad options
+            (``cuda_graph=True`` on the CPU or with ``sync_free=False``).
         NumericalError
             A run failed (with ``raise_errors``), naming the run, the element and the time (s).
         """

@@ -19,8 +19,14 @@ Host synchronisations: none inside a step when ``sync_free`` (default on CUDA): 
 fallback (C isotropic to round-off) takes m = diag C, Q = I under a mask
 (``eigen.patch_fallback_isotropic``), the contact Newton iteration runs a fixed number of
 iterations, and failures, unconverged contacts and stops are flags read once per chunk of
-``CHUNK`` steps together with the history rows, so the step can be captured as a CUDA graph (not
-done yet: no GPU was available to test it). On the CPU (default ``sync_free=False``) a step reads
+``CHUNK`` steps together with the history rows. The step (:mod:`.batch_step`) works on buffers
+allocated before the first step (carried tensors updated in place, history rows written into a
+(CHUNK, B, columns) device buffer at a row index held on the device), so that it can be captured:
+on CUDA with ``cuda_graph`` (default on for the sync-free step without ``torch.compile``) three
+eager warm-up steps run on a side stream, then one step is captured as a ``torch.cuda.CUDAGraph``
+and replayed (``info['cuda_graph']``). Capture-safety is tested on the CPU
+(tests/backends/test_torch_batch_graph.py); the capture itself has not yet run on a GPU (none
+was lent). On the CPU (default ``sync_free=False``) a step reads
 whether any eigen fallback is needed (then Jacobi, as a single run) and whether every run has
 stopped, and the Newton iteration checks convergence every ``newton_block`` iterations;
 ``info['host_syncs_per_step']`` counts them.
@@ -28,6 +34,7 @@ stopped, and the Newton iteration checks convergence every ``newton_block`` iter
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 
@@ -70,9 +77,11 @@ def run_parsed(models, o: TorchOptions, progress=None, raise_errors: bool = True
         device, dtype = resolve_device(o.device), resolve_dtype(o.dtype)
     if sync_free is None:
         sync_free = device.type == "cuda"
+    graph = cuda_graph(o, device, bool(sync_free))
     serial = device.type == "cpu" and models[0].n_elements * len(models) < PARALLEL_MIN
-    with num_threads(torch, o.threads, serial=serial), torch.inference_mode():
-        out = _Batch(models, o, device, dtype, progress, bool(sync_free)).loop()
+    on_device = torch.cuda.device(device) if graph else contextlib.nullcontext()   # capture on the run's GPU
+    with num_threads(torch, o.threads, serial=serial), torch.inference_mode(), on_device:
+        out = _Batch(models, o, device, dtype, progress, bool(sync_free), graph).loop()
     if raise_errors:
         for r in out:
             if isinstance(r, NumericalError):
@@ -80,8 +89,23 @@ def run_parsed(models, o: TorchOptions, progress=None, raise_errors: bool = True
     return out
 
 
+def cuda_graph(o: TorchOptions, device, sync_free: bool) -> bool:
+    """Whether the batch's step runs as a captured CUDA graph: the option ``cuda_graph``, by
+    default on for a sync-free step on CUDA without ``torch.compile``; InputError where it cannot."""
+    if o.cuda_graph is None:
+        return device.type == "cuda" and sync_free and o.compile is False
+    if o.cuda_graph and device.type != "cuda":
+        raise InputError(f"torch backend: option cuda_graph = True is not allowed with device = '{device}'; "
+                         f"CUDA graphs need device='cuda' (or 'cuda:N'); on the CPU use cuda_graph=None or False.")
+    if o.cuda_graph and not sync_free:
+        raise InputError("torch backend: option cuda_graph = True is not allowed with sync_free=False (a step "
+                         "that reads values back to the host cannot be captured); use sync_free=True (the "
+                         "default on CUDA) or cuda_graph=False.")
+    return bool(o.cuda_graph)
+
+
 class _Batch:
-    def __init__(self, models, o: TorchOptions, device, dtype, progress, sync_free: bool):
+    def __init__(self, models, o: TorchOptions, device, dtype, progress, sync_free: bool, graph: bool = False):
         import torch
 
         from . import element
@@ -90,7 +114,7 @@ class _Batch:
 
         t0 = time.perf_counter()
         self.models, self.o, self.device, self.dtype, self.progress = models, o, device, dtype, progress
-        self.sync_free = sync_free
+        self.sync_free, self.cuda_graph, self.graph_used = sync_free, graph, False
         B = self.B = len(models)
         # parts: the models renumbered as the single run is (each part one contiguous element range, the
         # renumber option's order within it); runs, monitors and messages stay in the user's numbering
@@ -222,180 +246,64 @@ class _Batch:
     def loop(self):
         import torch
 
-        from . import batch_contact, element, impactor_contact
-        from .contact import plane_contact
-        from .element import scatter
+        from . import batch_step
 
-        o, B, N, n = self.o, self.B, self.N, self.n
-        m0 = self.models[0]
-        dev, dt_ = self.device, self.dtype
-        z = lambda: torch.zeros(B, dtype=torch.float64, device=dev)  # noqa: E731
-        F = lambda x: x.to(dt_)  # noqa: E731  (a per-run float64 scalar where it meets the fields)
-        sym = float(m0.symmetry_factor)
-        grav = abs(float(m0.gravity))
-        mu = float(m0.friction)
-        cx, cy, R = float(m0.sphere.center[0]), float(m0.sphere.center[1]), float(m0.sphere.radius)
-        sph, gen = m0.sphere, self.general
-        if gen:
-            C, Vv = self.C0.clone(), self.Vv0.clone()
-            ez = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64, device=dev).view(3, 1)
-        M = self.M
-        u, v = self.uv[0:3], self.uv[3:6]
-        vold, dvc = torch.zeros_like(u), torch.zeros_like(u)
-        t, dtp, Z, V = z(), z(), self.Z0.clone(), self.V0s.clone()
-        IE, WINT, WHG, WC, WEXT, IMP, DT0, SEPT = (z() for _ in range(8))
-        seen = torch.zeros(B, dtype=torch.bool, device=dev)
-        alive = torch.ones(B, dtype=torch.bool, device=dev)
-        steps = torch.zeros(B, dtype=torch.int64, device=dev)
-        dtmin, dtmax, maxpen = torch.full((B,), math.inf, dtype=torch.float64, device=dev), z(), z()
-        code = torch.zeros(B, dtype=torch.int64, device=dev)
-        err = torch.zeros((B, 7), dtype=torch.float64, device=dev)   # element, t, value, m0, m1, m2, dt0
-        separated = torch.zeros(B, dtype=torch.bool, device=dev)
-        ar = torch.arange(N, device=dev)
-        rows, masks, chunks = [], [], []
+        o, B = self.o, self.B
+        gen = self.general
+        s = self.carry = batch_step.carry(self, CHUNK)
+        chunks = []
         tick = float(max(m.end_time for m in self.models)) / 100.0
         next_progress = tick
-        total = 0
+        total = flushed = 0
         # physics checks of every run (cfm_core.simulation.checks), at the chunk reads below
         self.monitors = [Monitor(m) for m in self.models]
-        self.nodes0 = np.asarray(m0.nodes, dtype=np.float64)
+        self.nodes0 = np.asarray(self.models[0].nodes, dtype=np.float64)
         self.check_errors: dict = {}
+        # CUDA graph: WARM_STEPS eager steps on a side stream, then one step captured and replayed
+        graph = batch_step.CudaGraph(self.device) if self.cuda_graph else None
         start = time.perf_counter()
         while True:
-            # 1. elements at x^n
-            kin, resp, overflow = self._element_pass(dtp, alive)
-            first_bad = torch.where(resp.failed.view(B, N), ar, N).amin(1)
-            failed = alive & (first_bad < N)
-            fb = first_bad.clamp(max=N - 1)
-            ge = torch.arange(B, device=dev) * N + fb
-            Jb = kin.J.index_select(0, ge)
-            kind = torch.where(element.inverted(Jb), INVERTED, NONFINITE)
-            self._flag(code, err, failed, kind, fb, t, Jb, kin.m.index_select(1, ge), DT0)
-            if overflow is not None:
-                self._flag(code, err, alive & overflow, FALLBACK, fb * 0, t, t, kin.m[:, :B], DT0)
-            alive = alive & ~failed
-            IE = IE + resp.work_e.view(B, N).sum(1).double()
-            # 2. stable step per run
-            dmin, emin = resp.dte.view(B, N).min(1)
-            dtc = o.safety * dmin.double()
-            DT0 = torch.where((DT0 == 0.0) & torch.isfinite(dtc), dtc, DT0)
-            dt = torch.clamp(dtc, max=o.dt_max)
-            coll = alive & (~((dt > 0.0) & torch.isfinite(dt)) | (dtc < o.collapse * DT0))
-            self._flag(code, err, coll, COLLAPSE, emin, t, dtc, kin.m[:, :B], DT0)
-            alive = alive & ~coll
-            dt = torch.where(alive, dt, torch.where(dtp > 0.0, dtp, 1.0))
-            dtn = 0.5 * (dtp + dt)
-            # 3. central differences
-            nodal = scatter(resp.fe, self.idx, B * n)
-            fint, fhg = nodal[0:3], nodal[3:6]
-            vold.copy_(v)
-            v.view(3, B, n).add_((fhg - fint).view(3, B, n) * (F(dtn)[:, None] / self.mass.view(B, n))).mul_(
-                self.free.view(3, B, n))
-            u.view(3, B, n).add_(v.view(3, B, n) * F(dt)[:, None])
-            if gen:     # any shape, lateral motion (impactor_contact); z as the hemisphere's below
-                Vo3, Co3 = Vv, C
-                Vs3 = Vo3 - (dtn * grav) * ez
-                Cs3 = Co3 + dt * Vs3
-                dvc.zero_()
-                dC, dV3, pen, checks, unconv = impactor_contact.contact(
-                    u, v, dvc, self.sphere, sph.shape, R, float(sph.edge_radius), self.fmask, F(Cs3), F(Vs3), F(M),
-                    mu, F(dt), alive, self.tol, self.block)
-                dC, dV3, pen = dC.double(), dV3.double(), pen.double()
-                Cs3, Vs3 = Cs3 + dC, Vs3 + dV3
-                Vo, Zn, Vs, Zs, dV = Vo3[2], Co3[2], Vs3[2], Cs3[2], dV3[2]
+            if graph is None:
+                batch_step.step(self, s)
             else:
-                Vo, Zn = V, Z
-                Vs = Vo - dtn * grav
-                Zs = Zn + dt * Vs
-                # 4. contact
-                dvc.zero_()
-                dZ, dV, pen, checks, unconv = batch_contact.sphere_contact(
-                    u, v, dvc, self.sphere, cx, cy, F(Zs), F(Vs), R, F(M), mu, F(dt), alive, self.tol, self.block)
-                dZ, dV, pen = dZ.double(), dV.double(), pen.double()
-            self.syncs += checks
-            self._flag(code, err, alive & unconv, NEWTON, emin * 0, t, dt, kin.m[:, :B], DT0)
-            if self.plane is not None:
-                plane_contact(u, v, dvc, self.plane, float(m0.plane.z), mu,
-                              F(dt).repeat_interleave(self.p_count))
-            if not gen:
-                Zs = Zs + dZ
-                Vs = Vs + dV
-            force = M * dV / dtn
-            Vf = Vo + dtp / (dtp + dt) * (Vs - Vo)
-            # 5. energies and the record of step n
-            en = self._energies(v, vold, nodal, dvc, F(dtn), gen).double()
-            ke, ai, bi, ah, bh, ac, bc, pz = en[:8].unbind(0)
-            fg = -0.5 * dtn * M * grav
-            if gen:
-                ke = ke + 0.5 * M * (Vo3 * Vs3).sum(0)
-                ac = ac + 0.5 * M * (dV3 * Vo3).sum(0)
-                bc = bc + 0.5 * M * (dV3 * Vs3).sum(0)
-            else:
-                ke = ke + 0.5 * M * Vo * Vs
-                fs = 0.5 * M * dV
-                ac = ac + fs * Vo
-                bc = bc + fs * Vs
-            ax, bx = fg * Vo, fg * Vs
-            pz = pz + M * Vs
-            row = [t, force * sym, (IMP + 0.5 * dtp * force) * sym, Zn, Vf, z(), ke * sym, IE * sym,
-                   -(WHG + ah) * sym, -(WC + ac) * sym, (WEXT + ax) * sym, (WINT + ai) * sym, dt, pen, pz * sym]
-            if gen:
-                f3 = M * dV3 / dtn
-                Vf3 = Vo3 + dtp / (dtp + dt) * (Vs3 - Vo3)
-                pxy = en[8:10] + M * Vs3[0:2]
-                row += [f3[0] * sym, f3[1] * sym, Co3[0], Co3[1], Vf3[0], Vf3[1], pxy[0] * sym, pxy[1] * sym]
-                C, Vv = torch.where(alive, Cs3, C), torch.where(alive, Vs3, Vv)
-            rows.append(torch.stack(row, dim=1))
-            masks.append(alive.clone())
-            WINT, WHG, WC, WEXT = WINT + ai + bi, WHG + ah + bh, WC + ac + bc, WEXT + ax + bx
-            IMP = IMP + force * dtn
-            nonfin = alive & ~torch.isfinite(ke + pz + Zs)
-            t_n = t
-            Z, V = torch.where(alive, Zs, Z), torch.where(alive, Vs, V)
-            t = torch.where(alive, t + dt, t)
-            dtp = torch.where(alive, dt, dtp)
-            steps = steps + alive.to(torch.int64)
-            dtmin = torch.where(alive, torch.minimum(dtmin, dt), dtmin)
-            dtmax = torch.where(alive, torch.maximum(dtmax, dt), dtmax)
-            maxpen = torch.where(alive, torch.maximum(maxpen, pen), maxpen)
-            self.state = resp.state
-            self._flag(code, err, nonfin, STATE, emin * 0, t_n, t_n, kin.m[:, :B], DT0)   # as the single run: t^n
-            alive = alive & ~nonfin
-            done = t_n >= self.end
-            if m0.stop_after_separation:
-                pos = force > 0.0
-                up = seen & (Vf > 0.0) & ~pos
-                SEPT = torch.where(pos, 0.0, torch.where(up, SEPT + dt, 0.0))
-                seen = seen | pos
-                sep = alive & ~done & up & (SEPT >= o.separation_time)
-                separated = separated | sep
-                done = done | sep
-            alive = alive & ~done
+                graph(lambda: batch_step.step(self, s))
             total += 1
             if not self.sync_free:          # CPU: stop as soon as every run has (one cheap read)
                 self.syncs += 1
-                if not bool(alive.any()):
+                if not bool(s.alive.any()):
                     break
             if total % CHUNK == 0 or total >= o.max_steps:
-                chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
-                rows, masks = [], []
+                chunks.append(self._rows(s, total - flushed))
+                flushed = total
                 self.syncs += 1
-                if not bool(alive.any()):
+                if not bool(s.alive.any()):
                     break
-                self._monitor(alive, t, u, C if gen else Z)
-                tmin = float(torch.where(alive, t, math.inf).min())
+                self._monitor(s.alive, s.t, self.uv[0:3], s.C if gen else s.Z)
+                tmin = float(torch.where(s.alive, s.t, math.inf).min())
                 if self.progress is not None and tmin >= next_progress:
                     self.progress(min(tmin, tick * 100.0))
                     next_progress = (math.floor(tmin / tick) + 1) * tick
                 if total >= o.max_steps:
                     break
-        if rows:
-            chunks.append((torch.stack(rows).to("cpu", torch.float64), torch.stack(masks).cpu()))
+        if total > flushed:
+            chunks.append(self._rows(s, total - flushed))
         wall = time.perf_counter() - start
-        self._monitor(alive, t, u, C if gen else Z, final=True, ok=(code == OK).to("cpu").numpy())
-        host = [x.to("cpu") for x in (steps, DT0, dtmin, dtmax, maxpen, code, err, separated, alive, t)]
-        self.memory = self._memory(vold, dvc)
+        self.graph_used = graph is not None and graph.used
+        self._monitor(s.alive, s.t, self.uv[0:3], s.C if gen else s.Z, final=True,
+                      ok=(s.code == OK).to("cpu").numpy())
+        host = [x.to("cpu") for x in (s.steps, s.DT0, s.dtmin, s.dtmax, s.maxpen, s.code, s.err, s.separated,
+                                      s.alive, s.t)]
+        self.memory = self._memory(s.vold, s.dvc, s.rows, s.masks)
         return self._results(chunks, wall, total, *host)
+
+    @staticmethod
+    def _rows(s, count: int):
+        """The first ``count`` history rows and live-run masks on the host (copies), the row index reset."""
+        import torch
+
+        out = (s.rows[:count].to("cpu", torch.float64, copy=True), s.masks[:count].to("cpu", copy=True))
+        s.pos.zero_()
+        return out
 
     def _monitor(self, alive, t, u, Z, final: bool = False, ok=None) -> None:
         """Run the physics checks of the runs that are due (``final``: every run that finished
@@ -486,7 +394,8 @@ class _Batch:
                 info={"device": str(self.device), "dtype": str(self.dtype).replace("torch.", ""),
                       "threads": torch.get_num_threads(), "compile": self.o.compile,
                       "compile_time": self.compile_time / self.B, "batch_size": self.B, "batch_index": b,
-                      "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free, **self.memory,
+                      "batch_wall_time": wall, "batch_steps": total, "sync_free": self.sync_free,
+                      "cuda_graph": self.graph_used, **self.memory,
                       "host_syncs_per_step": self.syncs / max(total, 1)})
             res.info["checks"] = self.monitors[b].report()
             out.append(res)

@@ -7,10 +7,13 @@ and 1024 (half of each batch with the paper's k2 = 1.66, half with k2 = 2.5, so 
 up would show; every step free of host synchronisation, ``sync_free``), in float64 and float32; each run is checked against the CPU float64 result of
 the same model (relative L2 of the CFC 600 filtered acceleration; limits 1e-10 in float64, 1e-4
 in float32), and the script prints per-run solver time, ns per element-cycle, host syncs per step
-and device memory per run. Results go to DIR/gpu_check.json and DIR/gpu_check.txt. A
+and device memory per run. Each configuration runs twice: its step captured as a CUDA graph and
+replayed (``cuda_graph=True``), then the same step eagerly (``cuda_graph=False``); the eager row
+says how many times faster the graph was (the graph's time includes its three warm-up steps and
+the capture). Results go to DIR/gpu_check.json and DIR/gpu_check.txt. A
 configuration that would start after ``--budget`` seconds is skipped (and said so). Without a
 usable CUDA device it exits with status 2 and says why; ``--device cpu`` (with ``--sizes 3
---element-size 0.002``) is a dry run of the script on the CPU, 20 s.
+--element-size 0.002``) is a dry run of the script on the CPU (about a minute: the sync-free step is slow on the CPU).
 """
 
 from __future__ import annotations
@@ -45,6 +48,49 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
 
     n = min(a.size, b.size)
     return float(relative_l2(a[:n], b[:n]))
+
+
+def _check(be, models, refs, b: int, dtype: str, graph: bool, device: str, ne: int, say, records) -> dict:
+    """Run one batch configuration (``graph``: as a captured CUDA graph), check it against the CPU
+    references and say its times; the record (with the graph's speed-up over the eager step of
+    the same configuration when that ran before it)."""
+    import torch
+
+    batch = [models[i % 2] for i in range(b)]
+    label = f"B = {b:4d} {dtype} {'graph' if graph else 'eager'}"
+    if device.startswith("cuda"):
+        torch.cuda.reset_peak_memory_stats(device)
+    t0 = time.perf_counter()
+    try:
+        res = be.run_batch(batch, device=device, dtype=dtype, raise_errors=False, sync_free=True, cuda_graph=graph)
+    except Exception as exc:  # report and go on: the other configurations still say something
+        say(f"  {label}: FAILED {type(exc).__name__}: {exc}")
+        return {"batch": b, "dtype": dtype, "cuda_graph": graph, "error": str(exc)}
+    total = time.perf_counter() - t0
+    errs = [r for r in res if isinstance(r, Exception)]
+    ok = [(i, r) for i, r in enumerate(res) if not isinstance(r, Exception)]
+    worst = max((_rel(_filtered(r, batch[i]), refs[i % 2]) for i, r in ok), default=float("nan"))
+    info = ok[0][1].info if ok else {}
+    wall = info.get("batch_wall_time", float("nan"))
+    steps = sum(r.steps for _, r in ok)
+    rec = {"batch": b, "dtype": dtype, "cuda_graph": bool(info.get("cuda_graph", False)), "per_run_s": wall / b,
+           "total_s": total, "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
+           "host_syncs_per_step": info.get("host_syncs_per_step"),
+           "peak_device_MiB_per_run": (info["peak_device_bytes_per_run"] / 2**20
+                                       if "peak_device_bytes_per_run" in info else None),
+           "worst_rel_l2_vs_cpu": worst, "limit": LIMITS[dtype], "failed_runs": len(errs),
+           "passed": bool(not errs and worst < LIMITS[dtype] and bool(info.get("cuda_graph", False)) == graph)}
+    mib = rec["peak_device_MiB_per_run"]
+    other = [r for r in records if r.get("batch") == b and r.get("dtype") == dtype and "per_run_s" in r]
+    speed = f", graph {other[0]['per_run_s'] / rec['per_run_s']:.2f}x faster" if other and not graph else ""
+    if other and not graph:
+        other[0]["speedup_over_eager"] = rec["per_run_s"] / other[0]["per_run_s"]
+    say(f"  {label}: {rec['per_run_s']:.3f} s per run, {rec['ns_per_element_cycle']:.2f} ns per "
+        f"element-cycle, {'n/a' if mib is None else f'{mib:.1f}'} MiB per run (device peak), "
+        f"{rec['host_syncs_per_step']:.3f} host syncs per step, worst rel. L2 vs CPU {worst:.1e} "
+        f"(limit {LIMITS[dtype]:g}) {'ok' if rec['passed'] else 'FAILED'}{speed}"
+        + (f", {len(errs)} failed runs: {errs[0]}" if errs else ""))
+    return rec
 
 
 def main(argv=None) -> int:
@@ -90,43 +136,16 @@ def main(argv=None) -> int:
         say(f"  CPU float64 reference (k2 = {m.material.values['k2']:g}): {r.steps} steps, {r.wall_time:.1f} s")
     records = []
     configs = [(1, dt) for dt in ("float64", "float32")] + [(b, dt) for b in args.sizes for dt in ("float64", "float32")]
+    modes = (True, False) if cuda else (False,)      # the captured CUDA graph, then the eager sync-free step
     for b, dtype in configs:
-        elapsed = time.perf_counter() - start
-        if elapsed > args.budget:
-            say(f"  B = {b}, {dtype}: skipped ({elapsed:.0f} s elapsed > budget {args.budget:g} s)")
-            records.append({"batch": b, "dtype": dtype, "skipped": True})
-            continue
-        batch = [models[i % 2] for i in range(b)]
-        if cuda:
-            torch.cuda.reset_peak_memory_stats(args.device)
-        t0 = time.perf_counter()
-        try:
-            res = be.run_batch(batch, device=args.device, dtype=dtype, raise_errors=False, sync_free=True)
-        except Exception as exc:  # report and go on: the other configurations still say something
-            say(f"  B = {b}, {dtype}: FAILED {type(exc).__name__}: {exc}")
-            records.append({"batch": b, "dtype": dtype, "error": str(exc)})
-            continue
-        total = time.perf_counter() - t0
-        errs = [r for r in res if isinstance(r, Exception)]
-        ok = [(i, r) for i, r in enumerate(res) if not isinstance(r, Exception)]
-        worst = max((_rel(_filtered(r, batch[i]), refs[i % 2]) for i, r in ok), default=float("nan"))
-        info = ok[0][1].info if ok else {}
-        wall = info.get("batch_wall_time", float("nan"))
-        steps = sum(r.steps for _, r in ok)
-        rec = {"batch": b, "dtype": dtype, "per_run_s": wall / b, "total_s": total,
-               "ns_per_element_cycle": wall / max(steps * ne, 1) * 1e9,
-               "host_syncs_per_step": info.get("host_syncs_per_step"),
-               "peak_device_MiB_per_run": (info["peak_device_bytes_per_run"] / 2**20
-                                           if "peak_device_bytes_per_run" in info else None),
-               "worst_rel_l2_vs_cpu": worst, "limit": LIMITS[dtype], "failed_runs": len(errs),
-               "passed": bool(not errs and worst < LIMITS[dtype])}
-        records.append(rec)
-        mib = rec["peak_device_MiB_per_run"]
-        say(f"  B = {b:4d} {dtype}: {rec['per_run_s']:.3f} s per run, {rec['ns_per_element_cycle']:.2f} ns per "
-            f"element-cycle, {'n/a' if mib is None else f'{mib:.1f}'} MiB per run (device peak), "
-            f"{rec['host_syncs_per_step']:.3f} host syncs per step, worst rel. L2 vs CPU {worst:.1e} "
-            f"(limit {LIMITS[dtype]:g}) {'ok' if rec['passed'] else 'FAILED'}"
-            + (f", {len(errs)} failed runs: {errs[0]}" if errs else ""))
+        for graph in modes:
+            elapsed = time.perf_counter() - start
+            label = f"B = {b:4d} {dtype} {'graph' if graph else 'eager'}"
+            if elapsed > args.budget:
+                say(f"  {label}: skipped ({elapsed:.0f} s elapsed > budget {args.budget:g} s)")
+                records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True})
+                continue
+            records.append(_check(be, models, refs, b, dtype, graph, args.device, ne, say, records))
     say(f"gpu_check took {time.perf_counter() - start:.0f} s")
     (out / "gpu_check.json").write_text(json.dumps({"device": name,
                                                     "elements": ne, "records": records}, indent=2))

@@ -31,7 +31,7 @@ def _norm3(P):
 def _ez(P):
     """(3, ...) the unit vector -e_z (the impactor's downward normal) shaped like P."""
     n = torch.zeros_like(P)
-    n[2] = -1.0
+    n[2].fill_(-1.0)        # a Python scalar in the kernel: no host tensor made (capture-safe)
     return n
 
 

@@ -39,6 +39,9 @@ class TorchOptions(ExplicitOptions):
                              kind="any")
     newton_block: int = option(None, "-", "contact Newton iterations between host checks (the result does not "
                                "depend on it)", kind="int", low=1, none="1 on the CPU, 4 on CUDA")
+    cuda_graph: bool = option(None, "-", "run the drop-test step as a captured CUDA graph (needs device='cuda' "
+                              "and the sync-free step)", kind="bool",
+                                none="on for a sync-free drop test on CUDA without compile, else off")
 
     def __post_init__(self):
         super().__post_init__()
@@ -47,6 +50,18 @@ class TorchOptions(ExplicitOptions):
         if not isinstance(self.compile, (bool, str)):
             raise InputError(f"torch backend: option compile = {self.compile!r} is not allowed; use False, True or "
                              f"a torch.compile mode name ('default', 'reduce-overhead', 'max-autotune').")
+        check_cuda_graph(self.cuda_graph, self.device, self.compile)
+
+
+def check_cuda_graph(value, device: str, compile_mode) -> None:
+    """InputError unless ``cuda_graph`` (None, True or False: checked by its declaration) is True
+    only with a CUDA device and without 'reduce-overhead' compile (which captures graphs of its own)."""
+    if value and not device.startswith("cuda"):
+        raise InputError(f"torch backend: option cuda_graph = True is not allowed with device = '{device}'; CUDA "
+                         f"graphs need device='cuda' (or 'cuda:N'); on the CPU use cuda_graph=None or False.")
+    if value and compile_mode == "reduce-overhead":
+        raise InputError("torch backend: option cuda_graph = True is not allowed with compile = 'reduce-overhead' "
+                         "(that mode captures CUDA graphs of its own); use one or the other.")
 
 
 def check_dtype_name(dtype) -> str:

@@ -8,7 +8,8 @@ The element work is batched tensor ops on the run's device (``element``), the no
 arithmetic in float64 with numba's formulas.
 
 On CUDA a drop test (sphere, no prescribed motion, no frames) runs through the batched engine
-with one run (``batch``), whose step has no host synchronisation. Otherwise, host
+with one run (``batch``), whose step has no host synchronisation and runs as a captured CUDA graph
+(option ``cuda_graph``; True for any other model is an InputError). Otherwise, host
 synchronisations per step (``info['host_syncs_per_step']``): one after the element pass
 (min step, failures, work: the step size is needed on the host), one to select the nodes inside
 the sphere, while some are: one to start the contact Newton iteration and one per
@@ -39,7 +40,7 @@ from cfm_backends.explicit import errors, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.history import BASE_COLUMNS, COLUMNS
 from cfm_backends.threads import num_threads
-from cfm_core.errors import NumericalError
+from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
 from cfm_core.simulation.result import Result
 
@@ -61,6 +62,10 @@ def run_model(model, progress=None, **options) -> Result:
         from .batch import run_parsed
 
         return run_parsed([model], o, progress, True, True, device, dtype)[0]
+    if o.cuda_graph:
+        raise InputError(f"torch backend: option cuda_graph = True is not allowed for model '{model.name}': only a "
+                         f"drop test (a rigid sphere, no prescribed motion, no frame_interval) on CUDA runs as a "
+                         f"CUDA graph; use cuda_graph=None or False.")
     # the run uses a renumbered copy of the model for locality (cfm_backends.explicit.renumber);
     # frames, checks and errors are in the user's numbering
     ren = renumber.plan(*check_model(model), o.renumber, groups=model.element_part() if model.multi_material else None)
