@@ -184,7 +184,7 @@ def _histories(r):
                             *[r.energies[k] for k in sorted(r.energies)]])
 
 
-@pytest.mark.parametrize("kind", ["hemisphere", "general"])
+@pytest.mark.parametrize("kind", ["hemisphere", pytest.param("general", marks=pytest.mark.slow)])
 def test_a_replayed_step_gives_the_eager_histories_bit_for_bit(pair, kind, monkeypatch):
     # different end times: the run that stops first keeps being computed, its rows masked
     models = [replace(m, end_time=e) for m, e in zip(pair if kind == "hemisphere" else _general(), (0.003, 0.0022))]
