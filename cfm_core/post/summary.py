@@ -20,7 +20,8 @@ SUMMARY_UNITS = {
     "dt_max": "s", "sample_rate": "Hz", "cfc": "Hz", "impactor_mass": "kg", "thickness": "m",
     "element_size": "m", "velocity": "m/s", "peak_force": "N", "t_peak_force": "s", "final_force": "N",
     "final_over_peak": "-", "compile_time": "s", "hourglass_coefficient": "-", "newton_iterations": "-",
-    "rejected_steps": "-", "threads": "- (threads the run used)", "penetration_ratio": "- (largest penetration / element size)",
+    "rejected_steps": "-", "threads": "- (threads the run used)",
+    "vector_width": "bit (numba's preferred SIMD width; 0: no AVX-512 on the CPU)", "penetration_ratio": "- (largest penetration / element size)",
     "warnings": "text (run checks that passed with a warning: hourglass, energy balance, contact at the end, inertia)", "size": "m", "stretch": "-", "load_time": "s", "hold": "s", "rate": "1/s",
 }
 

@@ -29,7 +29,7 @@ from .provenance import json_ready, provenance, scene_files
 from .settings import RunPlan, plan_run, run_record
 
 #: Run statistics a backend may report that are copied into the summary.
-_RESULT_INFO = ("threads", "compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio")
+_RESULT_INFO = ("threads", "vector_width", "compile_time", "hourglass_coefficient", "newton_iterations", "rejected_steps", "penetration_ratio")
 
 
 def default_backend(scene: Scene) -> str:
