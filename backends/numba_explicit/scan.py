@@ -87,7 +87,7 @@ def scan_state(x, unode, conn, ref, uelem, plate, planes, box, shape, R, r, c, f
     connectivity; ref (e, 8) reference triple products; plate (1,) its z (m; empty: no plate);
     planes (k, 3) rows (axis, coordinate m, side); box (6,) the impactor's box widened by the
     tolerance (lo, hi; m) and c (3,) its reference point (m), shape -1: no impactor check.
-    fout (3 + k,): plate depth, impactor depth, ratio, plane depths; iout (4 + k,): first
+    fout (3 + k,): plate depth, impactor depth, ratio, plane depths; iout (5 + k,): first
     non-finite user node, plate node, impactor node, user element * 8 + corner, plane nodes
     (the int64 maximum where none), and iout[4 + k] the number of nodes in the box.
     """
