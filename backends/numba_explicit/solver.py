@@ -27,6 +27,7 @@ Impactor: the paper's hemisphere moving along z keeps ``sphere_contact``; other 
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import time
@@ -332,12 +333,13 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     hist = np.zeros((4096, K.H_N))
     stop = "end_time"
     reported = 0.0
-    conn = np.ascontiguousarray(model.hexes, dtype=np.int64)
-    vols = np.empty((conn.shape[0], 8))
     ren = prep.ren
-    # physics checks (cfm_core.simulation.checks), every ~1 % of the end time, on the user's
-    # numbering (the positions renumbered back); the fold check compiled
-    monitor = Monitor(model, corner_volumes=lambda x, hexes: mod.corner_volumes(x, conn, vols))
+    # physics checks (cfm_core.simulation.checks), every ~1 % of the end time: the compiled
+    # parallel scan reads the positions in the solver's numbering (no permuted copy) and names
+    # nodes and elements in the user's (scan.py)
+    from .scan import NumbaScan   # imports numba: only once a run has started
+
+    monitor = Monitor(model, scan=functools.partial(NumbaScan, ren=ren))
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     if model.sphere is not None and model.sphere.lateral:   # the whole reference point
         z = lambda: np.array([prep.sc[K.S_X], prep.sc[K.S_Y], prep.sc[K.S_Z]])   # noqa: E731
@@ -349,7 +351,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
             raise _error(code, prep, model)
         t = float(prep.sc[K.S_T])
         if monitor.due(t):
-            monitor.check(t, ren.to_user_nodes(prep.st[0]), z())
+            monitor.check(t, prep.st[0], z())
         if fi and t >= next_frame:
             frames.append((t, ren.to_user_nodes(prep.st[0] - prep.nodes)))
             states.append(frame_state(prep, model))
@@ -367,7 +369,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
         if prep.sc[K.S_STEPS] >= o.max_steps:
             raise errors.max_steps(model, int(prep.sc[K.S_STEPS]), t)
     wall = time.perf_counter() - start
-    monitor.final(t, ren.to_user_nodes(prep.st[0]), z())
+    monitor.final(t, prep.st[0], z())
     h = np.concatenate(chunks)
     res = _result(model, prep, h, wall, compile_time, threads, frames, stop, o)
     res.info["checks"] = monitor.report()

@@ -20,6 +20,10 @@ Two parts, both numpy only and backend-neutral:
   ``tol`` defaults to 5 % of the smallest reference edge length (m); the scene's
   ``[scene] penetration_tolerance`` (m) sets it.
 
+  The monitor only words the messages: one pass over the state (a *scan*,
+  :mod:`cfm_core.simulation.scan`; the numba backend brings a parallel one of its own
+  numbering) gives it the extremes, each with its node or element.
+
 - :func:`check_result`: end-of-run checks on the :class:`~cfm_core.simulation.result.Result`,
   run by :mod:`cfm_core.runs.pipeline` for every backend. Returns warnings (text) and raises
   NumericalError when a stop limit is passed:
@@ -47,9 +51,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.impactor import bounds, impactor_gap
 from ..errors import NumericalError
-from ..scene.mesh import HEX_REFERENCE
+from .scan import Extremes, Scan, corner_volumes  # noqa: F401  (corner_volumes: its public home was here)
 
 HOURGLASS_WARN = 0.10   # (-) hourglass / internal energy above which a run warns
 ENERGY_WARN = 0.01      # (-) energy-balance error above which a run warns
@@ -95,52 +98,6 @@ class Limits:
         d = dict(getattr(model, "meta", {}).get("checks") or {})
         return cls(tolerance=d.get("penetration_tolerance"), hourglass_limit=d.get("hourglass_limit"),
                    energy_limit=d.get("energy_limit"))
-
-
-def _corner_neighbours() -> np.ndarray:
-    """(3, 8): for each corner a of the VTK hexahedron, its neighbour along xi, eta and zeta."""
-    out = np.zeros((3, 8), dtype=np.int64)
-    for a in range(8):
-        for k in range(3):
-            target = HEX_REFERENCE[a].copy()
-            target[k] = -target[k]
-            out[k, a] = int(np.flatnonzero((HEX_REFERENCE == target).all(axis=1))[0])
-    return out
-
-
-_NEIGHBOURS = _corner_neighbours()
-
-
-def corner_volumes(x: np.ndarray, hexes: np.ndarray) -> np.ndarray:
-    """Triple products of the three edges leaving each element corner (xi, eta, zeta order).
-
-    The Jacobian of the trilinear map at corner a is this product times -(s1 s2 s3) / 8 (s = the
-    corner's natural coordinates), so its ratio to the reference value is the Jacobian's ratio.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n, 3)
-        Nodal positions (m).
-    hexes : ndarray, shape (e, 8)
-        Connectivity, VTK hexahedron order.
-
-    Returns
-    -------
-    ndarray, shape (e, 8)
-        Triple products (m^3); <= 0 where the element is folded at that corner.
-    """
-    X = np.asarray(x, dtype=np.float64)[np.asarray(hexes)]          # (e, 8, 3)
-    e1 = X[:, _NEIGHBOURS[0]] - X
-    e2 = X[:, _NEIGHBOURS[1]] - X
-    e3 = X[:, _NEIGHBOURS[2]] - X
-    cross = np.empty_like(e1)   # e2 x e3, np.cross's formula without its overhead (a third of the time)
-    cross[..., 0] = e2[..., 1] * e3[..., 2] - e2[..., 2] * e3[..., 1]
-    cross[..., 1] = e2[..., 2] * e3[..., 0] - e2[..., 0] * e3[..., 2]
-    cross[..., 2] = e2[..., 0] * e3[..., 1] - e2[..., 1] * e3[..., 0]
-    return np.einsum("eai,eai->ea", e1, cross)
-
-
-_numpy_corner_volumes = corner_volumes  # the default of Monitor(corner_volumes=...)
 
 
 def smallest_edge(nodes: np.ndarray, hexes: np.ndarray) -> float:
@@ -232,10 +189,14 @@ class Monitor:
         The model being run (reference nodes (n, 3) in m, hexes (e, 8), sphere, plane, fixed dofs).
     checks : int
         Number of checks over the end time (default 100), plus the final state.
-    corner_volumes : callable, optional
-        ``f(x, hexes) -> (e, 8)`` triple products as :func:`corner_volumes` computes them (m^3),
-        from a backend that has a compiled one (the numba backend: ~10x faster than numpy, whose
-        ~2 ms per check is a fifth of a 2-thread drop test); default: :func:`corner_volumes`.
+    scan : callable, optional
+        ``scan(model, tol, planes)`` -> the scan of this run's states
+        (:class:`cfm_core.simulation.scan.Scan`'s interface: called with the positions the
+        backend passes and the impactor's reference point, it returns the
+        :class:`~cfm_core.simulation.scan.Extremes` in the user's numbering; ``position(x, node)``
+        gives a node's position for the messages), for a backend with a compiled one (the numba
+        backend's parallel scan of its own numbering, ``cfm_backends.numba_explicit.scan``);
+        default: the numpy :class:`~cfm_core.simulation.scan.Scan`.
 
     Raises
     ------
@@ -244,15 +205,13 @@ class Monitor:
         quantity ("penetration", "symmetry", "bottoming out", "corner Jacobian").
     """
 
-    def __init__(self, model, checks: int = CHECKS_PER_RUN, corner_volumes=None):
+    def __init__(self, model, checks: int = CHECKS_PER_RUN, scan=None):
         self.model = model
-        self.corner_volumes = corner_volumes or _numpy_corner_volumes
         self.limits = Limits.of(model)
         self.tol = tolerance(model, self.limits)
         self.planes = symmetry_planes(model)
         self.hexes = np.asarray(model.hexes, dtype=np.int64)
-        self.ref_det = _numpy_corner_volumes(model.nodes, self.hexes)
-        self._ratio = np.empty_like(self.ref_det)
+        self.scan = (scan or Scan)(model, self.tol, self.planes)
         self.interval = float(model.end_time) / max(int(checks), 1)
         if float(model.output_interval) > 0.0:
             self.interval = min(self.interval, OUTPUTS_PER_CHECK * float(model.output_interval))
@@ -311,56 +270,46 @@ class Monitor:
         NumericalError
             As for :meth:`check`.
         """
-        x = np.asarray(x, dtype=np.float64)
         m, tol = self.model, self.tol
-        if not np.isfinite(x).all():
-            i = int(np.argmax(~np.isfinite(x).all(axis=1)))
-            raise NumericalError(f"node {i} has a non-finite position at t = {t:.6g} s in model '{m.name}'.",
-                                 time=t, element=None, quantity="position")
-        plane = m.plane
-        if plane is not None:
-            depth = float(plane.z) - x[:, 2]
-            i = int(np.argmax(depth))
-            self.worst["plate"] = max(self.worst["plate"], float(depth[i]))
-            if depth[i] > tol:
-                raise self._error(t, f"node {i} is {_mm(depth[i])} behind the rigid plate z = {plane.z:g} m "
-                                     f"(reference position {_pos(m.nodes[i])}, now {_pos(x[i])})",
+        sph, plane = m.sphere, m.plane
+        c = impactor_position(sph, impactor_z) if sph is not None and impactor_z is not None else None
+        found: Extremes = self.scan(x, c)
+        if found.nonfinite >= 0:
+            raise NumericalError(f"node {found.nonfinite} has a non-finite position at t = {t:.6g} s in model "
+                                 f"'{m.name}'.", time=t, element=None, quantity="position")
+        if found.plate is not None:
+            depth, i = found.plate
+            self.worst["plate"] = max(self.worst["plate"], depth)
+            if depth > tol:
+                raise self._error(t, f"node {i} is {_mm(depth)} behind the rigid plate z = {plane.z:g} m "
+                                     f"(reference position {_pos(m.nodes[i])}, now {_pos(self.scan.position(x, i))})",
                                   "penetration of the rigid plate", node=i)
-        sph = m.sphere
-        if sph is not None and impactor_z is not None:
-            c = impactor_position(sph, impactor_z)
-            lo, hi = bounds(sph.shape, sph.radius, c)
-            near = np.flatnonzero(((x > lo - tol) & (x < hi + tol)).all(axis=1))  # the rest have gap >= 0
-            if near.size:
-                depth = -impactor_gap(sph, c, x[near])[0]
-                k = int(np.argmax(depth))
-                i = int(near[k])
-                self.worst["sphere"] = max(self.worst["sphere"], float(depth[k]))
-                if depth[k] > tol:
+        if c is not None:
+            if found.impactor is not None:
+                depth, i = found.impactor
+                self.worst["sphere"] = max(self.worst["sphere"], depth)
+                if depth > tol:
                     size = f"radius {sph.radius:g} m" if sph.shape != "plane" else "a plane"
-                    raise self._error(t, f"node {i} is {_mm(depth[k])} inside the rigid impactor ({sph.shape}, "
-                                         f"{size}, reference point {_pos(c)}; node now at {_pos(x[i])})",
+                    raise self._error(t, f"node {i} is {_mm(depth)} inside the rigid impactor ({sph.shape}, "
+                                         f"{size}, reference point {_pos(c)}; node now at "
+                                         f"{_pos(self.scan.position(x, i))})",
                                       "penetration of the rigid impactor", node=i)
             if plane is not None:
                 self._bottoming(t, float(c[2]))
-        for axis, c, side in self.planes:
-            depth = -(x[:, axis] - c) * side
-            i = int(np.argmax(depth))
-            self.worst["symmetry"] = max(self.worst["symmetry"], float(depth[i]))
-            if depth[i] > tol:
+        for (axis, c_plane, _), (depth, i) in zip(self.planes, found.symmetry):
+            self.worst["symmetry"] = max(self.worst["symmetry"], depth)
+            if depth > tol:
                 name = "xyz"[axis]
-                raise self._error(t, f"node {i} has crossed the symmetry plane {name} = {c:g} m by {_mm(depth[i])} "
-                                     f"(now at {_pos(x[i])}): the specimen folds through a plane it may only "
-                                     f"slide on", "symmetry plane crossed", node=i)
-        if self.hexes.size:
-            ratio = np.divide(self.corner_volumes(x, self.hexes), self.ref_det, out=self._ratio)
-            flat = int(np.argmin(ratio))
-            e, corner = divmod(flat, 8)
-            self.worst["corner_jacobian_ratio"] = min(self.worst["corner_jacobian_ratio"], float(ratio[e, corner]))
-            if not ratio[e, corner] > 0.0:
+                raise self._error(t, f"node {i} has crossed the symmetry plane {name} = {c_plane:g} m by {_mm(depth)} "
+                                     f"(now at {_pos(self.scan.position(x, i))}): the specimen folds through a plane "
+                                     f"it may only slide on", "symmetry plane crossed", node=i)
+        if found.corner is not None:
+            ratio, e, corner = found.corner
+            self.worst["corner_jacobian_ratio"] = min(self.worst["corner_jacobian_ratio"], ratio)
+            if not ratio > 0.0:
                 raise NumericalError(
                     f"element {e} is folded at t = {t:.6g} s: the Jacobian at its corner node "
-                    f"{int(self.hexes[e, corner])} (local corner {corner}) is {ratio[e, corner]:.3g} times its "
+                    f"{int(self.hexes[e, corner])} (local corner {corner}) is {ratio:.3g} times its "
                     f"reference value (<= 0) in model '{m.name}'. The centre-point integration of the explicit "
                     f"solvers cannot see this; the mesh cannot follow the deformation: lower the load, refine the "
                     f"mesh or check the impactor mass and the material's stiffness (units).",
