@@ -130,22 +130,6 @@ def test_prescribed_uniaxial_tension_reaction():
     assert res.energies["external"][-1] > 0 and res.energy_error() < 5e-3
 
 
-def test_compiled_corner_volumes_equal_the_monitors_numpy_ones():
-    """The fold check's triple products from the numba kernel (what the numba runs hand the
-    physics monitor) equal cfm_core.simulation.checks.corner_volumes to round-off, folded corners
-    (negative products) included."""
-    from cfm_core.simulation.checks import corner_volumes
-
-    nodes, hexes, interior = distorted_block()
-    x = nodes.copy()
-    x[interior] += np.random.default_rng(3).uniform(-0.6e-3, 0.6e-3, size=(interior.sum(), 3))  # folds some
-    mod = codegen.load(MAT)
-    ref = corner_volumes(x, hexes)
-    got = mod.corner_volumes(x, np.ascontiguousarray(hexes, dtype=np.int64), np.empty((len(hexes), 8)))
-    assert (ref < 0).any()
-    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
-
-
 def test_hourglass_base_of_the_kernels_is_the_geometrys():
     """The kernels' constant hourglass base vectors (layout.H0..H3, used with the stored h_alpha . X
     to form gamma) are the reference geometry's."""

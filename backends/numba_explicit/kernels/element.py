@@ -744,29 +744,3 @@ def energy_pass(mass, v, vold, fint, fhg, dvc, pmask, dtn):
         bx += bxn
         pz += m * v[n, 2]
     return ke, ai, bi, ah, bh, ac, bc, ax, bx, pz
-
-
-@njit(parallel=True, cache=True, error_model="numpy")
-def corner_volumes(x, conn, out):
-    """Triple products of the three edges leaving each element corner (m^3) into out (e, 8), as
-    ``cfm_core.simulation.checks.corner_volumes`` computes them with numpy (the physics monitor's
-    fold check; this one is ~10x faster). Edges along xi, eta, zeta of the VTK hexahedron:
-    corner a's neighbours are XI[a], ETA[a], ZETA[a]."""
-    for e in prange(conn.shape[0]):
-        for a in range(8):
-            n0 = conn[e, a]
-            n1 = conn[e, (1, 0, 3, 2, 5, 4, 7, 6)[a]]
-            n2 = conn[e, (3, 2, 1, 0, 7, 6, 5, 4)[a]]
-            n3 = conn[e, (4, 5, 6, 7, 0, 1, 2, 3)[a]]
-            e10 = x[n1, 0] - x[n0, 0]
-            e11 = x[n1, 1] - x[n0, 1]
-            e12 = x[n1, 2] - x[n0, 2]
-            e20 = x[n2, 0] - x[n0, 0]
-            e21 = x[n2, 1] - x[n0, 1]
-            e22 = x[n2, 2] - x[n0, 2]
-            e30 = x[n3, 0] - x[n0, 0]
-            e31 = x[n3, 1] - x[n0, 1]
-            e32 = x[n3, 2] - x[n0, 2]
-            out[e, a] = (e10 * (e21 * e32 - e22 * e31) + e11 * (e22 * e30 - e20 * e32)
-                         + e12 * (e20 * e31 - e21 * e30))
-    return out
