@@ -177,21 +177,11 @@ def scan_state(x, unode, conn, ref, uelem, plate, planes, box, shape, R, r, c, f
             r6 = _triple(x6, y6, z6, x7, y7, z7, x5, y5, z5, x2, y2, z2) / ref[e, 6]
             r7 = _triple(x7, y7, z7, x6, y6, z6, x4, y4, z4, x3, y3, z3) / ref[e, 7]
             # the element's smallest (first corner on ties), then against the chunk's best
+            rs = (r0, r1, r2, r3, r4, r5, r6, r7)
             v, a = r0, 0
-            if _smaller(r1, 1, v, a):
-                v, a = r1, 1
-            if _smaller(r2, 2, v, a):
-                v, a = r2, 2
-            if _smaller(r3, 3, v, a):
-                v, a = r3, 3
-            if _smaller(r4, 4, v, a):
-                v, a = r4, 4
-            if _smaller(r5, 5, v, a):
-                v, a = r5, 5
-            if _smaller(r6, 6, v, a):
-                v, a = r6, 6
-            if _smaller(r7, 7, v, a):
-                v, a = r7, 7
+            for c in range(1, 8):
+                if _smaller(rs[c], c, v, a):
+                    v, a = rs[c], c
             key = uelem[e] * 8 + a
             if _smaller(v, key, bv, bk):
                 bv = v
