@@ -1,5 +1,8 @@
 """The quick verification suite, run in-process into a temporary directory (CI: ~3 minutes on 2 cores).
 
+A study: it runs with ``--runslow`` (the default suite stays under 10 minutes on 2 cores); CI runs it
+after the default suite (``.ci/run``), and ``cfm verify`` runs the same suite from the command line.
+
 CI states the backends it requires with $CFM_VERIFY_REQUIRE (default here: all four, which
 ``pip install -e ".[all,test]"`` installs); a missing one fails the suite.
 """
@@ -11,6 +14,8 @@ import pytest
 
 from cfm_verification.agreement import SHARED, TRUTH_POINT
 from cfm_verification.stability import KNOWN_DEFECTS
+
+pytestmark = pytest.mark.slow
 
 REQUIRED = [s for s in os.environ.get("CFM_VERIFY_REQUIRE", "numpy,numba,torch,skfem").split(",") if s]
 
