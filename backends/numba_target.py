@@ -5,8 +5,9 @@ LLVM tunes Intel's AVX-512 processors (Skylake-SP to Sapphire Rapids; numba name
 feature ``prefer-256-bit``, a guard against the clock drop of early AVX-512 parts): a vectorised
 loop then handles 4 doubles per instruction instead of 8. The element blocks of the numba backend
 (``numba_explicit/kernels/element.py``) are such loops across elements; with 512-bit vectors their
-pass took 290-312 ns per element instead of 350-386 ns on a 2-core Xeon (Sapphire Rapids, 2.0 GHz;
-``python -m cfm_verification.benchmarks.numba --vector-width``).
+pass took 263.7 ns per element instead of 346.5 ns on a 2-core Xeon (Sapphire Rapids, 2.0 GHz, best
+of 2 alternating processes each; ``python -m cfm_verification.benchmarks.numba --vector-width``),
+and the 1 mm drop test 278 instead of 501 ns per element-cycle (docs/user/performance.md).
 
 :func:`configure` therefore asks numba, before its first compilation in the process, for the host's
 own features plus ``-prefer-256-bit``. It leaves numba alone where
