@@ -48,7 +48,7 @@ from cfm_core.simulation.checks import Monitor
 from . import arrays as arr
 from . import material as mat
 from . import parts
-from .options import PARALLEL_MIN, TorchOptions, resolve_device, resolve_dtype
+from .options import PARALLEL_MIN, TorchOptions, check_cuda_graph, resolve_device, resolve_dtype
 
 CHUNK = 32            # steps between host reads of the history rows and the run flags
 
@@ -94,9 +94,7 @@ def cuda_graph(o: TorchOptions, device, sync_free: bool) -> bool:
     default on for a sync-free step on CUDA without ``torch.compile``; InputError where it cannot."""
     if o.cuda_graph is None:
         return device.type == "cuda" and sync_free and o.compile is False
-    if o.cuda_graph and device.type != "cuda":
-        raise InputError(f"torch backend: option cuda_graph = True is not allowed with device = '{device}'; "
-                         f"CUDA graphs need device='cuda' (or 'cuda:N'); on the CPU use cuda_graph=None or False.")
+    check_cuda_graph(o.cuda_graph, str(device), o.compile)     # the resolved device (o.device may be 'auto')
     if o.cuda_graph and not sync_free:
         raise InputError("torch backend: option cuda_graph = True is not allowed with sync_free=False (a step "
                          "that reads values back to the host cannot be captured); use sync_free=True (the "
