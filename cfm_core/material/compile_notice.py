@@ -4,11 +4,15 @@ Both backends that compile generated numba code (``numba``: the explicit solver;
 compiled element kernels) import their module through :func:`cfm_core.material.cache.import_generated`
 and compile it on first call (``njit(cache=True)``), which takes 10-30 s once per machine and
 material. :func:`announce_compile` says so on stderr before, and how long it took after; it is
-silent when numba's on-disk cache already holds the kernel. Imports no numba.
+silent when numba's on-disk cache already holds the kernel. While it compiles it holds a lock file
+beside the module in the cache: another process about to compile the same module (a second test
+worker, a Dask worker of the same sweep) waits for it and then loads the cached kernels instead of
+compiling them a second time. Imports no numba.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import time
@@ -70,7 +74,8 @@ def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: st
     When :func:`is_compiled` is False, prints "numba: compiling kernels for material 'LABEL' (once
     per machine, ~N s; cached in DIR)..." before the block and "numba: kernels for material 'LABEL'
     compiled in N s." after it (the seconds are kept per kernel in ``DIR/compile_seconds.json`` as
-    the next estimate). Silent when the cache has the kernel; once found or compiled, a kernel is
+    the next estimate). The block runs holding ``DIR/<module>.lock`` (:func:`_compiling`): a process
+    compiling the same module meanwhile is waited for, and the block then loads its cached kernels. Silent when the cache has the kernel; once found or compiled, a kernel is
     not looked up again in this process.
 
     Parameters
@@ -95,8 +100,35 @@ def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: st
     print(f"{lead}numba: compiling kernels for material '{label}' (once per machine, {estimate}; cached in "
           f"{folder})...", file=stream, flush=True)
     start = time.perf_counter()
-    yield
+    with _compiling(folder / f"{ready[1]}.lock"):
+        yield
     took = time.perf_counter() - start
     print(f"numba: kernels for material '{label}' compiled in {took:.1f} s.", file=stream, flush=True)
     _READY.add(ready)
     _store_compile_time(subdir, kernel, took)
+
+
+#: Longest wait (s) for another process compiling the same module; then this one compiles too.
+LOCK_WAIT = 900.0
+
+
+@contextmanager
+def _compiling(path):
+    """Hold the lock file ``path`` (``filelock``) while compiling; without filelock, or where the
+    lock cannot be taken (read-only cache, LOCK_WAIT s passed), compile unlocked."""
+    try:
+        from filelock import FileLock, Timeout
+    except ImportError:
+        yield
+        return
+    lock = FileLock(str(path))
+    try:
+        lock.acquire(timeout=LOCK_WAIT)
+    except (Timeout, OSError):
+        yield
+        return
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            lock.release()

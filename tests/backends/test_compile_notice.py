@@ -45,3 +45,37 @@ def test_numba_and_skfem_share_one_notice():
 
     assert solver.announce_compile is compile_notice.announce_compile
     assert codegen.compile_notice is compile_notice
+
+
+def test_a_second_process_compiling_the_same_module_waits_for_the_first(tmp_path, monkeypatch):
+    """The compile lock (a file beside the module): whoever comes second enters after the first
+    has left, then finds the kernels cached; a lock that cannot be taken does not stop a run."""
+    import threading
+
+    from cfm_core.material import compile_notice
+
+    path = tmp_path / "module.lock"
+    order = []
+
+    def second():
+        with compile_notice._compiling(path):
+            order.append("second compiles")
+
+    with compile_notice._compiling(path):
+        worker = threading.Thread(target=second)
+        worker.start()
+        worker.join(timeout=0.5)
+        assert worker.is_alive()           # waiting for the first
+        order.append("first done")
+    worker.join(timeout=10.0)
+    assert order == ["first done", "second compiles"]
+    import filelock
+
+    class Unwritable(filelock.FileLock):        # a read-only cache folder: the lock file cannot be made
+        def acquire(self, *args, **kwargs):
+            raise PermissionError(13, "read-only", str(self.lock_file))
+
+    monkeypatch.setattr(filelock, "FileLock", Unwritable)
+    with compile_notice._compiling(path):
+        order.append("ran unlocked")
+    assert order[-1] == "ran unlocked"
