@@ -74,6 +74,9 @@ def test_parts_of_one_material_equal_the_one_material_run(one):
         assert s["prony_dt"] == pytest.approx(s_ref["prony_dt"], rel=1e-12)
 
 
+# a --runslow study: it compiles two more modules (about 2 minutes on a cold cache); the default
+# suite checks the stable step per part in test_layer_density_enters_the_stable_step
+@pytest.mark.slow
 def test_two_parts_of_very_different_stiffness(one):
     model, soft = one
     stiff_mat = make_material("neo-hookean", {"mu": 2.0e5, "kappa": 2.0e7})
