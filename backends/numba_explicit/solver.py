@@ -272,7 +272,8 @@ _WARM: set = set()
 
 def warm_up(mod, material) -> float:
     """Compile (or load from the cache) the time loop ``advance`` and all it calls, and the physics
-    checks' scan, on a model of one element per material (``material``: one, or a tuple with one per part); seconds spent.
+    checks' scan, on a model of one element per material (``material``: one, or a tuple with one
+    per part); seconds spent.
     ``point_history`` (material-point runs) is left to its first use: a run does not call it, and
     loading a kernel from numba's cache costs time too."""
     mats = codegen._materials(material)
@@ -342,10 +343,7 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
     # nodes and elements in the user's (scan.py)
     from .scan import NumbaScan   # imports numba: only once a run has started
 
-    monitor = Monitor(model, scan=functools.partial(NumbaScan, ren=ren))
-    t0 = time.perf_counter()
-    monitor.scan(prep.st[0], None)   # its compiled pass loaded (or compiled, once) now, not inside the solve
-    compile_time += time.perf_counter() - t0
+    monitor = Monitor(model, scan=functools.partial(NumbaScan, ren=ren))   # compiled in warm_up
     z = (lambda: float(prep.sc[K.S_Z])) if model.sphere is not None else (lambda: None)
     if model.sphere is not None and model.sphere.lateral:   # the whole reference point
         z = lambda: np.array([prep.sc[K.S_X], prep.sc[K.S_Y], prep.sc[K.S_Z]])   # noqa: E731
