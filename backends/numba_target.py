@@ -74,3 +74,21 @@ def configure() -> int:
         width = 512
     _state["width"] = width
     return width
+
+
+def source_line() -> str:
+    """The line a generated numba module carries to name its vector width (after :func:`configure`):
+    the width is part of the module's text, so each width is a module and a cache entry of its own
+    (and the cold-run notice's cache check stays right).
+
+    Returns
+    -------
+    str
+        ``"# preferred vector width: 512 (cfm_backends.numba_target)\\n"`` (or 256, or ``default``).
+
+    Raises
+    ------
+    cfm_core.errors.InputError
+        As :func:`configure`.
+    """
+    return f"# preferred vector width: {configure() or 'default'} (cfm_backends.numba_target)\n"

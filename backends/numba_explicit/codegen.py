@@ -261,14 +261,12 @@ def module_source(material) -> str:
     (its distinct ones, :func:`distinct`: the first material's functions carry the plain names,
     each further one's the suffix ``__m<j>``; ``element_parts`` calls part i's by its index)."""
     uniq, _ = distinct(material)
-    width = numba_target.configure()   # before numba's first compilation; named in the text, so
-    extra = ""                         # each width is a module (and a cache entry) of its own
+    extra = ""
     for j, m in enumerate(uniq[1:], start=1):
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
                   + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
     layout, *kernels = kernel_text()
-    return (HEADER.format(name=_label(uniq)) + f"# preferred vector width: {width or 'default'} "
-            "(cfm_backends.numba_target)\n" + layout + "\n\n# ---- material.numba_source() ----\n"
+    return (HEADER.format(name=_label(uniq)) + numba_target.source_line() + layout + "\n\n# ---- material.numba_source() ----\n"
             + _material_text(uniq[0]) + "\n\n\n" + "\n\n".join(kernels) + extra
             + "\n\n# ---- the parts (generated) ----\n" + _parts_function(len(uniq)))
 
