@@ -56,3 +56,24 @@ def test_nearly_repeated_and_rotated():
                     np.array([1.0, 1.0 + g, 1.0 - g]), np.array([1.0, 1.0 + g, 1.0 + 2.3 * g]),
                     10.0 ** rng.uniform(-6, 0, size=3)][k % 5]
         assert max(_errors(_rotated(d, rng))) < 1e-13
+
+
+def test_branch_free_path_covers_the_undeformed_state():
+    """eig3_hybrid (the vectorised element loop's decomposition) returns an exactly diagonal
+    matrix it cannot decompose (the undeformed C = I, any isotropic diagonal) as that diagonal
+    with Q = I, flagged ok, so such elements skip the scalar fallback; the values are eig3's to
+    the bit. A non-diagonal isotropic-to-round-off matrix is still left to the fallback."""
+    from cfm_backends.numba_explicit.kernels.eigen import eig3_hybrid
+
+    for A in (np.eye(3), 2.5 * np.eye(3), np.zeros((3, 3)), np.diag([1.0, 1.0, 1.0 + 1e-18])):
+        args = (A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2])
+        ok, *r = eig3_hybrid(*args)
+        assert ok
+        np.testing.assert_array_equal(r[:3], np.diag(A))
+        np.testing.assert_array_equal(np.reshape(r[3:], (3, 3)), np.eye(3))
+        assert tuple(r) == tuple(eig3(*args))
+    A = np.eye(3) + 1e-19 * np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    ok, *_ = eig3_hybrid(A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2])
+    assert not ok
+    m, Q = _decompose(A)
+    np.testing.assert_allclose(Q @ np.diag(m) @ Q.T, A, rtol=0, atol=1e-15)

@@ -114,8 +114,6 @@ def eig3(a00, a01, a02, a11, a12, a22):
     (ok, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22) = eig3_hybrid(a00, a01, a02, a11, a12, a22)
     if ok:
         return m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22
-    if a01 == 0.0 and a02 == 0.0 and a12 == 0.0:    # diagonal, isotropic to round-off (A = 0)
-        return a00, a11, a22, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
     return eig3_jacobi(a00, a01, a02, a11, a12, a22)
 
 
@@ -123,10 +121,13 @@ def eig3(a00, a01, a02, a11, a12, a22):
 def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     """The hybrid method without branches (so that a loop over elements vectorises).
 
-    Returns (ok, m0, m1, m2, q00, ..., q22) as :func:`eig3_jacobi` does, with ok False where
-    the method does not apply: A isotropic to round-off (p2 <= (1e-17 |A|)^2, including the
-    undeformed state) or a non-finite value on the way; the other values are then meaningless
-    and the caller falls back to :func:`eig3` (scalar: exact diagonal or cyclic Jacobi).
+    Returns (ok, m0, m1, m2, q00, ..., q22) as :func:`eig3_jacobi` does. Where the method does
+    not apply (A isotropic to round-off, p2 <= (1e-17 |A|)^2, or a non-finite value on the way)
+    but A is exactly diagonal (the undeformed state C = I, and any diagonal A the method skips),
+    the result is that diagonal with Q = I, selected without a branch: an undeformed element
+    stays on the vectorised path (on a large mesh most of the far field is undeformed for much of
+    a run). Otherwise ok is False, the other values are meaningless and the caller falls back to
+    :func:`eig3` (scalar cyclic Jacobi).
     """
     q = (a00 + a11 + a22) / 3.0
     b00 = a00 - q
@@ -225,4 +226,9 @@ def eig3_hybrid(a00, a01, a02, a11, a12, a22):
     u0, w0 = rotate(c, s, u0, w0)
     u1, w1 = rotate(c, s, u1, w1)
     u2, w2 = rotate(c, s, u2, w2)
-    return ok, mv, buu, bww, v0, u0, w0, v1, u1, w1, v2, u2, w2
+    # exactly diagonal where the method does not apply: that diagonal, Q = I (selects, no branch)
+    dg = (a01 == 0.0) & (a02 == 0.0) & (a12 == 0.0) & (not ok)
+    return (ok | dg, a00 if dg else mv, a11 if dg else buu, a22 if dg else bww,
+            1.0 if dg else v0, 0.0 if dg else u0, 0.0 if dg else w0,
+            0.0 if dg else v1, 1.0 if dg else u1, 0.0 if dg else w1,
+            0.0 if dg else v2, 0.0 if dg else u2, 1.0 if dg else w2)

@@ -19,8 +19,9 @@ of stages, each one loop over the block's elements with no calls and no branches
 instead), in a function of its own so that LLVM vectorises it across elements (8 doubles per
 AVX-512 instruction): kinematics (F, hourglass modes), eigen-decomposition of C, the material's
 derivatives, principal stresses and moduli, Prony update, forces and stress work. The rare
-cases the branch-free eigen-decomposition does not cover (isotropic C, e.g. the undeformed
-state) go through the scalar :func:`eig3` one by one.
+cases the branch-free eigen-decomposition does not cover (C isotropic to round-off but not
+exactly diagonal; the undeformed state C = I is covered) go through the scalar :func:`eig3` one
+by one.
 
 Scatter: the elements (renumbered for locality before the run, ``cfm_backends.explicit.renumber``)
 are split into chunks of consecutive blocks, one parallel task each. A chunk adds its element
@@ -35,7 +36,9 @@ on a chunk boundary have any) to its own row.
 import math
 
 import numpy as np
-from numba import njit, prange
+from llvmlite import ir
+from numba import njit, prange, types
+from numba.core.extending import intrinsic
 from cfm_backends.numba_cache import key_on_folder
 
 from .constitutive import first_piola, psi_grad_hess_diag_v
@@ -45,6 +48,26 @@ from .vmath import vsqrt
 
 key_on_folder(__file__)  # numba's cache of these kernels is keyed on every file of the folder
 # <<< standalone
+
+
+@intrinsic
+def parallel_chunksize(typingctx, n):
+    """numba's ``set_parallel_chunksize(n)``: the iterations a thread takes at a time from the
+    next prange loop this thread starts (0: the default static split); returns the previous
+    value. Direct calls of the threading layer's C functions by their symbols, declared as
+    numba's parfor lowering declares them (uint64 -> void, () -> uint64): numba's own function
+    reaches them through a ctypes pointer, which keeps a kernel out of numba's disk cache."""
+    def emit(context, builder, signature, args):
+        mod = builder.module
+        u = ir.IntType(64)
+        get = mod.globals.get("get_parallel_chunksize") or ir.Function(mod, ir.FunctionType(u, []),
+                                                                      "get_parallel_chunksize")
+        put = mod.globals.get("set_parallel_chunksize") or ir.Function(mod, ir.FunctionType(ir.VoidType(), [u]),
+                                                                      "set_parallel_chunksize")
+        old = builder.call(get, [])
+        builder.call(put, [args[0]])
+        return old
+    return types.int64(types.int64), emit
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -63,14 +86,20 @@ def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt
     (J, m0, m1, m2) of the block's first failure; updates the Prony state and the previous-step
     S and E. Returns (stress work increment (J), number of failures).
 
-    Parallel over the chunks (one task each): no two chunks write the same buffer row, so the
-    scatter needs no atomics and no serial pass, and the sums do not depend on the thread count.
+    Parallel over the chunks, handed out one at a time (a thread that finishes takes the next
+    free chunk, so that threads whose chunks cost more, or a thread the OS descheduled, do not
+    hold the others back at the end of the pass): no two chunks write the same buffer row, so the
+    scatter needs no atomics and no serial pass. Each chunk's stress work and failure count are
+    kept apart and summed in chunk order afterwards, so that every result, the work included,
+    is the same bits whatever the thread count and whichever thread ran which chunk.
     """
     ne = conn.shape[0]
     k6 = 6 * decay.shape[0] * BLOCK
-    work = 0.0
-    nbad = 0
-    for c in prange(chunks.shape[0] - 1):
+    nch = chunks.shape[0] - 1
+    cwork = np.empty(nch)
+    cbad = np.empty(nch, dtype=np.int64)
+    old = parallel_chunksize(1)
+    for c in prange(nch):
         for r in range(chunks[c, 1] * NF, chunks[c + 1, 1] * NF):
             fb[r] = 0.0
         for r in range(chunks[c, 2] * NF, chunks[c + 1, 2] * NF):
@@ -84,8 +113,14 @@ def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt
                                    fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave)
             wc += wb
             nc += nb
-        work += wc
-        nbad += nc
+        cwork[c] = wc
+        cbad[c] = nc
+    parallel_chunksize(old)
+    work = 0.0
+    nbad = 0
+    for c in range(nch):
+        work += cwork[c]
+        nbad += cbad[c]
     return work, nbad
 
 
@@ -334,8 +369,8 @@ def eigen_block(wk, n):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def eigen_fallback(wk, n):
-    """The scalar :func:`eig3` for the columns :func:`eigen_block` did not cover (isotropic C,
-    e.g. the undeformed state, or non-finite values); an inverted element (J <= 0) gets finite
+    """The scalar :func:`eig3` for the columns :func:`eigen_block` did not cover (C isotropic to
+    round-off but not exactly diagonal, or non-finite values); an inverted element (J <= 0) gets finite
     placeholders m = 1 for the material stage (its status says inverted)."""
     for i in range(n):
         J = wk[W_J * BLOCK + i]
@@ -692,9 +727,73 @@ def energy_pass(mass, v, vold, fint, fhg, dvc, pmask, dtn):
     Forces: internal -fint, hourglass fhg, contact m dvc / dtn, and on prescribed dofs (pmask)
     the reaction imposing the motion (external).
     Returns (T, A_int, B_int, A_hg, B_hg, A_c, B_c, A_ext, B_ext, momentum_z at n+1/2).
+
+    Summed over fixed node ranges (:data:`ENERGY_RANGE` nodes each, in parallel), then the ranges
+    in order: the same bits whatever the thread count.
     """
     nn = v.shape[0]
     h = 0.5 * dtn
+    nr = max(1, -(-nn // ENERGY_RANGE))
+    part = np.zeros((nr, 10))
+    for rg in prange(nr):
+        ke = 0.0
+        ai = 0.0
+        bi = 0.0
+        ah = 0.0
+        bh = 0.0
+        ac = 0.0
+        bc = 0.0
+        ax = 0.0
+        bx = 0.0
+        pz = 0.0
+        for n in range(rg * ENERGY_RANGE, min(nn, (rg + 1) * ENERGY_RANGE)):
+            m = mass[n]
+            kn = 0.0
+            ain = 0.0
+            bin_ = 0.0
+            ahn = 0.0
+            bhn = 0.0
+            acn = 0.0
+            bcn = 0.0
+            axn = 0.0
+            bxn = 0.0
+            for i in range(3):
+                vo = vold[n, i]
+                vh = v[n, i]
+                kn += vo * vh
+                fi = -h * fint[n, i]
+                fhh = h * fhg[n, i]
+                fc = 0.5 * m * dvc[n, i]
+                ain += fi * vo
+                bin_ += fi * vh
+                ahn += fhh * vo
+                bhn += fhh * vh
+                acn += fc * vo
+                bcn += fc * vh
+                if pmask[n, i] != 0.0:
+                    fx = 0.5 * m * (vh - vo) - (fi + fhh + fc)
+                    axn += fx * vo
+                    bxn += fx * vh
+            ke += 0.5 * m * kn
+            ai += ain
+            bi += bin_
+            ah += ahn
+            bh += bhn
+            ac += acn
+            bc += bcn
+            ax += axn
+            bx += bxn
+            pz += m * v[n, 2]
+        part[rg, 0] = ke
+        part[rg, 1] = ai
+        part[rg, 2] = bi
+        part[rg, 3] = ah
+        part[rg, 4] = bh
+        part[rg, 5] = ac
+        part[rg, 6] = bc
+        part[rg, 7] = ax
+        part[rg, 8] = bx
+        part[rg, 9] = pz
     ke = 0.0
     ai = 0.0
     bi = 0.0
@@ -705,42 +804,15 @@ def energy_pass(mass, v, vold, fint, fhg, dvc, pmask, dtn):
     ax = 0.0
     bx = 0.0
     pz = 0.0
-    for n in prange(nn):
-        m = mass[n]
-        kn = 0.0
-        ain = 0.0
-        bin_ = 0.0
-        ahn = 0.0
-        bhn = 0.0
-        acn = 0.0
-        bcn = 0.0
-        axn = 0.0
-        bxn = 0.0
-        for i in range(3):
-            vo = vold[n, i]
-            vh = v[n, i]
-            kn += vo * vh
-            fi = -h * fint[n, i]
-            fhh = h * fhg[n, i]
-            fc = 0.5 * m * dvc[n, i]
-            ain += fi * vo
-            bin_ += fi * vh
-            ahn += fhh * vo
-            bhn += fhh * vh
-            acn += fc * vo
-            bcn += fc * vh
-            if pmask[n, i] != 0.0:
-                fx = 0.5 * m * (vh - vo) - (fi + fhh + fc)
-                axn += fx * vo
-                bxn += fx * vh
-        ke += 0.5 * m * kn
-        ai += ain
-        bi += bin_
-        ah += ahn
-        bh += bhn
-        ac += acn
-        bc += bcn
-        ax += axn
-        bx += bxn
-        pz += m * v[n, 2]
+    for rg in range(nr):
+        ke += part[rg, 0]
+        ai += part[rg, 1]
+        bi += part[rg, 2]
+        ah += part[rg, 3]
+        bh += part[rg, 4]
+        ac += part[rg, 5]
+        bc += part[rg, 6]
+        ax += part[rg, 7]
+        bx += part[rg, 8]
+        pz += part[rg, 9]
     return ke, ai, bi, ah, bh, ac, bc, ax, bx, pz

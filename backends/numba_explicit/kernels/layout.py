@@ -165,6 +165,7 @@ H0 = (1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0)
 H1 = (1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0)
 H2 = (1.0, -1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0)
 H3 = (-1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0, -1.0)
+ENERGY_RANGE = 4096  # nodes per range of the energy sums (element.energy_pass): fixed, so thread-independent
 NF = 6              # values per node in the force buffer: internal force x, y, z, hourglass x, y, z (N)
 W_F = 0             # F, 9 rows (row-major)
 W_Q = 9             # hourglass modes q_alpha,i (m/s), 12 rows, row 3 alpha + i
