@@ -132,3 +132,19 @@ def test_generated_module_names_change_with_any_kernel_file(tmp_path, monkeypatc
     kernels.write_text(compiled.KERNELS_FILE.read_text() + "\n# an edit\n")
     monkeypatch.setattr(compiled, "KERNELS_FILE", kernels)
     assert codegen.generated_name(compiled.module_source(neo), "cfm_skfem", "m") != skfem_name
+
+
+def test_the_generated_time_loop_is_in_the_disk_cache_after_a_run():
+    """A kernel numba cannot cache (a ctypes pointer or another dynamic global anywhere in the
+    time loop's call tree, e.g. numba's own Python-level set_parallel_chunksize) would only warn
+    and recompile the whole loop in every process (30-60 s a run): after a run, the time loop
+    and the physics checks' scan must have machine code in the disk cache."""
+    from cfm_backends.numba_explicit import NumbaExplicitBackend, codegen
+    from fixtures.hand_derived import NeoHookeanStandIn, drop_test_model
+
+    mat = NeoHookeanStandIn(mu=50.0e3, kappa=1.0e6)
+    model = drop_test_model(mat, quarter=True, width=12e-3, thickness=4e-3, h=2e-3, mass=0.05,
+                            velocity=1.0, end_time=0.2e-3)
+    NumbaExplicitBackend().run(model)
+    assert codegen.is_compiled(mat, "advance")
+    assert codegen.is_compiled(mat, "element_pass")
