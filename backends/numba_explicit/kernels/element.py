@@ -794,25 +794,8 @@ def energy_pass(mass, v, vold, fint, fhg, dvc, pmask, dtn):
         part[rg, 7] = ax
         part[rg, 8] = bx
         part[rg, 9] = pz
-    ke = 0.0
-    ai = 0.0
-    bi = 0.0
-    ah = 0.0
-    bh = 0.0
-    ac = 0.0
-    bc = 0.0
-    ax = 0.0
-    bx = 0.0
-    pz = 0.0
-    for rg in range(nr):
-        ke += part[rg, 0]
-        ai += part[rg, 1]
-        bi += part[rg, 2]
-        ah += part[rg, 3]
-        bh += part[rg, 4]
-        ac += part[rg, 5]
-        bc += part[rg, 6]
-        ax += part[rg, 7]
-        bx += part[rg, 8]
-        pz += part[rg, 9]
-    return ke, ai, bi, ah, bh, ac, bc, ax, bx, pz
+    tot = np.zeros(10)
+    for rg in range(nr):                 # the ranges in order: the same bits on any thread count
+        for j in range(10):
+            tot[j] += part[rg, j]
+    return tot[0], tot[1], tot[2], tot[3], tot[4], tot[5], tot[6], tot[7], tot[8], tot[9]
