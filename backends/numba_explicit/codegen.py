@@ -266,8 +266,9 @@ def module_source(material) -> str:
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
                   + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
     layout, *kernels = kernel_text()
-    return (HEADER.format(name=_label(uniq)) + numba_target.source_line() + layout + "\n\n# ---- material.numba_source() ----\n"
-            + _material_text(uniq[0]) + "\n\n\n" + "\n\n".join(kernels) + extra
+    return (HEADER.format(name=_label(uniq)) + numba_target.source_line() + layout
+            + "\n\n# ---- material.numba_source() ----\n" + _material_text(uniq[0])
+            + "\n\n\n" + "\n\n".join(kernels) + extra
             + "\n\n# ---- the parts (generated) ----\n" + _parts_function(len(uniq)))
 
 

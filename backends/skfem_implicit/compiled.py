@@ -54,7 +54,8 @@ def module_source(material) -> str:
                          f"psi_grad and psi_hess(m1, m2, m3, p).")
     wrap = "\n".join(f'{n} = njit(cache=True, fastmath=False, error_model="numpy")({n})' for n in names)
     kernels = strip_standalone(KERNELS_FILE.read_text())
-    return (HEADER.format(name=material.name) + numba_target.source_line() + "# ---- material.numba_source() ----\n" + src
+    return (HEADER.format(name=material.name) + numba_target.source_line()
+            + "# ---- material.numba_source() ----\n" + src
             + "\n\n" + wrap + "\n\n\n# ---- kernels.py ----\n" + kernels)
 
 

@@ -12,11 +12,10 @@ compiling them a second time. Imports no numba.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import sys
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 
 from .cache import cache_dir, generated_name
 
@@ -75,8 +74,9 @@ def announce_compile(text: str, prefix: str, subdir: str, label: str, kernel: st
     per machine, ~N s; cached in DIR)..." before the block and "numba: kernels for material 'LABEL'
     compiled in N s." after it (the seconds are kept per kernel in ``DIR/compile_seconds.json`` as
     the next estimate). The block runs holding ``DIR/<module>.lock`` (:func:`_compiling`): a process
-    compiling the same module meanwhile is waited for, and the block then loads its cached kernels. Silent when the cache has the kernel; once found or compiled, a kernel is
-    not looked up again in this process.
+    compiling the same module meanwhile is waited for, and the block then loads its cached kernels.
+    Silent when the cache has the kernel; once found or compiled, a kernel is not looked up again
+    in this process.
 
     Parameters
     ----------
@@ -130,5 +130,5 @@ def _compiling(path):
     try:
         yield
     finally:
-        with contextlib.suppress(OSError):
+        with suppress(OSError):
             lock.release()

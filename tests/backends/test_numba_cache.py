@@ -138,7 +138,7 @@ def test_the_generated_time_loop_is_in_the_disk_cache_after_a_run():
     """A kernel numba cannot cache (a ctypes pointer or another dynamic global anywhere in the
     time loop's call tree, e.g. numba's own Python-level set_parallel_chunksize) would only warn
     and recompile the whole loop in every process (30-60 s a run): after a run, the time loop
-    and the physics checks' scan must have machine code in the disk cache."""
+    and the element pass it calls must have machine code in the disk cache."""
     from cfm_backends.numba_explicit import NumbaExplicitBackend, codegen
     from fixtures.hand_derived import NeoHookeanStandIn, drop_test_model
 
