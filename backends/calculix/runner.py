@@ -19,6 +19,33 @@ from .deck import write_deck
 _TOTAL = re.compile(r"total force \(fx,fy,fz\) for set (\S+) and time\s+(\S+)\s*\n\s*\n\s*(\S+)\s+(\S+)\s+(\S+)")
 _UMAT_ERROR = re.compile(r"CFM-UMAT-ERROR (.*)")
 _UMAT_CUTBACK = re.compile(r"umat \S+: error .*")
+_ADAPTOR_CUTBACK = re.compile(r"CFM-UMAT-CUTBACK element (\d+) point (\d+) time (\S+)")
+
+#: PNEWDT the CalculiX adaptor (adaptor.f) hands ccx when the UMAT refuses an iterate; the UMAT's
+#: own line names Abaqus's 0.25, which ccx does not see.
+ADAPTOR_PNEWDT = 0.5
+
+
+def umat_refusals(log: str) -> str:
+    """What ccx's log says about the iterates the UMAT refused: "" when none, else one line with
+    their number, the last one's UMAT message (its Abaqus PNEWDT clause replaced by the cut ccx got
+    from the adaptor, :data:`ADAPTOR_PNEWDT`) and, when the adaptor's line is there, its time (s)."""
+    umat = _UMAT_CUTBACK.findall(log)
+    if not umat:
+        return ""
+    last = umat[-1].strip().replace("; PNEWDT = 0.25", "")
+    where = _ADAPTOR_CUTBACK.findall(log)
+    at = f" at t = {_number(where[-1][2])} s" if where else ""
+    return (f"the UMAT refused {len(umat)} iterate(s); ccx cut each increment back by PNEWDT = "
+            f"{ADAPTOR_PNEWDT:g} (the CalculiX adaptor's); the last{at}: {last}")
+
+
+def _number(text: str) -> str:
+    """A Fortran-printed real as Python prints it (the text itself when it does not parse)."""
+    try:
+        return f"{float(text):.6g}"
+    except ValueError:
+        return text
 
 
 def read_totals(text: str, nset: str) -> tuple[np.ndarray, np.ndarray]:
@@ -113,9 +140,9 @@ def run_ccx(ccx: str, model, threads: int = 1, max_increment: float = np.inf, na
                                  f"'{model.name}').", quantity="umat")
         if not stopped and (code != 0 or "*ERROR" in log):
             msg = "\n".join(ln for ln in log.splitlines() if "ERROR" in ln)[:1500] or log[-1500:]
-            umat = _UMAT_CUTBACK.findall(log)
-            if umat:
-                msg += f"\nthe UMAT refused {len(umat)} iterate(s), the last: {umat[-1].strip()}"
+            refused = umat_refusals(log)
+            if refused:
+                msg += "\n" + refused
             raise NumericalError(f"calculix backend: ccx failed (exit {code}) on model '{model.name}':\n"
                                  f"{msg}", quantity="ccx")
         n_lines = len(deck.read_text().splitlines())

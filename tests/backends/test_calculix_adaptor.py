@@ -87,3 +87,32 @@ def test_a_refused_iterate_halves_the_increment(setup):
     out = _call(lib, mat, names[mat.spec.name]["tag"], np.array([0.0, 1e-4]), F)
     assert out["pnewdt"][1] == 0.5
     assert np.array_equal(out["stress"][1], out["stress"][0])
+
+
+def test_a_relayed_refusal_names_the_cut_ccx_got_not_the_umats():
+    """ccx's log carries the UMAT's own line (Abaqus's PNEWDT = 0.25) and the adaptor's; the error
+    relayed to the user names the adaptor's cut and the time, from the lines as the Fortran
+    writes them (the UMAT template's text, adaptor.f's cut)."""
+    import re
+    from pathlib import Path
+
+    from cfm_backends.calculix import runner
+    from cfm_core.export import abaqus
+
+    clause = "; PNEWDT = 0.25'"
+    assert clause in Path(abaqus.__file__).read_text()          # the text the relay replaces
+    adaptor = (Path(runner.__file__).parent / "adaptor.f").read_text()
+    cuts = set(re.findall(r"pnewdt = ([0-9.]+)d0", adaptor))
+    assert cuts == {f"{runner.ADAPTOR_PNEWDT:.1f}"}
+
+    def umat_line(e):
+        return f" umat cfm: error  1 at element {e} point 1 (see the error codes in the file header){clause[:-1]}"
+
+    log = "\n".join([umat_line(12), " CFM-UMAT-CUTBACK element 12 point 1 time 1.2300000000000000E-4",
+                     umat_line(40), " CFM-UMAT-CUTBACK element 40 point 3 time 2.5000000000000001E-4",
+                     " *ERROR: too many cutbacks"])
+    msg = runner.umat_refusals(log)
+    assert msg.startswith("the UMAT refused 2 iterate(s); ccx cut each increment back by PNEWDT = 0.5")
+    assert "at t = 0.00025 s" in msg and "at element 40 point 1" in msg
+    assert "0.25" not in msg
+    assert runner.umat_refusals(" *ERROR: divergence") == ""
