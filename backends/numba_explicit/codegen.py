@@ -6,7 +6,8 @@ the material's functions as globals. So the module is written once per material 
     header + kernels/layout.py + material.numba_source() [+ a psi_grad_hess_diag wrapper]
            + njit wrappers of its functions + their vectorisable variant (vector_source)
            + the other kernel files (vmath.py, eigen.py, ...),
-    all kernel files without their standalone blocks
+    all kernel files without their standalone blocks, and the corner loops of the kinematics
+    (``element.UNROLLED_CORNERS``) written out 8 times (:func:`unroll_corners`)
 
 then ``element_parts`` (generated: the element pass of each part in turn). A model with parts
 of several materials gets one module for its distinct materials (:func:`distinct`): the first
@@ -63,9 +64,68 @@ KERNELS_DIR = Path(__file__).with_name("kernels")
 
 
 def kernel_text() -> list[str]:
-    """The kernel sources (in KERNEL_FILES order) without their standalone blocks."""
-    return [f"# ---- kernels/{name} ----\n" + strip_standalone((KERNELS_DIR / name).read_text())
-            for name in KERNEL_FILES]
+    """The kernel sources (in KERNEL_FILES order) without their standalone blocks, the corner
+    loops of ``element.UNROLLED_CORNERS`` unrolled (:func:`unroll_corners`)."""
+    from .kernels.element import UNROLLED_CORNERS
+
+    out = []
+    for name in KERNEL_FILES:
+        text = strip_standalone((KERNELS_DIR / name).read_text())
+        if name == "element.py":
+            text = unroll_corners(text, UNROLLED_CORNERS)
+        out.append(f"# ---- kernels/{name} ----\n" + text)
+    return out
+
+
+class _Corner(ast.NodeTransformer):
+    """Replaces the loop variable ``a`` by the constant corner number."""
+
+    def __init__(self, a: int):
+        self.a = a
+
+    def visit_Name(self, node):
+        return ast.copy_location(ast.Constant(self.a), node) if node.id == "a" else node
+
+
+class _Unroll(ast.NodeTransformer):
+    """``for a in range(8): body`` -> the body 8 times, a = 0..7."""
+
+    def visit_For(self, node):
+        self.generic_visit(node)
+        it = node.iter
+        if not (isinstance(node.target, ast.Name) and node.target.id == "a" and isinstance(it, ast.Call)
+                and isinstance(it.func, ast.Name) and it.func.id == "range" and len(it.args) == 1
+                and isinstance(it.args[0], ast.Constant) and it.args[0].value == 8 and not node.orelse):
+            return node
+        body = []
+        for a in range(8):
+            body += [_Corner(a).visit(ast.parse(ast.unparse(stmt)).body[0]) for stmt in node.body]
+        return body
+
+
+def unroll_corners(text: str, names) -> str:
+    """``text`` with every ``for a in range(8)`` loop of the top-level functions ``names``
+    written out 8 times with a = 0, ..., 7 (so that LLVM vectorises the loop over elements
+    around it: it does not vectorise a loop with a loop inside that it has not unrolled, and its
+    own unroller gives up on bodies this size). Those functions' text is regenerated
+    (``ast.unparse``: their comments go; the decorators stay); the rest of ``text`` is kept as it
+    is. Raises ValueError if a name is missing or its function has no such loop."""
+    tree = ast.parse(text)
+    lines = text.splitlines()
+    found = {}
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and node.name in names:
+            new = ast.fix_missing_locations(_Unroll().visit(ast.parse(ast.unparse(node)).body[0]))
+            if ast.dump(new) == ast.dump(node):
+                raise ValueError(f"unroll_corners: function '{node.name}' has no 'for a in range(8)' loop")
+            start = min([d.lineno for d in node.decorator_list] + [node.lineno])
+            found[node.name] = (start, node.end_lineno, ast.unparse(new))
+    missing = set(names) - set(found)
+    if missing:
+        raise ValueError(f"unroll_corners: no top-level function {sorted(missing)} in the kernel text")
+    for start, end, code in sorted(found.values(), reverse=True):
+        lines[start - 1:end] = code.splitlines()
+    return "\n".join(lines) + "\n"
 
 
 COMBINED = "psi_grad_hess_diag"

@@ -184,13 +184,40 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
     """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
     (rows W_Q, m/s) of the block's n elements from e0, with gamma_a,alpha = h_alpha,a - sum_k
     (h_alpha . X_k) B_a,k: q_alpha = sum_a h_alpha,a v_a - sum_k (h_alpha . X_k) L_:k (L the
-    velocity gradient sum_a v_a (x) B_a), from 12 stored values per element instead of 32. Element by element (not vectorised: an
-    indexed load x[conn] in a vectorised loop needs a bounds proof LLVM cannot make, and
-    gathering the corners into rows first costs more than it saves), B and gamma read from the
-    block's rows of ed (in cache: the block's stretch is 20 kB; a second per-element copy of B
-    and gamma was faster on a small mesh but doubled their memory traffic on a large one)."""
+    velocity gradient sum_a v_a (x) B_a), from 12 stored values per element instead of 32.
+
+    The corners' nodes are gathered into rows first (:func:`gather_corners`); the sums over the
+    8 corners then run as loops over the block's elements that LLVM vectorises
+    (:func:`deformation_block`, :func:`velocity_block`), with the corner loop unrolled by the
+    code generator (``codegen.unroll_corners``: LLVM does not vectorise a loop over elements with
+    a loop over corners inside). The same sums in the same order, as fused multiply-adds as in a
+    loop (compiled without nsz, ``FASTMATH_SUMS``), so the same bits as element by element;
+    5-14 % faster per element-cycle (docs/user/performance.md)."""
+    gather_corners(wk, x, v, conn, e0, n)
+    deformation_block(wk, ed, n)
+    velocity_block(wk, ed, n)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def gather_corners(wk, x, v, conn, e0, n):
+    """Rows W_G + 6 a + c of the block's n elements from e0: x[conn[e, a], c] and v[conn[e, a],
+    c] (c + 3) (m, m/s), corner by corner (each row written in order)."""
+    for a in range(8):
+        for i in range(n):
+            nd = conn[e0 + i, a]
+            wk[(W_G + 6 * a) * BLOCK + i] = x[nd, 0]
+            wk[(W_G + 6 * a + 1) * BLOCK + i] = x[nd, 1]
+            wk[(W_G + 6 * a + 2) * BLOCK + i] = x[nd, 2]
+            wk[(W_G + 6 * a + 3) * BLOCK + i] = v[nd, 0]
+            wk[(W_G + 6 * a + 4) * BLOCK + i] = v[nd, 1]
+            wk[(W_G + 6 * a + 5) * BLOCK + i] = v[nd, 2]
+
+
+@njit(cache=True, fastmath=FASTMATH_SUMS, error_model="numpy")
+def deformation_block(wk, ed, n):
+    """F = sum_a x_a (x) B_a (rows W_F) from the gathered positions (rows W_G). The loop over the
+    corners is unrolled in the generated module (UNROLLED_CORNERS)."""
     for i in range(n):
-        e = e0 + i
         f00 = 0.0
         f01 = 0.0
         f02 = 0.0
@@ -200,6 +227,39 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
         f20 = 0.0
         f21 = 0.0
         f22 = 0.0
+        for a in range(8):
+            x0 = wk[(W_G + 6 * a) * BLOCK + i]
+            x1 = wk[(W_G + 6 * a + 1) * BLOCK + i]
+            x2 = wk[(W_G + 6 * a + 2) * BLOCK + i]
+            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
+            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
+            f00 += x0 * b0
+            f01 += x0 * b1
+            f02 += x0 * b2
+            f10 += x1 * b0
+            f11 += x1 * b1
+            f12 += x1 * b2
+            f20 += x2 * b0
+            f21 += x2 * b1
+            f22 += x2 * b2
+        wk[W_F * BLOCK + i] = f00
+        wk[(W_F + 1) * BLOCK + i] = f01
+        wk[(W_F + 2) * BLOCK + i] = f02
+        wk[(W_F + 3) * BLOCK + i] = f10
+        wk[(W_F + 4) * BLOCK + i] = f11
+        wk[(W_F + 5) * BLOCK + i] = f12
+        wk[(W_F + 6) * BLOCK + i] = f20
+        wk[(W_F + 7) * BLOCK + i] = f21
+        wk[(W_F + 8) * BLOCK + i] = f22
+
+
+@njit(cache=True, fastmath=FASTMATH_SUMS, error_model="numpy")
+def velocity_block(wk, ed, n):
+    """The hourglass modes q_alpha,i = sum_a h_alpha,a v_a,i - sum_k (h_alpha . X_k) L_ik (rows
+    W_Q, m/s), L_ik = sum_a v_a,i B_a,k, from the gathered velocities (rows W_G + 6 a + 3..5). The
+    loop over the corners is unrolled in the generated module (UNROLLED_CORNERS)."""
+    for i in range(n):
         l00 = 0.0
         l01 = 0.0
         l02 = 0.0
@@ -222,25 +282,12 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
         s31 = 0.0
         s32 = 0.0
         for a in range(8):
-            nd = conn[e, a]
-            x0 = x[nd, 0]
-            x1 = x[nd, 1]
-            x2 = x[nd, 2]
+            v0 = wk[(W_G + 6 * a + 3) * BLOCK + i]
+            v1 = wk[(W_G + 6 * a + 4) * BLOCK + i]
+            v2 = wk[(W_G + 6 * a + 5) * BLOCK + i]
             b0 = ed[(ED_B + 3 * a) * BLOCK + i]
             b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
             b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
-            f00 += x0 * b0
-            f01 += x0 * b1
-            f02 += x0 * b2
-            f10 += x1 * b0
-            f11 += x1 * b1
-            f12 += x1 * b2
-            f20 += x2 * b0
-            f21 += x2 * b1
-            f22 += x2 * b2
-            v0 = v[nd, 0]
-            v1 = v[nd, 1]
-            v2 = v[nd, 2]
             l00 += v0 * b0
             l01 += v0 * b1
             l02 += v0 * b2
@@ -266,7 +313,6 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
             s30 += v0 * h3
             s31 += v1 * h3
             s32 += v2 * h3
-        # q_alpha,i = sum_a v_a,i gamma_a,alpha = s_alpha,i - sum_k (h_alpha . X_k) L_ik, L_ik = sum_a v_a,i B_a,k
         x00 = ed[ED_HX * BLOCK + i]
         x01 = ed[(ED_HX + 1) * BLOCK + i]
         x02 = ed[(ED_HX + 2) * BLOCK + i]
@@ -279,39 +325,22 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
         x30 = ed[(ED_HX + 9) * BLOCK + i]
         x31 = ed[(ED_HX + 10) * BLOCK + i]
         x32 = ed[(ED_HX + 11) * BLOCK + i]
-        q00 = s00 - (x00 * l00 + x01 * l01 + x02 * l02)
-        q01 = s01 - (x00 * l10 + x01 * l11 + x02 * l12)
-        q02 = s02 - (x00 * l20 + x01 * l21 + x02 * l22)
-        q10 = s10 - (x10 * l00 + x11 * l01 + x12 * l02)
-        q11 = s11 - (x10 * l10 + x11 * l11 + x12 * l12)
-        q12 = s12 - (x10 * l20 + x11 * l21 + x12 * l22)
-        q20 = s20 - (x20 * l00 + x21 * l01 + x22 * l02)
-        q21 = s21 - (x20 * l10 + x21 * l11 + x22 * l12)
-        q22 = s22 - (x20 * l20 + x21 * l21 + x22 * l22)
-        q30 = s30 - (x30 * l00 + x31 * l01 + x32 * l02)
-        q31 = s31 - (x30 * l10 + x31 * l11 + x32 * l12)
-        q32 = s32 - (x30 * l20 + x31 * l21 + x32 * l22)
-        wk[W_F * BLOCK + i] = f00
-        wk[(W_F + 1) * BLOCK + i] = f01
-        wk[(W_F + 2) * BLOCK + i] = f02
-        wk[(W_F + 3) * BLOCK + i] = f10
-        wk[(W_F + 4) * BLOCK + i] = f11
-        wk[(W_F + 5) * BLOCK + i] = f12
-        wk[(W_F + 6) * BLOCK + i] = f20
-        wk[(W_F + 7) * BLOCK + i] = f21
-        wk[(W_F + 8) * BLOCK + i] = f22
-        wk[W_Q * BLOCK + i] = q00
-        wk[(W_Q + 1) * BLOCK + i] = q01
-        wk[(W_Q + 2) * BLOCK + i] = q02
-        wk[(W_Q + 3) * BLOCK + i] = q10
-        wk[(W_Q + 4) * BLOCK + i] = q11
-        wk[(W_Q + 5) * BLOCK + i] = q12
-        wk[(W_Q + 6) * BLOCK + i] = q20
-        wk[(W_Q + 7) * BLOCK + i] = q21
-        wk[(W_Q + 8) * BLOCK + i] = q22
-        wk[(W_Q + 9) * BLOCK + i] = q30
-        wk[(W_Q + 10) * BLOCK + i] = q31
-        wk[(W_Q + 11) * BLOCK + i] = q32
+        wk[W_Q * BLOCK + i] = s00 - (x00 * l00 + x01 * l01 + x02 * l02)
+        wk[(W_Q + 1) * BLOCK + i] = s01 - (x00 * l10 + x01 * l11 + x02 * l12)
+        wk[(W_Q + 2) * BLOCK + i] = s02 - (x00 * l20 + x01 * l21 + x02 * l22)
+        wk[(W_Q + 3) * BLOCK + i] = s10 - (x10 * l00 + x11 * l01 + x12 * l02)
+        wk[(W_Q + 4) * BLOCK + i] = s11 - (x10 * l10 + x11 * l11 + x12 * l12)
+        wk[(W_Q + 5) * BLOCK + i] = s12 - (x10 * l20 + x11 * l21 + x12 * l22)
+        wk[(W_Q + 6) * BLOCK + i] = s20 - (x20 * l00 + x21 * l01 + x22 * l02)
+        wk[(W_Q + 7) * BLOCK + i] = s21 - (x20 * l10 + x21 * l11 + x22 * l12)
+        wk[(W_Q + 8) * BLOCK + i] = s22 - (x20 * l20 + x21 * l21 + x22 * l22)
+        wk[(W_Q + 9) * BLOCK + i] = s30 - (x30 * l00 + x31 * l01 + x32 * l02)
+        wk[(W_Q + 10) * BLOCK + i] = s31 - (x30 * l10 + x31 * l11 + x32 * l12)
+        wk[(W_Q + 11) * BLOCK + i] = s32 - (x30 * l20 + x31 * l21 + x32 * l22)
+
+
+#: Functions whose ``for a in range(8)`` corner loop the code generator unrolls (codegen.unroll_corners).
+UNROLLED_CORNERS = ("deformation_block", "velocity_block")
 
 
 @njit(inline="always", fastmath=FASTMATH, error_model="numpy")

@@ -11,6 +11,9 @@ state that survives between calls of the time loop, and each row of ``hist`` one
 # also uses error_model="numpy": a division by zero gives inf / NaN (caught by the finiteness
 # checks) instead of a per-division test raising ZeroDivisionError.
 FASTMATH = {"arcp", "contract", "nsz"}
+# The unrolled corner sums (element.UNROLLED_CORNERS) without nsz: 0 + x b then stays a fused
+# multiply-add, as in a loop, so that the sums round as they do element by element.
+FASTMATH_SUMS = {"arcp", "contract"}
 
 # ---- par: run parameters (SI units) ----
 P_RHO = 0           # density (kg/m^3)
@@ -170,6 +173,8 @@ NF = 6              # values per node in the force buffer: internal force x, y, 
 W_F = 0             # F, 9 rows (row-major)
 W_Q = 9             # hourglass modes q_alpha,i (m/s), 12 rows, row 3 alpha + i
 W_C = 21            # C = F^T F, 6 rows
+W_G = 21            # during the kinematics only: the corners' x then v gathered, 48 rows, row 6 a + c
+                    # (m, m/s; rows W_C.. W_C + 47 are written by the later stages)
 W_J = 27            # det F
 W_M = 28            # eigenvalues of C, 3 rows
 W_V = 31            # eigenvectors of C (Q row-major, column k for m_k), 9 rows
