@@ -29,6 +29,7 @@ between ``# >>> standalone`` and ``# <<< standalone`` gives them their imports a
 from __future__ import annotations
 
 import ast
+import copy
 import re
 from pathlib import Path
 
@@ -88,7 +89,9 @@ class _Corner(ast.NodeTransformer):
 
 
 class _Unroll(ast.NodeTransformer):
-    """``for a in range(8): body`` -> the body 8 times, a = 0..7."""
+    """``for a in range(8): body`` -> the body 8 times, a = 0..7; ``loops`` counts them."""
+
+    loops = 0
 
     def visit_For(self, node):
         self.generic_visit(node)
@@ -97,10 +100,8 @@ class _Unroll(ast.NodeTransformer):
                 and isinstance(it.func, ast.Name) and it.func.id == "range" and len(it.args) == 1
                 and isinstance(it.args[0], ast.Constant) and it.args[0].value == 8 and not node.orelse):
             return node
-        body = []
-        for a in range(8):
-            body += [_Corner(a).visit(ast.parse(ast.unparse(stmt)).body[0]) for stmt in node.body]
-        return body
+        self.loops += 1
+        return [_Corner(a).visit(copy.deepcopy(stmt)) for a in range(8) for stmt in node.body]
 
 
 def unroll_corners(text: str, names) -> str:
@@ -110,13 +111,13 @@ def unroll_corners(text: str, names) -> str:
     own unroller gives up on bodies this size). Those functions' text is regenerated
     (``ast.unparse``: their comments go; the decorators stay); the rest of ``text`` is kept as it
     is. Raises ValueError if a name is missing or its function has no such loop."""
-    tree = ast.parse(text)
     lines = text.splitlines()
     found = {}
-    for node in tree.body:
+    for node in ast.parse(text).body:
         if isinstance(node, ast.FunctionDef) and node.name in names:
-            new = ast.fix_missing_locations(_Unroll().visit(ast.parse(ast.unparse(node)).body[0]))
-            if ast.dump(new) == ast.dump(node):
+            unroll = _Unroll()
+            new = ast.fix_missing_locations(unroll.visit(node))
+            if not unroll.loops:
                 raise ValueError(f"unroll_corners: function '{node.name}' has no 'for a in range(8)' loop")
             start = min([d.lineno for d in node.decorator_list] + [node.lineno])
             found[node.name] = (start, node.end_lineno, ast.unparse(new))
