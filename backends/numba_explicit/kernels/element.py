@@ -145,7 +145,7 @@ def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt
         nc = 0
         for blk in range(chunks[c, 0], chunks[c + 1, 0]):
             e0 = blk * BLOCK
-            nx = min(blk + 1, nblk - 1) if nblk >= PREFETCH_BLOCKS else blk
+            nx = blk + 1 if nblk >= PREFETCH_BLOCKS else nblk     # nblk: empty stretches, no prefetch
             wb, nb = element_block(e0, min(BLOCK, ne - e0), blk, x, v, conn, slot,
                                    ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK], eh[blk * k6:(blk + 1) * k6],
                                    fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave,
@@ -172,8 +172,8 @@ def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf
     edn, ehn: the next block's stretches, prefetched an eighth at a time during the corner stage
     (:func:`prefetch_part`), so that their memory traffic overlaps this block's arithmetic: on a
     mesh whose state outgrows the caches the processor's own prefetchers leave the stages waiting
-    for it (docs/user/performance.md). Passed ed, eh themselves (as below ``PREFETCH_BLOCKS``
-    blocks, and for the last block): nothing is prefetched."""
+    for it (docs/user/performance.md). Empty after the last block and below ``PREFETCH_BLOCKS``
+    blocks: nothing is prefetched."""
     wk = np.empty(W_N * BLOCK)
     kinematics_block(wk, ed, x, v, conn, e0, n)
     eigen_block(wk, n)
@@ -185,8 +185,7 @@ def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf
     for a in range(8):
         corner_forces(wk, ed, a, n)
         scatter_corner(wk, fb, slot, e0, a, n)
-        if edn.ctypes.data != ed.ctypes.data:
-            prefetch_part(edn, ehn, a, 8)
+        prefetch_part(edn, ehn, a, 8)
     wb = 0.0
     nb = 0
     dmin = np.inf
@@ -226,6 +225,20 @@ def scatter_corner(wk, fb, slot, e0, a, n):
         fb[r + 5] += wk[(W_FN + 5) * BLOCK + i]
 
 
+@njit(inline="always")
+def put_rows9(wk, row, i, a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """A 3x3 matrix into rows row .. row + 8 (row-major) of column i of the block scratch wk."""
+    wk[row * BLOCK + i] = a00
+    wk[(row + 1) * BLOCK + i] = a01
+    wk[(row + 2) * BLOCK + i] = a02
+    wk[(row + 3) * BLOCK + i] = a10
+    wk[(row + 4) * BLOCK + i] = a11
+    wk[(row + 5) * BLOCK + i] = a12
+    wk[(row + 6) * BLOCK + i] = a20
+    wk[(row + 7) * BLOCK + i] = a21
+    wk[(row + 8) * BLOCK + i] = a22
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def kinematics_block(wk, ed, x, v, conn, e0, n):
     """F = sum_a x_a (x) B_a (rows W_F) and the hourglass modes q_alpha = sum_a v_a gamma_a,alpha
@@ -260,45 +273,45 @@ def gather_corners(wk, x, v, conn, e0, n):
             wk[(W_G + 6 * a + 5) * BLOCK + i] = v[nd, 2]
 
 
+@njit(inline="always", fastmath=FASTMATH_SUMS, error_model="numpy")
+def corner_gradient(wk, ed, i, c):
+    """sum_a u_a (x) B_a (the 9 values row-major) of column i, u_a the gathered corner values in
+    rows W_G + 6 a + c .. + 2: F for c = 0 (positions), L for c = 3 (velocities). The loop over the
+    corners is unrolled in the generated module (UNROLLED_CORNERS)."""
+    g00 = 0.0
+    g01 = 0.0
+    g02 = 0.0
+    g10 = 0.0
+    g11 = 0.0
+    g12 = 0.0
+    g20 = 0.0
+    g21 = 0.0
+    g22 = 0.0
+    for a in range(8):
+        u0 = wk[(W_G + 6 * a + c) * BLOCK + i]
+        u1 = wk[(W_G + 6 * a + c + 1) * BLOCK + i]
+        u2 = wk[(W_G + 6 * a + c + 2) * BLOCK + i]
+        b0 = ed[(ED_B + 3 * a) * BLOCK + i]
+        b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
+        b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
+        g00 += u0 * b0
+        g01 += u0 * b1
+        g02 += u0 * b2
+        g10 += u1 * b0
+        g11 += u1 * b1
+        g12 += u1 * b2
+        g20 += u2 * b0
+        g21 += u2 * b1
+        g22 += u2 * b2
+    return g00, g01, g02, g10, g11, g12, g20, g21, g22
+
+
 @njit(cache=True, fastmath=FASTMATH_SUMS, error_model="numpy")
 def deformation_block(wk, ed, n):
-    """F = sum_a x_a (x) B_a (rows W_F) from the gathered positions (rows W_G). The loop over the
-    corners is unrolled in the generated module (UNROLLED_CORNERS)."""
+    """F = sum_a x_a (x) B_a (rows W_F) from the gathered positions (rows W_G)."""
     for i in range(n):
-        f00 = 0.0
-        f01 = 0.0
-        f02 = 0.0
-        f10 = 0.0
-        f11 = 0.0
-        f12 = 0.0
-        f20 = 0.0
-        f21 = 0.0
-        f22 = 0.0
-        for a in range(8):
-            x0 = wk[(W_G + 6 * a) * BLOCK + i]
-            x1 = wk[(W_G + 6 * a + 1) * BLOCK + i]
-            x2 = wk[(W_G + 6 * a + 2) * BLOCK + i]
-            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
-            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
-            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
-            f00 += x0 * b0
-            f01 += x0 * b1
-            f02 += x0 * b2
-            f10 += x1 * b0
-            f11 += x1 * b1
-            f12 += x1 * b2
-            f20 += x2 * b0
-            f21 += x2 * b1
-            f22 += x2 * b2
-        wk[W_F * BLOCK + i] = f00
-        wk[(W_F + 1) * BLOCK + i] = f01
-        wk[(W_F + 2) * BLOCK + i] = f02
-        wk[(W_F + 3) * BLOCK + i] = f10
-        wk[(W_F + 4) * BLOCK + i] = f11
-        wk[(W_F + 5) * BLOCK + i] = f12
-        wk[(W_F + 6) * BLOCK + i] = f20
-        wk[(W_F + 7) * BLOCK + i] = f21
-        wk[(W_F + 8) * BLOCK + i] = f22
+        f00, f01, f02, f10, f11, f12, f20, f21, f22 = corner_gradient(wk, ed, i, 0)
+        put_rows9(wk, W_F, i, f00, f01, f02, f10, f11, f12, f20, f21, f22)
 
 
 @njit(cache=True, fastmath=FASTMATH_SUMS, error_model="numpy")
@@ -307,15 +320,7 @@ def velocity_block(wk, ed, n):
     W_Q, m/s), L_ik = sum_a v_a,i B_a,k, from the gathered velocities (rows W_G + 6 a + 3..5). The
     loop over the corners is unrolled in the generated module (UNROLLED_CORNERS)."""
     for i in range(n):
-        l00 = 0.0
-        l01 = 0.0
-        l02 = 0.0
-        l10 = 0.0
-        l11 = 0.0
-        l12 = 0.0
-        l20 = 0.0
-        l21 = 0.0
-        l22 = 0.0
+        l00, l01, l02, l10, l11, l12, l20, l21, l22 = corner_gradient(wk, ed, i, 3)
         s00 = 0.0
         s01 = 0.0
         s02 = 0.0
@@ -332,18 +337,6 @@ def velocity_block(wk, ed, n):
             v0 = wk[(W_G + 6 * a + 3) * BLOCK + i]
             v1 = wk[(W_G + 6 * a + 4) * BLOCK + i]
             v2 = wk[(W_G + 6 * a + 5) * BLOCK + i]
-            b0 = ed[(ED_B + 3 * a) * BLOCK + i]
-            b1 = ed[(ED_B + 3 * a + 1) * BLOCK + i]
-            b2 = ed[(ED_B + 3 * a + 2) * BLOCK + i]
-            l00 += v0 * b0
-            l01 += v0 * b1
-            l02 += v0 * b2
-            l10 += v1 * b0
-            l11 += v1 * b1
-            l12 += v1 * b2
-            l20 += v2 * b0
-            l21 += v2 * b1
-            l22 += v2 * b2
             h0 = H0[a]
             h1 = H1[a]
             h2 = H2[a]
@@ -387,7 +380,7 @@ def velocity_block(wk, ed, n):
 
 
 #: Functions whose ``for a in range(8)`` corner loop the code generator unrolls (codegen.unroll_corners).
-UNROLLED_CORNERS = ("deformation_block", "velocity_block")
+UNROLLED_CORNERS = ("corner_gradient", "velocity_block")
 
 
 @njit(inline="always", fastmath=FASTMATH, error_model="numpy")
@@ -396,15 +389,7 @@ def put_eigen(wk, i, m0, m1, m2, q00, q01, q02, q10, q11, q12, q20, q21, q22):
     wk[W_M * BLOCK + i] = m0
     wk[(W_M + 1) * BLOCK + i] = m1
     wk[(W_M + 2) * BLOCK + i] = m2
-    wk[W_V * BLOCK + i] = q00
-    wk[(W_V + 1) * BLOCK + i] = q01
-    wk[(W_V + 2) * BLOCK + i] = q02
-    wk[(W_V + 3) * BLOCK + i] = q10
-    wk[(W_V + 4) * BLOCK + i] = q11
-    wk[(W_V + 5) * BLOCK + i] = q12
-    wk[(W_V + 6) * BLOCK + i] = q20
-    wk[(W_V + 7) * BLOCK + i] = q21
-    wk[(W_V + 8) * BLOCK + i] = q22
+    put_rows9(wk, W_V, i, q00, q01, q02, q10, q11, q12, q20, q21, q22)
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
