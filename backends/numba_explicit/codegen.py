@@ -30,12 +30,14 @@ from __future__ import annotations
 
 import ast
 import copy
+import hashlib
 import re
+import sys
 from pathlib import Path
 
-from cfm_backends import numba_target
+from cfm_backends import numba_common, numba_target
 from cfm_backends.numba_common import material_functions, strip_standalone
-from cfm_core.material.cache import generated_name, import_generated
+from cfm_core.material.cache import cached_text, generated_name, import_generated
 from cfm_core.material import compile_notice
 
 KERNEL_FILES = ("layout.py", "vmath.py", "eigen.py", "constitutive.py", "element.py", "point.py", "contact.py", "impactor.py", "step.py")
@@ -67,13 +69,11 @@ KERNELS_DIR = Path(__file__).with_name("kernels")
 def kernel_text() -> list[str]:
     """The kernel sources (in KERNEL_FILES order) without their standalone blocks, the corner
     loops of ``element.UNROLLED_CORNERS`` unrolled (:func:`unroll_corners`)."""
-    from .kernels.element import UNROLLED_CORNERS
-
     out = []
     for name in KERNEL_FILES:
         text = strip_standalone((KERNELS_DIR / name).read_text())
         if name == "element.py":
-            text = unroll_corners(text, UNROLLED_CORNERS)
+            text = unroll_corners(text, unrolled_names(text))
         out.append(f"# ---- kernels/{name} ----\n" + text)
     return out
 
@@ -102,6 +102,19 @@ class _Unroll(ast.NodeTransformer):
             return node
         self.loops += 1
         return [_Corner(a).visit(copy.deepcopy(stmt)) for a in range(8) for stmt in node.body]
+
+
+def unrolled_names(text: str) -> tuple[str, ...]:
+    """The value of the top-level ``UNROLLED_CORNERS = (...)`` of a kernel file's text (read from
+    the text, not imported: importing the standalone kernels defines every dispatcher, ~0.4 s of a
+    warm run's start). Raises ValueError if the file has no such tuple of names."""
+    for node in ast.parse(text).body:
+        if (isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name)
+                and node.targets[0].id == "UNROLLED_CORNERS"):
+            names = ast.literal_eval(node.value)
+            if isinstance(names, tuple) and all(isinstance(n, str) for n in names):
+                return names
+    raise ValueError("unrolled_names: the kernel text has no top-level UNROLLED_CORNERS = (names, ...)")
 
 
 def unroll_corners(text: str, names) -> str:
@@ -363,8 +376,27 @@ def source_of(material) -> str:
     key = tuple((m.name, m.numba_source()) for m in distinct(material)[0])
     text = _SOURCES.get(key)
     if text is None:
-        text = _SOURCES[key] = module_source(material)
+        text = _SOURCES[key] = cached_text(_source_key(key), "numba-module", lambda: module_source(material))
     return text
+
+
+#: Files whose text the generated module is made from: the kernels, this generator, the text helpers.
+GENERATOR_FILES = (Path(__file__), Path(numba_common.__file__))
+
+
+def _source_key(materials) -> str:
+    """Digest of everything :func:`module_source` reads: every file of the kernel folder and
+    :data:`GENERATOR_FILES` (their full text), the vector-width line, Python's version
+    (``ast.unparse`` writes the unrolled loops) and each distinct material's name and generated
+    scalar code. The module text itself is then read from the codegen cache instead of rebuilt
+    (the corner unrolling and the vectorisable variant take ~0.2 s of a warm run's start)."""
+    h = hashlib.sha256()
+    for path in (*sorted(KERNELS_DIR.glob("*.py")), *GENERATOR_FILES):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    h.update(f"{numba_target.source_line()}\0{sys.version}\0".encode())
+    for name, source in materials:
+        h.update(f"{name}\0{source}\0".encode())
+    return h.hexdigest()[:24]
 
 
 def load(material):

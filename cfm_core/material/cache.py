@@ -229,10 +229,32 @@ def codegen_cache(spec, dialect: str, generate) -> str:
         Python source of the generated module. A new entry is written to a temporary file and
         renamed into place (atomic), under ``cache_dir("codegen")/<fingerprint>-<dialect>.py``.
     """
-    key = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else spec_fingerprint(spec)
-    if key is None:
+    return cached_text(spec_fingerprint(spec), dialect, generate)
+
+
+def cached_text(key: str | None, kind: str, generate) -> str:
+    """Return the generated source stored under ``key`` or generate, store and return it.
+
+    Parameters
+    ----------
+    key : str or None
+        Digest of everything the text is derived from (the caller's to make complete: a key that
+        misses an input returns stale text); None: never cached.
+    kind : str
+        What the text is (``"math"``, ``"numba-module"``, ...); part of the file name.
+    generate : callable
+        ``generate() -> str``, called on a cache miss, when ``CFM_NO_CODEGEN_CACHE`` is set or
+        when ``key`` is None.
+
+    Returns
+    -------
+    str
+        The text. A new entry is written to a temporary file and renamed into place (atomic),
+        under ``cache_dir("codegen")/<key>-<kind>.py``.
+    """
+    if key is None or os.environ.get("CFM_NO_CODEGEN_CACHE"):
         return generate()
-    path = cache_dir("codegen") / f"{key}-{dialect}.py"
+    path = cache_dir("codegen") / f"{key}-{kind}.py"
     if path.is_file():
         return path.read_text()
     text = generate()

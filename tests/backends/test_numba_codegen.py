@@ -98,6 +98,46 @@ def test_corner_loops_are_unrolled_in_the_generated_module():
     assert _corner_loops(fns["gather_corners"])          # other functions are left as written
 
 
+def test_unrolled_names_are_read_from_the_kernel_text():
+    from cfm_backends.numba_explicit.kernels.element import UNROLLED_CORNERS
+
+    text = (codegen.KERNELS_DIR / "element.py").read_text()
+    assert codegen.unrolled_names(text) == UNROLLED_CORNERS
+    with pytest.raises(ValueError, match="no top-level UNROLLED_CORNERS"):
+        codegen.unrolled_names(text.replace("UNROLLED_CORNERS = (", "OTHER = ("))
+
+
+def test_module_text_comes_from_the_cache_keyed_by_its_inputs(tmp_path, monkeypatch):
+    """A second process reads the module text stored under a digest of the kernel files, the
+    generator and the material's code (no corner unrolling at start-up); any change of those
+    inputs is another key."""
+    import shutil
+
+    mat = NeoHookeanStandIn()
+    monkeypatch.setenv("CFM_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(codegen, "_SOURCES", {})
+    fresh = codegen.source_of(mat)
+    assert fresh == codegen.module_source(mat)
+
+    def no_generation(material):
+        raise AssertionError("the module text was generated again")
+
+    monkeypatch.setattr(codegen, "_SOURCES", {})
+    monkeypatch.setattr(codegen, "module_source", no_generation)
+    assert codegen.source_of(mat) == fresh                 # read back, not rebuilt
+
+    key = [(mat.name, mat.numba_source())]
+    before = codegen._source_key(key)
+    kernels = tmp_path / "kernels"
+    shutil.copytree(codegen.KERNELS_DIR, kernels, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(codegen, "KERNELS_DIR", kernels)
+    assert codegen._source_key(key) == before              # same text, same key
+    (kernels / "contact.py").write_text((kernels / "contact.py").read_text() + "\n# an edit\n")
+    edited = codegen._source_key(key)
+    assert edited != before
+    assert codegen._source_key([(mat.name, mat.numba_source() + "\n")]) not in (before, edited)
+
+
 def test_unroll_corners_refuses_what_it_cannot_unroll():
     text = "def f(n):\n    s = 0.0\n    for a in range(4):\n        s += a\n    return s\n"
     with pytest.raises(ValueError, match="has no 'for a in range\\(8\\)' loop"):
