@@ -66,13 +66,14 @@ def cache_dir() -> Path:
 KERNELS_DIR = Path(__file__).with_name("kernels")
 
 
-def kernel_text() -> list[str]:
+def kernel_text(files: dict | None = None) -> list[str]:
     """The kernel sources (in KERNEL_FILES order) without their standalone blocks, the corner
-    loops of ``element.UNROLLED_CORNERS`` unrolled (:func:`unroll_corners`)."""
+    loops of ``element.UNROLLED_CORNERS`` unrolled (:func:`unroll_corners`). ``files``: the raw
+    text of each file by name (e.g. another revision's, for a benchmark), default the folder's."""
     out = []
     for name in KERNEL_FILES:
-        text = strip_standalone((KERNELS_DIR / name).read_text())
-        if name == "element.py":
+        text = strip_standalone(files[name] if files is not None else (KERNELS_DIR / name).read_text())
+        if name == "element.py" and "UNROLLED_CORNERS" in text:
             text = unroll_corners(text, unrolled_names(text))
         out.append(f"# ---- kernels/{name} ----\n" + text)
     return out
@@ -330,16 +331,17 @@ def distinct(material) -> tuple[tuple, list[int]]:
     return tuple(first[k] for k in keys), [keys.index((m.name, m.numba_source())) for m in _materials(material)]
 
 
-def module_source(material) -> str:
+def module_source(material, files: dict | None = None) -> str:
     """Full text of the generated module for ``material`` (one material) or a tuple of materials
     (its distinct ones, :func:`distinct`: the first material's functions carry the plain names,
-    each further one's the suffix ``__m<j>``; ``element_parts`` calls part i's by its index)."""
+    each further one's the suffix ``__m<j>``; ``element_parts`` calls part i's by its index).
+    ``files``: kernel file texts by name instead of the folder's (:func:`kernel_text`)."""
     uniq, _ = distinct(material)
     extra = ""
     for j, m in enumerate(uniq[1:], start=1):
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
                   + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
-    layout, *kernels = kernel_text()
+    layout, *kernels = kernel_text(files)
     return (HEADER.format(name=_label(uniq)) + numba_target.source_line() + layout
             + "\n\n# ---- material.numba_source() ----\n" + _material_text(uniq[0])
             + "\n\n\n" + "\n\n".join(kernels) + extra
@@ -399,11 +401,13 @@ def _source_key(materials) -> str:
     return h.hexdigest()[:24]
 
 
-def load(material):
+def load(material, files: dict | None = None):
     """The imported generated module for ``material`` (one material, or a tuple: one per part)
     (written on first use, then reused; :func:`cfm_core.material.cache.import_generated`); older
-    files of the same material(s) are pruned."""
-    mod = import_generated(source_of(material), "cfm_numba", "numba", _label(material))
+    files of the same material(s) are pruned. ``files``: kernel file texts by name instead of the
+    folder's (a benchmark's other revision, ``cfm_verification.benchmarks.against``)."""
+    text = source_of(material) if files is None else module_source(material, files)
+    mod = import_generated(text, "cfm_numba", "numba", _label(material))
     path = Path(mod.__file__)
     _prune(path.parent, path.stem.rsplit("_", 1)[0] + "_", keep=path)
     return mod

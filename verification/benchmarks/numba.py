@@ -4,6 +4,7 @@
     python -m cfm_verification.benchmarks.numba --scale    (cost against mesh size and threads: .scale)
     python -m cfm_verification.benchmarks.numba --parts    (only the layered row)
     python -m cfm_verification.benchmarks.numba --vector-width   (256- against 512-bit vectors: .vector_width)
+    python -m cfm_verification.benchmarks.numba --against REV    (element pass against git revision REV: .against)
 
 Prints the cold time (a fresh process with an empty kernel cache: code generation, compilation,
 run), a warm ``cfm drop-test`` end to end in fresh processes with its phases next to the 2 s target
@@ -220,7 +221,20 @@ def main(argv=None) -> None:
     ap.add_argument("--parts", action="store_true", help="only the layered (3-part) row against one material")
     ap.add_argument("--vector-width", action="store_true", help="only the element pass at 256- and 512-bit "
                     "vectors (module vector_width; --size, --repeat)")
+    ap.add_argument("--against", metavar="REV", help="only the element pass of this tree's kernels against those "
+                    "of git revision REV, both in this process, timed in turns (module against; --size, --repeat "
+                    "rounds, at least 9 advised)")
     args = ap.parse_args(argv)
+    if args.against:
+        from . import against
+
+        from cfm_core.errors import InputError
+
+        try:
+            against.report(args.against, args.size, max(args.repeat, 1))
+        except InputError as err:
+            ap.exit(2, f"error: {err}\n")
+        return
     if args.vector_width:
         from . import vector_width
 

@@ -1,0 +1,147 @@
+"""The numba element pass of this tree's kernels against another git revision's, in one process.
+
+    python -m cfm_verification.benchmarks.numba --against REV [--size 0.001] [--repeat 15]
+
+On a shared machine whole runs in separate processes move by 30-40 % within the hour, more than
+most kernel changes gain. Here both versions of ``backends/numba_explicit/kernels/*.py`` are
+compiled into one process (the revision's files read with ``git show``, each version a generated
+module of its own; the first run of a revision compiles, 1-2 min), the drop test (8 mm, one
+thread) is advanced to t = 0.8 ms once, and the element pass of each version is timed at that
+state in turns (``repeat`` rounds, each a stretch of passes on copies of the state; CPU time of
+the process). Printed per version: the best round and the mean of the best third (ns per
+element, one thread), their ratio to this tree's, and whether one pass gives the same bits (the
+stress work, the force buffer and the element state).
+
+The two versions must share ``kernels/layout.py``: the state arrays are prepared by this tree's
+solver, and a revision whose layout differs would read them wrongly, so it is refused.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+
+from cfm_core.errors import InputError
+
+
+def revision_files(rev: str) -> dict:
+    """The text of each kernel file (``codegen.KERNEL_FILES``) at git revision ``rev``.
+
+    Raises
+    ------
+    InputError
+        ``rev`` is not a revision of the repository this tree is in, a kernel file is missing
+        there, or its ``layout.py`` differs from this tree's.
+    """
+    from cfm_backends.numba_explicit import codegen
+
+    root = Path(codegen.KERNELS_DIR)
+    files = {}
+    for name in codegen.KERNEL_FILES:
+        try:   # "REV:./name": the path relative to the kernel folder, wherever the repository is
+            proc = subprocess.run(["git", "show", f"{rev}:./{name}"], cwd=root, capture_output=True, text=True)
+        except FileNotFoundError:
+            raise InputError("--against: git is not installed; it reads the other revision's kernels.") from None
+        if proc.returncode != 0:
+            raise InputError(f"--against {rev!r}: git cannot show kernels/{name} at that revision "
+                             f"({proc.stderr.strip() or 'no output'}); give a commit, tag or branch of this "
+                             f"repository whose numba kernels have that file.")
+        files[name] = proc.stdout
+    if files["layout.py"] != (root / "layout.py").read_text():
+        raise InputError(f"--against {rev!r}: kernels/layout.py differs at that revision; the state arrays "
+                         f"this tree prepares do not fit its kernels, so its element pass cannot be timed "
+                         f"here (compare whole runs of the two checkouts instead).")
+    return files
+
+
+def compare(rev: str, size: float = 1e-3, repeat: int = 15, say=print) -> dict:
+    """Time the element pass of this tree's kernels and of revision ``rev``'s (module docstring).
+
+    Parameters
+    ----------
+    rev : str
+        A git revision (commit, tag, branch) of this repository.
+    size : float
+        Element size (m) of the built-in drop test (8 mm specimen).
+    repeat : int
+        Rounds; each round times both versions, one after the other.
+
+    Returns
+    -------
+    dict
+        ``{"this": {...}, rev: {...}}``, each with best and third (ns per element: the best
+        round, the mean of the best third) and same (bool: one pass gives this tree's bits).
+    """
+    import numba
+
+    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_backends.numba_explicit.kernels import layout as K
+    from cfm_backends.numba_explicit.options import NumbaOptions
+
+    from .scale import drop_model
+
+    files = revision_files(rev)
+    model = drop_model(size)
+    old_threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        mods = {}
+        for name, fls in (("this", None), (rev, files)):
+            t0 = time.perf_counter()
+            mods[name] = codegen.load(model.material, fls)
+            solver.warm_up(mods[name], model.material)
+            say(f"kernels of {name}: loaded or compiled in {time.perf_counter() - t0:.1f} s", flush=True)
+        this = mods["this"]
+        prep = solver.prepare(model, NumbaOptions())
+        hist = np.zeros((4096, K.H_N))
+        while prep.sc[K.S_T] < 8e-4:
+            solver.advance(this, prep, hist, 8e-4)
+        pt = prep.parts[0]
+        decay, gain = pt[K.PT_DECAY], pt[K.PT_GAIN]
+        this.prony_step(float(prep.sc[K.S_DTPREV]), pt[K.PT_GAM], pt[K.PT_TAU], decay, gain)
+        x, v = prep.st[0], prep.st[1]
+        ne = model.n_elements
+        passes = max(2, int(2e6 // ne))
+        times = {name: [] for name in mods}
+        first = {}
+        for r in range(repeat):
+            for name, mod in mods.items():
+                ed, eh, fb = pt[K.PT_ED].copy(), pt[K.PT_EH].copy(), prep.st[5].copy()
+                args = (x, v, pt[K.PT_CONN], pt[K.PT_SLOT], pt[K.PT_CHUNKS], ed, eh, fb, pt[K.PT_P], decay, gain,
+                        pt[K.PT_PAR][K.PP_GINF], pt[K.PT_BDT], pt[K.PT_BEMIN], pt[K.PT_STATUS], pt[K.PT_ERRV],
+                        pt[K.PT_PAR][K.PP_RHO], prep.par[K.P_HG], 0)
+                out = mod.element_pass(*args)
+                if r == 0:
+                    first[name] = (out, fb.copy(), ed.copy(), eh.copy())
+                c0 = time.process_time()
+                for _ in range(passes):
+                    mod.element_pass(*args)
+                times[name].append((time.process_time() - c0) / passes / ne * 1e9)
+    finally:
+        numba.set_num_threads(old_threads)
+    ref = first["this"]
+    result = {}
+    for name in mods:
+        t = np.sort(times[name])
+        got = first[name]
+        same = got[0] == ref[0] and all(np.array_equal(a, b) for a, b in zip(got[1:], ref[1:]))
+        result[name] = {"best": float(t[0]), "third": float(t[:max(1, len(t) // 3)].mean()), "same": bool(same)}
+    return result
+
+
+def report(rev: str, size: float = 1e-3, repeat: int = 15, say=print) -> None:
+    """Print :func:`compare`'s table (ns per element, one thread) and the load average."""
+    import os
+
+    res = compare(rev, size, max(repeat, 1), say)
+    base = res["this"]
+    say(f"element pass, one thread, drop test (8 mm, {size * 1e3:g} mm elements) at t = 0.8 ms, {repeat} rounds "
+        f"in turns (load {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores):")
+    for name, r in res.items():
+        ratio = "" if name == "this" else (f"  ({r['best'] / base['best']:.3f} / {r['third'] / base['third']:.3f} "
+                                           f"x this tree's)")
+        bits = "" if name == "this" else ("  same bits" if r["same"] else "  DIFFERENT results")
+        say(f"  {name:>12}: best {r['best']:7.1f} ns, best third {r['third']:7.1f} ns per element{ratio}{bits}")
