@@ -229,6 +229,8 @@ def codegen_cache(spec, dialect: str, generate) -> str:
         Python source of the generated module. A new entry is written to a temporary file and
         renamed into place (atomic), under ``cache_dir("codegen")/<fingerprint>-<dialect>.py``.
     """
+    if os.environ.get("CFM_NO_CODEGEN_CACHE"):     # before the fingerprint, which reads files
+        return generate()
     return cached_text(spec_fingerprint(spec), dialect, generate)
 
 

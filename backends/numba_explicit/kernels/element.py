@@ -21,7 +21,10 @@ AVX-512 instruction): kinematics (F, hourglass modes), eigen-decomposition of C,
 derivatives, principal stresses and moduli, Prony update, forces and stress work. The rare
 cases the branch-free eigen-decomposition does not cover (C isotropic to round-off but not
 exactly diagonal; the undeformed state C = I is covered) go through the scalar :func:`eig3` one
-by one.
+by one. The node gather before the stages and the force scatter after them, which LLVM leaves
+scalar (loads and stores through the corner table), go 8 elements at a time through two
+intrinsics written at the level of LLVM's IR (:func:`gather8`, :func:`scatter8`), with the scalar
+loops' results to the bit.
 
 Scatter: the elements (renumbered for locality before the run, ``cfm_backends.explicit.renumber``)
 are split into chunks of consecutive blocks, one parallel task each. A chunk adds its element
@@ -87,13 +90,13 @@ def prefetch(typingctx, arr, i):
     return types.none(arr, types.intp), emit
 
 
-
 def _column_pointer(context, builder, aryty, ary, flat):
     """Pointer to element ``flat`` (i64, counted in the array's C order) of a numba array value."""
     return builder.gep(context.make_array(aryty)(context, builder, ary).data, [flat])
 
 
 def _as_i64(context, builder, ty, value):
+    """An integer argument of numba type ``ty`` as an LLVM i64."""
     return context.cast(builder, value, ty, types.int64)
 
 
@@ -113,6 +116,7 @@ def _masked(builder, kind, width):
 
 
 def _c_array(ty, dtype, ndim):
+    """Whether numba type ``ty`` is a C-contiguous array of ``dtype`` with ``ndim`` dimensions."""
     return isinstance(ty, types.Array) and ty.layout == "C" and ty.dtype == dtype and ty.ndim == ndim
 
 
