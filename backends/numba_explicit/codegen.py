@@ -31,6 +31,7 @@ from __future__ import annotations
 import ast
 import copy
 import hashlib
+import os
 import re
 import sys
 from pathlib import Path
@@ -73,7 +74,7 @@ def kernel_text(files: dict | None = None) -> list[str]:
     out = []
     for name in KERNEL_FILES:
         text = strip_standalone(files[name] if files is not None else (KERNELS_DIR / name).read_text())
-        if name == "element.py" and "UNROLLED_CORNERS" in text:
+        if name == "element.py" and re.search(r"^UNROLLED_CORNERS\s*=", text, re.M):
             text = unroll_corners(text, unrolled_names(text))
         out.append(f"# ---- kernels/{name} ----\n" + text)
     return out
@@ -273,10 +274,10 @@ def _material_text(material, suffix: str = "") -> str:
 PER_MATERIAL = ("element_pass", "element_block", "material_block")
 
 
-def _element_copy(suffix: str) -> str:
+def _element_copy(suffix: str, files: dict | None = None) -> str:
     """kernels/element.py's PER_MATERIAL functions renamed with ``suffix``, calling the material
-    functions renamed with it."""
-    text = strip_standalone((KERNELS_DIR / "element.py").read_text())
+    functions renamed with it (``files``: kernel file texts by name instead of the folder's)."""
+    text = strip_standalone(files["element.py"] if files is not None else (KERNELS_DIR / "element.py").read_text())
     lines = text.splitlines()
     out = []
     for node in ast.parse(text).body:
@@ -340,7 +341,7 @@ def module_source(material, files: dict | None = None) -> str:
     extra = ""
     for j, m in enumerate(uniq[1:], start=1):
         extra += (f"\n\n# ---- material {j}: {m.name} (suffix __m{j}) ----\n" + _material_text(m, f"__m{j}")
-                  + "\n\n\n" + _element_copy(f"__m{j}") + "\n")
+                  + "\n\n\n" + _element_copy(f"__m{j}", files) + "\n")
     layout, *kernels = kernel_text(files)
     return (HEADER.format(name=_label(uniq)) + numba_target.source_line() + layout
             + "\n\n# ---- material.numba_source() ----\n" + _material_text(uniq[0])
@@ -378,11 +379,13 @@ def source_of(material) -> str:
     key = tuple((m.name, m.numba_source()) for m in distinct(material)[0])
     text = _SOURCES.get(key)
     if text is None:
-        text = _SOURCES[key] = cached_text(_source_key(key), "numba-module", lambda: module_source(material))
+        digest = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else _source_key(key)   # None: not cached
+        text = _SOURCES[key] = cached_text(digest, "numba-module", lambda: module_source(material))
     return text
 
 
-#: Files whose text the generated module is made from: the kernels, this generator, the text helpers.
+#: Files besides the kernel folder whose text shapes the generated module: this generator and the
+#: text helpers it shares with the skfem backend.
 GENERATOR_FILES = (Path(__file__), Path(numba_common.__file__))
 
 

@@ -114,6 +114,7 @@ def test_module_text_comes_from_the_cache_keyed_by_its_inputs(tmp_path, monkeypa
     import shutil
 
     mat = NeoHookeanStandIn()
+    monkeypatch.delenv("CFM_NO_CODEGEN_CACHE", raising=False)
     monkeypatch.setenv("CFM_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(codegen, "_SOURCES", {})
     fresh = codegen.source_of(mat)

@@ -39,9 +39,17 @@ def test_a_revision_gives_its_kernel_files_and_they_build_a_module():
         assert text == shown
     from fixtures.hand_derived import NeoHookeanStandIn
 
-    text = codegen.module_source(NeoHookeanStandIn(), files)
+    from cfm_core.material.registry import make_material
+
+    marked = {**files, "element.py": files["element.py"] + "\n\n# the other revision's element.py\n"}
+    text = codegen.module_source(NeoHookeanStandIn(), marked)
     compile(text, "generated", "exec")
-    assert text.count("def element_pass(") == 1
+    assert text.count("def element_pass(") == 1 and "# the other revision's element.py" in text
+    two = codegen.module_source((NeoHookeanStandIn(), make_material("cfm")), marked)
+    assert "def element_pass__m1(" in two and two.count("# the other revision's element.py") == 1
+    # the second material's element pass is copied from the given files, not the folder's
+    marked["element.py"] = marked["element.py"].replace("def element_block(", "def element_block(  ", 1)
+    assert "def element_block__m1(  " in codegen.module_source((NeoHookeanStandIn(), make_material("cfm")), marked)
 
 
 def test_an_unknown_revision_is_an_input_error():

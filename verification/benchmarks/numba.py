@@ -208,7 +208,8 @@ def main(argv=None) -> None:
     ap.add_argument("--thickness", type=float, default=8e-3, help="specimen thickness (m)")
     ap.add_argument("--size", type=float, default=1e-3, help="element size (m)")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (fresh cache) run")
-    ap.add_argument("--repeat", type=int, default=2, help="warm runs per thread count (best is kept)")
+    ap.add_argument("--repeat", type=int, default=None, help="warm runs per thread count (best is kept; "
+                    "default 2), or --against's rounds (default 15)")
     ap.add_argument("--no-end-to-end", action="store_true", help="skip the warm cfm drop-test phases")
     ap.add_argument("--scale", action="store_true", help="only the cost against mesh size, threads and a busy "
                     "core (module scale)")
@@ -223,8 +224,10 @@ def main(argv=None) -> None:
                     "vectors (module vector_width; --size, --repeat)")
     ap.add_argument("--against", metavar="REV", help="only the element pass of this tree's kernels against those "
                     "of git revision REV, both in this process, timed in turns (module against; --size, --repeat "
-                    "rounds, at least 9 advised)")
+                    "rounds, default 15)")
     args = ap.parse_args(argv)
+    if args.repeat is None:
+        args.repeat = 15 if args.against else 2
     if args.against:
         from . import against
 

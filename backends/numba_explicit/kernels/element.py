@@ -115,6 +115,11 @@ def _masked(builder, kind, width):
     return fn
 
 
+def _integers(*tys):
+    """Whether every numba type of ``tys`` is an integer."""
+    return all(isinstance(t, types.Integer) for t in tys)
+
+
 def _c_array(ty, dtype, ndim):
     """Whether numba type ``ty`` is a C-contiguous array of ``dtype`` with ``ndim`` dimensions."""
     return isinstance(ty, types.Array) and ty.layout == "C" and ty.dtype == dtype and ty.ndim == ndim
@@ -128,9 +133,11 @@ def gather8(typingctx, wk, w0, x, v, conn, e, a):
     Each node's x and v are read as one 3-of-4 masked vector load each (the fourth lane is not
     touched), the 6 rows assembled in vector registers and stored 8 wide: 16 loads and 6 stores
     for what the scalar loop does with 48 of each. wk, x, v: C-contiguous float64 (wk flat, x and v
-    (n, 3)); conn: C-contiguous (e, 8) int32. The same values as the scalar loop, bit for bit."""
+    (n, 3)); conn: C-contiguous (e, 8) int32; w0, e, a integers (the shapes are the caller's to
+    keep: they are not checked at run time). The same values as the scalar loop, bit for bit.
+    Other argument types: numba's TypingError at compilation."""
     if not (_c_array(wk, types.float64, 1) and _c_array(x, types.float64, 2) and _c_array(v, types.float64, 2)
-            and _c_array(conn, types.int32, 2)):
+            and _c_array(conn, types.int32, 2) and _integers(w0, e, a)):
         return None
 
     def emit(context, builder, signature, args):
@@ -174,8 +181,11 @@ def scatter8(typingctx, wk, w0, fb, slot, e, a):
     The 6 rows are read 8 wide and transposed in vector registers; each element's 6 forces are
     added onto its row by a 4-wide and a 2-wide load, add and store (not masked: a masked store
     does not forward to the next element's load of the same row, and that stall costs more than
-    the scalar loop). wk, fb: C-contiguous float64 (flat); slot: C-contiguous (e, 8) int32."""
-    if not (_c_array(wk, types.float64, 1) and _c_array(fb, types.float64, 1) and _c_array(slot, types.int32, 2)):
+    the scalar loop). wk, fb: C-contiguous float64 (flat); slot: C-contiguous (e, 8) int32; w0, e, a
+    integers (shapes unchecked at run time, as for :func:`gather8`). Other argument types: numba's
+    TypingError at compilation."""
+    if not (_c_array(wk, types.float64, 1) and _c_array(fb, types.float64, 1) and _c_array(slot, types.int32, 2)
+            and _integers(w0, e, a)):
         return None
 
     def emit(context, builder, signature, args):
