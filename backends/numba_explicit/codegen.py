@@ -31,7 +31,6 @@ from __future__ import annotations
 import ast
 import copy
 import hashlib
-import os
 import re
 import sys
 from pathlib import Path
@@ -379,8 +378,7 @@ def source_of(material) -> str:
     key = tuple((m.name, m.numba_source()) for m in distinct(material)[0])
     text = _SOURCES.get(key)
     if text is None:
-        digest = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else _source_key(key)   # None: not cached
-        text = _SOURCES[key] = cached_text(digest, "numba-module", lambda: module_source(material))
+        text = _SOURCES[key] = cached_text(lambda: _source_key(key), "numba-module", lambda: module_source(material))
     return text
 
 

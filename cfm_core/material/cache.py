@@ -229,24 +229,23 @@ def codegen_cache(spec, dialect: str, generate) -> str:
         Python source of the generated module. A new entry is written to a temporary file and
         renamed into place (atomic), under ``cache_dir("codegen")/<fingerprint>-<dialect>.py``.
     """
-    if os.environ.get("CFM_NO_CODEGEN_CACHE"):     # before the fingerprint, which reads files
-        return generate()
-    return cached_text(spec_fingerprint(spec), dialect, generate)
+    return cached_text(lambda: spec_fingerprint(spec), dialect, generate)
 
 
-def cached_text(key: str | None, kind: str, generate) -> str:
-    """Return the generated source stored under ``key`` or generate, store and return it.
+def cached_text(key, kind: str, generate) -> str:
+    """Return the generated source stored under ``key()`` or generate, store and return it.
 
     Parameters
     ----------
-    key : str or None
-        Digest of everything the text is derived from (the caller's to make complete: a key that
-        misses an input returns stale text); None: never cached.
+    key : callable
+        ``key() -> str or None``: digest of everything the text is derived from (the caller's to
+        make complete: a key that misses an input returns stale text); None: never cached. Not
+        called when ``CFM_NO_CODEGEN_CACHE`` is set (a digest reads files).
     kind : str
         What the text is (``"math"``, ``"numba-module"``, ...); part of the file name.
     generate : callable
         ``generate() -> str``, called on a cache miss, when ``CFM_NO_CODEGEN_CACHE`` is set or
-        when ``key`` is None.
+        when the key is None.
 
     Returns
     -------
@@ -254,9 +253,10 @@ def cached_text(key: str | None, kind: str, generate) -> str:
         The text. A new entry is written to a temporary file and renamed into place (atomic),
         under ``cache_dir("codegen")/<key>-<kind>.py``.
     """
-    if key is None or os.environ.get("CFM_NO_CODEGEN_CACHE"):
+    digest = None if os.environ.get("CFM_NO_CODEGEN_CACHE") else key()
+    if digest is None:
         return generate()
-    path = cache_dir("codegen") / f"{key}-{kind}.py"
+    path = cache_dir("codegen") / f"{digest}-{kind}.py"
     if path.is_file():
         return path.read_text()
     text = generate()

@@ -75,53 +75,34 @@ def compare(rev: str, size: float = 1e-3, repeat: int = 15, say=print) -> dict:
         ``{"this": {...}, rev: {...}}``, each with best and third (ns per element: the best
         round, the mean of the best third) and same (bool: one pass gives this tree's bits).
     """
-    import numba
-
     from cfm_backends.numba_explicit import codegen, solver
-    from cfm_backends.numba_explicit.kernels import layout as K
-    from cfm_backends.numba_explicit.options import NumbaOptions
 
-    from .scale import drop_model
+    from .scale import drop_model, element_pass_args, one_thread_run
 
     files = revision_files(rev)
     model = drop_model(size)
-    old_threads = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        mods = {}
-        for name, fls in (("this", None), (rev, files)):
-            t0 = time.perf_counter()
-            mods[name] = codegen.load(model.material, fls)
-            solver.warm_up(mods[name], model.material)
-            say(f"kernels of {name}: loaded or compiled in {time.perf_counter() - t0:.1f} s", flush=True)
-        this = mods["this"]
-        prep = solver.prepare(model, NumbaOptions())
-        hist = np.zeros((4096, K.H_N))
-        while prep.sc[K.S_T] < 8e-4:
-            solver.advance(this, prep, hist, 8e-4)
-        pt = prep.parts[0]
-        decay, gain = pt[K.PT_DECAY], pt[K.PT_GAIN]
-        this.prony_step(float(prep.sc[K.S_DTPREV]), pt[K.PT_GAM], pt[K.PT_TAU], decay, gain)
-        x, v = prep.st[0], prep.st[1]
+    with one_thread_run(model, 8e-4) as (this, prep, _hist):   # this tree's kernels, the state at 0.8 ms
+        t0 = time.perf_counter()
+        other = codegen.load(model.material, files)
+        solver.warm_up(other, model.material)
+        say(f"kernels of {rev}: loaded or compiled in {time.perf_counter() - t0:.1f} s", flush=True)
+        mods = {"this": this, rev: other}
+        x, v, ed, eh, fb = prep.st[0], prep.st[1], prep.st[3], prep.st[4], prep.st[5]
         ne = model.n_elements
         passes = max(2, int(2e6 // ne))
         times = {name: [] for name in mods}
         first = {}
         for r in range(repeat):
             for name, mod in mods.items():
-                ed, eh, fb = pt[K.PT_ED].copy(), pt[K.PT_EH].copy(), prep.st[5].copy()
-                args = (x, v, pt[K.PT_CONN], pt[K.PT_SLOT], pt[K.PT_CHUNKS], ed, eh, fb, pt[K.PT_P], decay, gain,
-                        pt[K.PT_PAR][K.PP_GINF], pt[K.PT_BDT], pt[K.PT_BEMIN], pt[K.PT_STATUS], pt[K.PT_ERRV],
-                        pt[K.PT_PAR][K.PP_RHO], prep.par[K.P_HG], 0)
+                copies = (ed.copy(), eh.copy(), fb.copy())
+                args = element_pass_args(this, prep, x, v, *copies)
                 out = mod.element_pass(*args)
                 if r == 0:
-                    first[name] = (out, fb.copy(), ed.copy(), eh.copy())
+                    first[name] = (out, *(c.copy() for c in copies))
                 c0 = time.process_time()
                 for _ in range(passes):
                     mod.element_pass(*args)
                 times[name].append((time.process_time() - c0) / passes / ne * 1e9)
-    finally:
-        numba.set_num_threads(old_threads)
     ref = first["this"]
     result = {}
     for name in mods:

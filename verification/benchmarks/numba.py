@@ -80,15 +80,13 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
     from cfm_backends.numba_explicit import solver
     from cfm_backends.numba_explicit.kernels import layout as K
 
-    from .scale import one_thread_run
+    from .scale import element_pass_args, one_thread_run
 
     with one_thread_run(model, t_state, rows=64) as (mod, prep, _hist):
         ne = model.n_elements
         conn, slot, chunks, mass, free, pmask, hptr, hrow = prep.geo
-        p, gam, tau = prep.mat
+        p = prep.mat[0]
         x, v, vold, ed, eh, fb, fint, fhg, dvc, bdt, bemin, status, errv = prep.st
-        decay, gain = np.zeros(gam.size), np.zeros(gam.size)
-        mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
 
         def cpu(fn, n=repeat):
             best = math.inf
@@ -105,9 +103,9 @@ def split(model, t_state: float = 0.006, repeat: int = 20) -> dict:
         step = (time.process_time() - t0) / max(prep.sc[K.S_STEPS] - steps0, 1) / ne * 1e9
         xs, vs = x.copy(), v.copy()
         # repeated passes at one state: the Prony and previous-step state they update stay finite
-        element = cpu(lambda: mod.element_pass(xs, vs, conn, slot, chunks, ed, eh, fb, p, decay, gain,
-                                               prep.par[K.P_GINF], bdt, bemin, status, errv, prep.par[K.P_RHO],
-                                               prep.par[K.P_HG], 0))
+        args = element_pass_args(mod, prep, xs, vs, ed, eh, fb)
+        decay, gain = args[9], args[10]
+        element = cpu(lambda: mod.element_pass(*args))
         gather = cpu(lambda: mod.gather_update(fb, hptr, hrow, mass, free, fint, fhg, xs, vs, vold, 1e-9, 1e-9))
         energy = cpu(lambda: mod.energy_pass(mass, v, vold, fint, fhg, dvc, pmask, 1e-9))
         out = {"step": step, "element_pass": element, "gather_update": gather, "energy": energy,

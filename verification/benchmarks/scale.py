@@ -95,6 +95,21 @@ def one_thread_run(model, t_state: float | None, deform=None, rows: int = 4096):
         numba.set_num_threads(old)
 
 
+def element_pass_args(mod, prep, x, v, ed, eh, fb) -> tuple:
+    """The arguments of ``mod.element_pass`` for the first part of a prepared run (the whole mesh of
+    a one-material model): positions x (m), velocities v (m/s), block state ed, eh and force
+    buffer fb as given (the run's own arrays or the caller's copies), the rest the part's, with the
+    Prony factors of the run's last step (computed into fresh arrays, so the run's stay as they are)."""
+    from cfm_backends.numba_explicit.kernels import layout as K
+
+    pt = prep.parts[0]
+    decay, gain = np.zeros(pt[K.PT_GAM].size), np.zeros(pt[K.PT_GAM].size)
+    mod.prony_step(float(prep.sc[K.S_DTPREV]), pt[K.PT_GAM], pt[K.PT_TAU], decay, gain)
+    return (x, v, pt[K.PT_CONN], pt[K.PT_SLOT], pt[K.PT_CHUNKS], ed, eh, fb, pt[K.PT_P], decay, gain,
+            pt[K.PT_PAR][K.PP_GINF], pt[K.PT_BDT], pt[K.PT_BEMIN], pt[K.PT_STATUS], pt[K.PT_ERRV],
+            pt[K.PT_PAR][K.PP_RHO], prep.par[K.P_HG], 0)
+
+
 def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0.4, deform=None) -> dict:
     """ns per element-cycle (CPU time, one thread) of the compiled loop after t_state (s)."""
     from cfm_backends.numba_explicit import solver

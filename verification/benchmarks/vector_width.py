@@ -38,27 +38,18 @@ def element_pass_ns(size: float, stretches: int = 15, seconds: float = 0.2) -> d
         ns (best CPU time per element and pass, ns), width (the process's preferred vector width,
         bits; 0: no AVX-512), peak (peak acceleration of the run to t = 2 ms, m/s^2).
     """
-    import numpy as np
-
     from cfm_backends.numba_explicit import NumbaExplicitBackend
-    from cfm_backends.numba_explicit.kernels import layout as K
     from cfm_backends.numba_target import configure
 
-    from .scale import drop_model, one_thread_run
+    from .scale import drop_model, element_pass_args, one_thread_run
 
     model = drop_model(size)
     with one_thread_run(model, 6e-3 if size >= 1e-3 else 1e-3) as (mod, prep, _hist):
-        conn, slot, chunks = prep.geo[:3]
-        p, gam, tau = prep.mat
         x, v, _vold, ed, eh, fb = prep.st[:6]
-        bdt, bemin, status, errv = prep.st[9:13]
-        decay, gain = np.zeros(gam.size), np.zeros(gam.size)
-        mod.prony_step(float(prep.sc[K.S_DTPREV]), gam, tau, decay, gain)
-        xs, vs = x.copy(), v.copy()
+        args = element_pass_args(mod, prep, x.copy(), v.copy(), ed, eh, fb)
 
         def one():
-            mod.element_pass(xs, vs, conn, slot, chunks, ed, eh, fb, p, decay, gain, prep.par[K.P_GINF], bdt,
-                             bemin, status, errv, prep.par[K.P_RHO], prep.par[K.P_HG], 0)
+            mod.element_pass(*args)
 
         one()
         best = math.inf

@@ -95,24 +95,32 @@ def _column_pointer(context, builder, aryty, ary, flat):
     return builder.gep(context.make_array(aryty)(context, builder, ary).data, [flat])
 
 
+def _corner_entry(context, builder, ty, table, e, j, a):
+    """table[e + j, a] of a C-contiguous (e, 8) int32 corner table (conn or slot) as an LLVM i64
+    (e, a: i64 values; j: a Python int)."""
+    i64 = ir.IntType(64)
+    flat = builder.add(builder.mul(builder.add(e, i64(j)), i64(8)), a)
+    return builder.sext(builder.load(_column_pointer(context, builder, ty, table, flat)), i64)
+
+
+def _block_row(context, builder, ty, wk, w0, c, width=8):
+    """Pointer, as a vector of ``width`` doubles, to wk[w0 + c BLOCK ...] (w0: an i64 value)."""
+    ptr = _column_pointer(context, builder, ty, wk, builder.add(w0, ir.IntType(64)(c * BLOCK)))
+    return builder.bitcast(ptr, ir.VectorType(ir.DoubleType(), width).as_pointer())
+
+
 def _as_i64(context, builder, ty, value):
     """An integer argument of numba type ``ty`` as an LLVM i64."""
     return context.cast(builder, value, ty, types.int64)
 
 
-def _masked(builder, kind, width):
-    """The declaration of ``llvm.masked.<kind>`` (load or store) of ``width`` doubles."""
-    f64 = ir.DoubleType()
-    vec = ir.VectorType(f64, width)
-    i32 = ir.IntType(32)
-    mask = ir.VectorType(ir.IntType(1), width)
-    name = f"llvm.masked.{kind}.v{width}f64.p0v{width}f64"
-    fn = builder.module.globals.get(name)
-    if fn is None:
-        sig = (ir.FunctionType(vec, [vec.as_pointer(), i32, mask, vec]) if kind == "load"
-               else ir.FunctionType(ir.VoidType(), [vec, vec.as_pointer(), i32, mask]))
-        fn = ir.Function(builder.module, sig, name)
-    return fn
+def _masked_load(builder, width):
+    """The declaration of ``llvm.masked.load`` of ``width`` doubles."""
+    vec = ir.VectorType(ir.DoubleType(), width)
+    name = f"llvm.masked.load.v{width}f64.p0v{width}f64"
+    return builder.module.globals.get(name) or ir.Function(
+        builder.module, ir.FunctionType(vec, [vec.as_pointer(), ir.IntType(32), ir.VectorType(ir.IntType(1), width),
+                                              vec]), name)
 
 
 def _integers(*tys):
@@ -148,7 +156,7 @@ def gather8(typingctx, wk, w0, x, v, conn, e, a):
         i32 = ir.IntType(32)
         v4 = ir.VectorType(f64, 4)
         v8 = ir.VectorType(f64, 8)
-        load3 = _masked(builder, "load", 4)
+        load3 = _masked_load(builder, 4)
         lanes = ir.Constant(ir.VectorType(ir.IntType(1), 4), [1, 1, 1, 0])
         zero4 = ir.Constant(v4, [0.0] * 4)
         w0 = _as_i64(context, builder, tw0, w0)
@@ -156,9 +164,7 @@ def gather8(typingctx, wk, w0, x, v, conn, e, a):
         a = _as_i64(context, builder, ta, av)
         rows = [ir.Constant(v8, [0.0] * 8) for _ in range(6)]
         for j in range(8):
-            corner = builder.add(builder.mul(builder.add(e, i64(j)), i64(8)), a)
-            node = builder.sext(builder.load(_column_pointer(context, builder, tc, ca, corner)), i64)
-            first = builder.mul(node, i64(3))
+            first = builder.mul(_corner_entry(context, builder, tc, ca, e, j, a), i64(3))
             for k, (ty, arr) in enumerate(((tx, xa), (tv, va))):
                 ptr = builder.bitcast(_column_pointer(context, builder, ty, arr, first), v4.as_pointer())
                 val = builder.call(load3, [ptr, i32(8), lanes, zero4])
@@ -166,8 +172,7 @@ def gather8(typingctx, wk, w0, x, v, conn, e, a):
                     rows[3 * k + c] = builder.insert_element(rows[3 * k + c], builder.extract_element(val, i32(c)),
                                                              i32(j))
         for c in range(6):
-            ptr = _column_pointer(context, builder, tw, wka, builder.add(w0, i64(c * BLOCK)))
-            builder.store(rows[c], builder.bitcast(ptr, v8.as_pointer()), align=8)
+            builder.store(rows[c], _block_row(context, builder, tw, wka, w0, c), align=8)
         return context.get_dummy_value()
     return types.none(wk, w0, x, v, conn, e, a), emit
 
@@ -194,17 +199,12 @@ def scatter8(typingctx, wk, w0, fb, slot, e, a):
         f64 = ir.DoubleType()
         i64 = ir.IntType(64)
         i32 = ir.IntType(32)
-        v8 = ir.VectorType(f64, 8)
         w0 = _as_i64(context, builder, tw0, w0)
         e = _as_i64(context, builder, te, ev)
         a = _as_i64(context, builder, ta, av)
-        rows = []
-        for c in range(6):
-            ptr = _column_pointer(context, builder, tw, wka, builder.add(w0, i64(c * BLOCK)))
-            rows.append(builder.load(builder.bitcast(ptr, v8.as_pointer()), align=8))
+        rows = [builder.load(_block_row(context, builder, tw, wka, w0, c), align=8) for c in range(6)]
         for j in range(8):
-            corner = builder.add(builder.mul(builder.add(e, i64(j)), i64(8)), a)
-            row = builder.sext(builder.load(_column_pointer(context, builder, ts, sla, corner)), i64)
+            row = _corner_entry(context, builder, ts, sla, e, j, a)
             base = _column_pointer(context, builder, tf, fba, builder.mul(row, i64(NF)))
             for lo, width in ((0, 4), (4, 2)):
                 vec = ir.Constant(ir.VectorType(f64, width), [0.0] * width)
