@@ -26,6 +26,16 @@ scalar (loads and stores through the corner table), go 8 elements at a time thro
 intrinsics written at the level of LLVM's IR (:func:`gather8`, :func:`scatter8`), with the scalar
 loops' results to the bit.
 
+Calls: :func:`element_block`, the node gather and the per-corner force stages (:func:`corner_forces`,
+:func:`scatter_corner`, 16 calls per block) are inlined into the chunk loop of :func:`element_pass`
+(numba's ``inline="always"``, at the level of numba's IR). As calls, each block paid for passing
+16 arrays by value, incrementing and decrementing their reference counts (atomic operations) and
+allocating its scratch; inlined, with one scratch per chunk, the element pass is 10-13 % faster
+with the same bits (docs/user/performance.md). The larger stages stay calls: inlining all of them
+gained no more and made the first compilation 40 s longer; and an inlined function takes its
+caller's fast-math flags, so the stages compiled with other flags (:func:`material_block`, IEEE;
+the corner sums, without nsz) must stay calls.
+
 Scatter: the elements (renumbered for locality before the run, ``cfm_backends.explicit.renumber``)
 are split into chunks of consecutive blocks, one parallel task each. A chunk adds its element
 forces straight onto a force buffer: onto the rows of the nodes it touches first (its own, a
@@ -272,10 +282,11 @@ def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt
             fb[r] = 0.0
         wc = 0.0
         nc = 0
+        wk = np.empty(W_N * BLOCK)          # the chunk's scratch, reused block after block
         for blk in range(chunks[c, 0], chunks[c + 1, 0]):
             e0 = blk * BLOCK
             nx = blk + 1 if nblk >= PREFETCH_BLOCKS else nblk     # nblk: empty stretches, no prefetch
-            wb, nb = element_block(e0, min(BLOCK, ne - e0), blk, x, v, conn, slot,
+            wb, nb = element_block(wk, e0, min(BLOCK, ne - e0), blk, x, v, conn, slot,
                                    ed[blk * ED_N * BLOCK:(blk + 1) * ED_N * BLOCK], eh[blk * k6:(blk + 1) * k6],
                                    fb, p, decay, gain, ginf, bdt, bemin, status, errv, rho, hg, hgwave,
                                    ed[nx * ED_N * BLOCK:(nx + 1) * ED_N * BLOCK], eh[nx * k6:(nx + 1) * k6])
@@ -292,18 +303,19 @@ def element_pass(x, v, conn, slot, chunks, ed, eh, fb, p, decay, gain, ginf, bdt
     return work, nbad
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv,
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+def element_block(wk, e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf, bdt, bemin, status, errv,
                   rho, hg, hgwave, edn, ehn):
     """:func:`element_pass` for the n elements from e0 (block blk, its stretches ed, eh of the
     block arrays), the forces added onto fb; returns (stress work (J), number of failures).
+    wk: the chunk's scratch (W_N BLOCK values, layout.py), overwritten. Inlined into
+    :func:`element_pass` (module docstring, "Calls").
 
     edn, ehn: the next block's stretches, prefetched an eighth at a time during the corner stage
     (:func:`prefetch_part`), so that their memory traffic overlaps this block's arithmetic: on a
     mesh whose state outgrows the caches the processor's own prefetchers leave the stages waiting
     for it (docs/user/performance.md). Empty after the last block and below ``PREFETCH_BLOCKS``
     blocks: nothing is prefetched."""
-    wk = np.empty(W_N * BLOCK)
     kinematics_block(wk, ed, x, v, conn, e0, n)
     eigen_block(wk, n)
     eigen_fallback(wk, n)
@@ -340,7 +352,7 @@ def element_block(e0, n, blk, x, v, conn, slot, ed, eh, fb, p, decay, gain, ginf
     return wb, nb
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
 def scatter_corner(wk, fb, slot, e0, a, n):
     """Add corner a's forces of the block's elements (wk rows W_FN + c, N) onto the force buffer
     rows slot[e, a] (value NF row + c), element by element in order: 8 elements at a time by
@@ -391,7 +403,7 @@ def kinematics_block(wk, ed, x, v, conn, e0, n):
     velocity_block(wk, ed, n)
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
 def gather_corners(wk, x, v, conn, e0, n):
     """Rows W_G + 6 a + c of the block's n elements from e0: x[conn[e, a], c] and v[conn[e, a],
     c] (c + 3) (m, m/s), corner by corner: 8 elements at a time by :func:`gather8`, the rest of a
@@ -828,7 +840,7 @@ def forces_block(wk, ed, rho, hg, hgwave, n):
 
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+@njit(inline="always", fastmath=FASTMATH, error_model="numpy")
 def corner_forces(wk, ed, a, n):
     """Nodal forces at corner a of the block's elements (wk rows W_FN + c, N; zero for failed
     elements): internal V0 P B_a, hourglass -c_hg sum_alpha q_alpha gamma_a,alpha = -c_hg
