@@ -26,9 +26,10 @@ scalar (loads and stores through the corner table), go 8 elements at a time thro
 intrinsics written at the level of LLVM's IR (:func:`gather8`, :func:`scatter8`), with the scalar
 loops' results to the bit.
 
-Calls: :func:`element_block`, the node gather and the per-corner force stages (:func:`corner_forces`,
+Calls: :func:`element_block` and the per-corner force stages (:func:`corner_forces`,
 :func:`scatter_corner`, 16 calls per block) are inlined into the chunk loop of :func:`element_pass`
-(numba's ``inline="always"``, at the level of numba's IR). As calls, each block paid for passing
+and the node gather (:func:`gather_corners`) into :func:`kinematics_block` (numba's
+``inline="always"``, at the level of numba's IR). As calls, each block paid for passing
 16 arrays by value, incrementing and decrementing their reference counts (atomic operations) and
 allocating its scratch; inlined, with one scratch per chunk, the element pass is 10-13 % faster
 with the same bits (docs/user/performance.md). The larger stages stay calls: inlining all of them
