@@ -113,8 +113,11 @@ def uniaxial_on_backend(material, backend, t, stretch, lateral):
 
     The reference solves the lateral stretch for zero lateral stress (:func:`uniaxial`); the
     backend's ``point`` driver then evaluates the Cauchy stress along F = diag(l, lt, lt), and the
-    nominal stress is P11 = J sigma11 / l. Its lateral stress, relative to the axial one, shows
-    how far the backend's material is from the reference's (round-off when they agree).
+    nominal stress is P11 = J (sigma11 - sigma22) / l (:func:`nominal_uniaxial`: the pressure,
+    whose round-off grows with the bulk modulus, cancels). Its lateral stress, relative to the
+    axial one, shows how far the backend's material is from the reference's (round-off when they
+    agree; near the incompressible limit the pressure's round-off, which the nominal stress does
+    not carry).
 
     Returns
     -------
@@ -128,7 +131,34 @@ def uniaxial_on_backend(material, backend, t, stretch, lateral):
     sigma = run_history(material, t, F, backend)
     J = stretch * lateral**2
     scale = max(float(np.max(np.abs(sigma[:, 0]))), 1e-300)
-    return J * sigma[:, 0] / stretch, float(np.max(np.abs(sigma[:, 1])) / scale)
+    return nominal_uniaxial(stretch, J * sigma[:, 0], J * sigma[:, 1]), float(np.max(np.abs(sigma[:, 1])) / scale)
+
+
+def nominal_uniaxial(stretch, tau11, tau22):
+    """Nominal stress P11 = (tau11 - tau22) / l (Pa) of a uniaxial-stress state F = diag(l, lt, lt),
+    from the Kirchhoff stresses tau = J sigma along and across the axis.
+
+    Where the lateral stress is zero this is P11 = tau11 / l; written as the difference, the
+    pressure term of the stress (-p J in every normal component) cancels exactly, and with it
+    the pressure's round-off: near the incompressible limit p = U'(J) J is set by J to the last
+    bit times the bulk modulus (at kappa = 6.7e17 Pa an error of 1e-15 in the lateral stretch
+    moves p by ~10^3 Pa), while the deviatoric difference stays accurate to round-off of the
+    stress itself. The same formula serves a lateral stress that is round-off away from zero.
+
+    Parameters
+    ----------
+    stretch : float or ndarray, shape (n,)
+        Axial stretch l (-).
+    tau11, tau22 : float or ndarray, shape (n,)
+        Kirchhoff stresses J sigma11 and J sigma22 (Pa); for the second Piola-Kirchhoff S of
+        F = diag(l, lt, lt): tau11 = l^2 S11, tau22 = lt^2 S22.
+
+    Returns
+    -------
+    float or ndarray, shape (n,)
+        P11 (Pa).
+    """
+    return (tau11 - tau22) / stretch
 
 
 def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: float = 0.0):
@@ -216,7 +246,7 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
                 lt = 1.0
             _, S, state = lateral_stress(lt, keep=True)
             lat[n] = lt
-            P[n] = lam[n] * S[0, 0]  # P = F S, first component
+            P[n] = nominal_uniaxial(lam[n], lam[n] ** 2 * S[0, 0], lt**2 * S[1, 1])  # P11, pressure-free
             if unstable is None and n and not volumetric_convex(material, lam[n], lt):
                 unstable = n
     bad = ~(np.isfinite(P) & np.isfinite(lat))

@@ -1,17 +1,9 @@
 """skfem backend: Newton's convergence test is invariant to the stiffness scale (issue 20, item 6).
 
 Truth: the long-term uniaxial-stress response of the elastic CFM at a held stretch of 0.7, written
-here from the paper's equations (not from the project's code) and solved with scipy's brentq:
-
-    W = Wbar(lbar) + U(J),  Wbar = c/2 (sum lbar^2 - 3) + sum_pairs k1/(2 k2) [exp(k2 (x - 1)^2) - 1] [x >= 1],
-    x_ab = (lbar_a^2 + lbar_b^2) / 2,  lbar_a = J^(-1/3) l_a,  U = kappa/81 (9 ln J + J^-9 - 1)
-
-With d_a = lbar_a dWbar/dlbar_a - (1/3) sum_b lbar_b dWbar/dlbar_b (Pa), the principal Cauchy
-stresses are sigma_a = d_a / J + U'(J); zero lateral traction (sigma_2 = 0) fixes J through
-J U'(J) = kappa/9 (1 - J^-9) = -d_2, solved for e = ln J (J - 1 is ~1e-12 at the largest kappa, so
-J itself is never formed by a product), and the nominal axial stress is P1 = (d_1 - d_2) / l1.
-The incompressible limit (e = 0) is -1579.4976 Pa (shared case incompressible-newton-tolerance,
-its mpmath closed form agrees to 1e-10).
+from the paper's equations and solved with scipy's brentq (``fixtures.uniaxial_truth``). The
+incompressible limit (e = 0) is -1579.4976 Pa (shared case incompressible-newton-tolerance, its
+mpmath closed form agrees to 1e-10).
 
 Before: the absolute Newton tolerance 1e-10 kappa h^2 grew with kappa, and at kappa = 6.661e11 Pa
 the force was 3 % off with exit 0 (the tolerance was 4 % of the reaction).
@@ -19,9 +11,7 @@ the force was 3 % off with exit 0 (the tolerance was 4 % of the reaction).
 
 import math
 
-import numpy as np
 import pytest
-from scipy.optimize import brentq
 
 pytest.importorskip("skfem")
 
@@ -30,39 +20,16 @@ from cfm_core.scene.builder import build_model  # noqa: E402
 from cfm_core.scene.scene import builtin_scene  # noqa: E402
 from cfm_core.simulation.checks import check_result  # noqa: E402
 from cfm_core.simulation.registry import get_backend  # noqa: E402
+from fixtures import uniaxial_truth  # noqa: E402
 
-C, K1, K2, KAPPA = 10.0, 1320.0, 1.66, 666100.0  # Table 1 (Pa, Pa, -, Pa)
+C, K1, KAPPA = uniaxial_truth.C, uniaxial_truth.K1, uniaxial_truth.KAPPA  # Table 1 (Pa)
 STRETCH, SIZE = 0.7, 1e-3                         # held stretch (-), element edge (m)
 LIMIT = -1579.4976                                # incompressible limit of P1 (Pa), 5 digits of the case
 
 
-def deviatoric(lbar, c, k1):
-    """d_a = lbar_a dWbar/dlbar_a - mean (Pa) for the isochoric stretches lbar (3,)."""
-    s = c * lbar**2
-    for a, b in ((0, 1), (1, 2), (0, 2)):
-        x = 0.5 * (lbar[a] ** 2 + lbar[b] ** 2)
-        if x >= 1.0:
-            f = k1 * (x - 1.0) * math.exp(K2 * (x - 1.0) ** 2)
-            s[a] += f * lbar[a] ** 2
-            s[b] += f * lbar[b] ** 2
-    return s - s.mean()
-
-
 def nominal_stress(c, k1, kappa, stretch=STRETCH):
     """Long-term uniaxial nominal stress P1 (Pa) at the held stretch; kappa = inf: incompressible."""
-
-    def dev(e):
-        J = math.exp(e)
-        q = math.sqrt(J / stretch)  # lateral stretch (J = l1 q^2)
-        return deviatoric(J ** (-1.0 / 3.0) * np.array([stretch, q, q]), c, k1)
-
-    if math.isinf(kappa):
-        e = 0.0
-    else:
-        e = brentq(lambda e: kappa / 9.0 * -math.expm1(-9.0 * e) + dev(e)[1], -0.5, 0.5, xtol=1e-300,
-                   rtol=4 * np.finfo(float).eps, maxiter=500)
-    d = dev(e)
-    return (d[0] - d[1]) / stretch
+    return uniaxial_truth.nominal_stress(c, k1, kappa, stretch)
 
 
 def run(factor_all=1.0, factor_kappa=1.0):
