@@ -139,14 +139,28 @@ class DaskRunner:
                     if fut.status == "finished":
                         ok, value = fut.result()
                         yield Done(i, value) if ok else Done(i, error=value)
-                    else:  # the worker died or the task could not be sent
-                        yield Done(i, error=error_text(fut.exception()))
+                    else:  # the worker died, the task could not be sent, or the scheduler is gone
+                        yield Done(i, error=self._failure_text(fut))
                     fut.release()
         finally:  # the consumer stopped early (error, Ctrl-C) or no worker is left: do not leave work queued
             left = [f for f in futures if f.key in pending or f.status not in ("finished", "error", "cancelled")]
             if left:
                 with contextlib.suppress(Exception):
                     self.client.cancel(left)
+
+    def _failure_text(self, fut) -> str:
+        """The error of a task that did not finish: its exception (a worker that died, a task that
+        could not be sent), or, for a task the client cancelled without one because the scheduler
+        stopped answering (it was stopped, or the network failed), a text that says so."""
+        exc = None
+        if fut.status == "error":
+            with contextlib.suppress(Exception):
+                exc = fut.exception()
+        if exc is not None:
+            return error_text(exc)
+        return (f"SchedulerLost: the connection to the {self.label} was lost before this run "
+                f"finished (task {fut.status}), so it was not done; runs finished so far are kept: restart the "
+                f"scheduler and its workers and rerun the same command to resume.")
 
     def _has_workers(self) -> bool:
         """True when the scheduler reports at least one worker (False when it cannot be asked)."""
@@ -249,9 +263,32 @@ def open_runner(scheduler: str | None = None, workers: int | None = None, worker
         raise InputError(f"--workers {workers} sets the size of the local cluster and has no effect "
                          f"with --scheduler {scheduler}: the scheduler's workers are used. Leave one "
                          f"of them out.")
-    runner = (local_cluster(workers or os.cpu_count() or 1, float(worker_timeout)) if scheduler is None
-              else connect(scheduler, worker_timeout=float(worker_timeout)))
+    with quiet_distributed():
+        runner = (local_cluster(workers or os.cpu_count() or 1, float(worker_timeout)) if scheduler is None
+                  else connect(scheduler, worker_timeout=float(worker_timeout)))
+        try:
+            yield runner
+        finally:
+            runner.close()
+
+
+#: Loggers of Dask's distributed that print to the terminal themselves (their own stderr handlers).
+DISTRIBUTED_LOGGERS = ("distributed", "distributed.client")
+
+
+@contextlib.contextmanager
+def quiet_distributed():
+    """Dask's own log records (with tracebacks: a client that fails to reconnect to a lost scheduler
+    logs one at ERROR level) kept off the terminal while a runner is open; every failure they
+    report reaches the user as the failed task's error instead (:meth:`DaskRunner.map`). The levels
+    are restored afterwards. Imports distributed first: its import configures these loggers."""
+    _import_distributed()
+    loggers = [logging.getLogger(name) for name in DISTRIBUTED_LOGGERS]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
     try:
-        yield runner
+        yield
     finally:
-        runner.close()
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)

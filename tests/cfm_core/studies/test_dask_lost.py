@@ -134,3 +134,39 @@ def test_sweep_keeps_finished_runs_and_resumes_after_the_workers_are_lost(tmp_pa
     assert [r["status"] for r in rows] == ["ok", "failed"] and "WorkersLost" in rows[1]["error"]
     again = sweep.run_sweep(scene, axes, tmp_path, "numba", SerialRunner())
     assert again.skipped == 1 and again.executed == 1 and again.failed == 0
+
+
+def test_a_lost_scheduler_names_itself_instead_of_nonetype(fake):
+    """The scheduler killed mid-sweep: the client cancels every task left, without an exception. Before,
+    each run's error read "NoneType: None"; now it says the scheduler was lost and how to resume."""
+    client = fake(workers=lambda t: 1, finish_at=0.0)
+
+    class Lost(FakeAsCompleted):
+        def next_batch(self, block=True):
+            batch, self.left = self.left, []
+            for f in batch:
+                f.status = "cancelled"
+                f.exception = lambda: None
+            return batch
+
+    distributed.as_completed = Lost  # restored by the fixture's monkeypatch
+    done = list(DaskRunner(client, "Dask scheduler tcp://h:1", worker_timeout=1.0).map(lambda x: x, [1, 2]))
+    assert [d.ok for d in done] == [False, False]
+    for d in done:
+        assert d.error.startswith("SchedulerLost: the connection to the Dask scheduler tcp://h:1 was lost")
+        assert "rerun the same command to resume" in d.error and "NoneType" not in d.error
+
+
+def test_dask_log_records_stay_off_the_terminal_while_a_runner_is_open():
+    """distributed's client logs a traceback (ERROR) when it cannot reconnect to a lost scheduler; the
+    failed runs already say what happened, so its loggers are quiet while a runner is open, and their
+    levels come back afterwards."""
+    import logging
+
+    before = {name: logging.getLogger(name).level for name in dask_runner.DISTRIBUTED_LOGGERS}
+    assert logging.getLogger("distributed.client").isEnabledFor(logging.ERROR)   # distributed's own config
+    with dask_runner.quiet_distributed():
+        for name in ("distributed.client", "distributed", "distributed.comm"):
+            assert not logging.getLogger(name).isEnabledFor(logging.CRITICAL)
+    assert {name: logging.getLogger(name).level for name in dask_runner.DISTRIBUTED_LOGGERS} == before
+    assert logging.getLogger("distributed.client").isEnabledFor(logging.ERROR)
