@@ -29,12 +29,13 @@ class SkfemOptions(Options):
                             low=0.0, high=1.0)
     error_tol: float = option("auto", "-", "local error tolerance of a dynamic step (Zienkiewicz-Xie estimate, "
                               "mass-weighted RMS relative to the displacement); 'auto': 2e-3 for impact scenes "
-                              "(rigid impactor), None for the others", kind="any", low=0.0, low_open=True,
+                              "(rigid impactor), None for the others", kind="float", choices=("auto",), low=0.0,
+                              low_open=True,
                               none="steps set by Newton only (grow / cut)")
-    dt: float = option(None, "s", "first step", low=0.0, low_open=True,
+    dt: float = option(None, "s", "first step", kind="float", low=0.0, low_open=True,
                        none="output interval / 10 (dynamic) or segment / segment_steps")
-    dt_min: float = option(None, "s", "smallest step before giving up", low=0.0, low_open=True, none="1e-5 dt_max")
-    dt_max: float = option(None, "s", "largest step", low=0.0, low_open=True,
+    dt_min: float = option(None, "s", "smallest step before giving up", kind="float", low=0.0, low_open=True, none="1e-5 dt_max")
+    dt_max: float = option(None, "s", "largest step", kind="float", low=0.0, low_open=True,
                            none="2.5 output intervals with error control, else one output interval")
     segment_steps: int = option(50, "-", "at least this many steps per moving segment of a prescribed motion", low=1)
     grow: float = option(1.5, "-", "step growth after a fast Newton convergence (error_tol None)", low=1.0,
@@ -45,15 +46,15 @@ class SkfemOptions(Options):
     max_iterations: int = option(15, "-", "Newton iterations per step before the step is cut", low=1)
     rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term of the iterate "
                          "(internal forces with the reactions, inertia, contact, external; invariant to the "
-                         "stiffness scale)", low=0.0, low_open=True,
+                         "stiffness scale)", kind="float", low=0.0, low_open=True,
                          none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
-    atol: float = option(None, "N", "absolute Newton residual tolerance added to rtol's", low=0.0, low_open=True,
+    atol: float = option(None, "N", "absolute Newton residual tolerance added to rtol's", kind="float", low=0.0, low_open=True,
                          none="0: rtol only; a step whose Newton stagnates at the round-off floor (~eps kappa0 "
                               "h^2) is accepted with the force balance it reached, which the run reports (a "
                               "warning above 10 rtol, an error above 1e-3)")
     contact: str = option("augmented", "-", "contact: augmented Lagrangian (multipliers updated every step) or "
                           "plain penalty", choices=("augmented", "penalty"))
-    penalty: float = option(None, "N/m", "contact augmentation (penalty) stiffness per node", low=0.0,
+    penalty: float = option(None, "N/m", "contact augmentation (penalty) stiffness per node", kind="float", low=0.0,
                             low_open=True, none="penalty_factor x kappa0 x h")
     penetration_tol: float = option(0.01, "-", "augmented contact: largest penetration (fraction of the element "
                                     "size) before the multipliers are updated again within a step", low=0.0,
@@ -69,7 +70,7 @@ class SkfemOptions(Options):
     cg_maxiter: int = option(400, "-", "CG iterations before the direct solver takes over", low=1)
     separation_time: float = option(2e-4, "s", "time after the impactor left the specimen before stopping",
                                     low=0.0, low_open=True)
-    frame_interval: float = option(None, "s", "store (t, displacement) frames this often", low=0.0,
+    frame_interval: float = option(None, "s", "store (t, displacement) frames this often", kind="float", low=0.0,
                                    low_open=True, none="no frames")
     max_steps: int = option(1_000_000, "-", "guard against runaway runs", low=1)
     record_newton: bool = option(False, "-", "keep every step's residual sequence in info['newton']")

@@ -36,7 +36,8 @@ class TorchOptions(ExplicitOptions):
                           none=f"1 below {PARALLEL_MIN} elements on the CPU, else torch's setting")
     compile: object = option(False, "-", "torch.compile the pointwise part of the element pass: False, True or "
                              "a mode name ('default', 'reduce-overhead', 'max-autotune'); tens of seconds once",
-                             kind="any")
+                             kind="any", choices=(False, True, "default", "reduce-overhead", "max-autotune",
+                                                  "max-autotune-no-cudagraphs"))
     newton_block: int = option(None, "-", "contact Newton iterations between host checks (the result does not "
                                "depend on it)", kind="int", low=1, none="1 on the CPU, 4 on CUDA")
     cuda_graph: bool = option(None, "-", "run the drop-test step as a captured CUDA graph (needs device='cuda' "

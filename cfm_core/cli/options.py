@@ -49,7 +49,7 @@ def _option_value(text: str, kind: str):
     """A ``--option`` value in the type its declaration wants (number, integer, True/False, text, None)."""
     if text.strip().lower() == "none":
         return None
-    if kind == "bool":
+    if kind in ("bool", "any"):  # "any": True / False where the declaration lists them among its choices
         if text.strip().lower() in ("true", "false"):
             return text.strip().lower() == "true"
         return text

@@ -45,12 +45,13 @@ class OptionSpec:
         """The allowed values as text (for messages and listings)."""
         if self.kind == "bool":
             text = "True or False"
-        elif self.choices:
-            text = "one of " + ", ".join(repr(c) for c in self.choices)
         elif self.kind in ("float", "int"):
             lo = "(" if self.low_open or math.isinf(self.low) else "["
             hi = ")" if self.high_open or math.isinf(self.high) else "]"
             text = f"{'an integer' if self.kind == 'int' else 'a number'} in {lo}{self.low:g}, {self.high:g}{hi}"
+            text += "".join(f", or {c!r}" for c in self.choices)
+        elif self.choices:
+            text = "one of " + ", ".join(repr(c) for c in self.choices)
         else:
             text = "any value"
         return text + (f", or None ({self.none})" if self.none else "")
@@ -66,11 +67,13 @@ class OptionSpec:
             if not isinstance(value, bool):
                 raise bad
             return value
-        if self.choices and self.kind != "float":
+        if self.choices and self.kind not in ("float", "int"):
             if value not in self.choices:
                 raise bad
             return value
         if self.kind in ("float", "int"):
+            if isinstance(value, str) and value in self.choices:  # a named setting of a number ("auto")
+                return value
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise bad
             if self.kind == "int" and not float(value).is_integer():
@@ -101,15 +104,25 @@ def option(default, unit: str = "-", doc: str = "", *, kind: str | None = None, 
     doc : str
         One line: what the option does.
     kind : {"float", "int", "bool", "str", "any"}, optional
-        Value type; inferred from the default when omitted.
+        Value type; inferred from the default when omitted, which a default of None cannot give:
+        such an option must state its kind.
     low, high, low_open, high_open : optional
         Valid range of numbers (closed unless ``*_open``).
     choices : tuple, optional
-        Allowed values of a text option.
+        Allowed values of a text option; for a number, named settings allowed besides the range
+        (``error_tol = "auto"``).
     none : str, optional
         Meaning of ``None`` if None is allowed ("automatic", ...).
+
+    Raises
+    ------
+    TypeError
+        A default of None without ``kind`` (the option would accept any value unchecked).
     """
     if kind is None:
+        if default is None:
+            raise TypeError(f"option(None, {unit!r}, {doc[:40]!r}...): a default of None needs kind= "
+                            f"('float', 'int', 'bool', 'str' or 'any'), or the option accepts any value unchecked")
         kind = ("bool" if isinstance(default, bool) else "int" if isinstance(default, int) else
                 "float" if isinstance(default, float) else "str" if isinstance(default, str) else "any")
     spec = OptionSpec(unit, doc, kind, low, high, low_open, high_open, tuple(choices), none)

@@ -52,3 +52,58 @@ def test_unknown_names_are_listed():
 def test_docstring_table_comes_from_the_declaration():
     assert "safety" in Demo.__doc__ and "time-step safety factor" in Demo.__doc__
     assert "None (automatic)" in Demo.table()
+
+
+def test_a_default_of_none_must_state_its_kind():
+    """option(None, ...) without kind= used to accept anything unchecked (skfem's rtol, dt_max, ...:
+    rtol='1e-7' crashed in the stepper with a TypeError traceback, dt_max=-1 ran on forever)."""
+    with pytest.raises(TypeError, match="kind="):
+        option(None, "s", "largest step", low=0.0)
+
+
+def test_a_number_with_a_named_setting():
+    """error_tol: a number in (0, inf), the word 'auto', or None."""
+
+    @dataclass(frozen=True)
+    class Tol(Options):
+        owner = "demo backend"
+        error_tol: float = option("auto", "-", "local error tolerance", kind="float", choices=("auto",), low=0.0,
+                                  low_open=True, none="off")
+
+    assert [Tol(error_tol=v).error_tol for v in ("auto", 2e-3, None)] == ["auto", 2e-3, None]
+    for bad in ("x", -1.0, "1e-3", math.nan):
+        with pytest.raises(InputError, match=r"a number in \(0, inf\), or 'auto', or None \(off\)"):
+            Tol(error_tol=bad)
+
+
+def test_every_declared_option_of_every_backend_checks_its_values():
+    """No backend's option takes just any value where a number is meant: every option whose
+    default is None names its kind, and the skfem ones that did not now refuse text and bad ranges."""
+    from cfm_core import plugins
+    from cfm_core.simulation.registry import backend_for
+
+    for name in plugins.names("backends"):
+        try:
+            cls = getattr(backend_for(name), "options_class", None)
+        except Exception:  # a backend not installed here
+            continue
+        for opt, spec in (cls.specs() if cls is not None else {}).items():
+            if spec.kind == "any" and not spec.choices:  # an array, or torch objects the backend checks itself
+                assert opt in ("initial_velocity", "device", "dtype"), f"{name}.{opt} accepts any value unchecked"
+    pytest.importorskip("skfem")
+    from cfm_backends.skfem_implicit.options import SkfemOptions
+
+    for opt in ("dt", "dt_min", "dt_max", "rtol", "atol", "penalty", "frame_interval", "error_tol"):
+        for bad in (-1.0, "abc"):
+            with pytest.raises(InputError, match=f"option {opt} = "):
+                SkfemOptions.from_mapping({opt: bad})
+
+
+def test_torch_compile_takes_a_mode_name_or_a_boolean():
+    """--option compile=maybe ended in torch's RuntimeError traceback; now an InputError listing the modes."""
+    pytest.importorskip("torch")
+    from cfm_backends.torch_explicit.options import TorchOptions
+
+    assert [TorchOptions(compile=v).compile for v in (False, True, "max-autotune")] == [False, True, "max-autotune"]
+    with pytest.raises(InputError, match=r"option compile = 'maybe' is not allowed; expected one of False, True"):
+        TorchOptions.from_mapping({"compile": "maybe"})
