@@ -123,3 +123,43 @@ def test_another_backend_on_the_command_line_drops_the_files_backend_options():
     assert same.backend == "torch" and same.options == {"hourglass": 0.05, "dtype": "float64", "device": "cpu"}
     assert same.notes == ["dtype=float64 overrides the scene's [run] dtype = float32"]
     assert plan_run(cfm.builtin_scene("drop-test")).options == {}  # no [run]: the defaults, as before
+
+
+def test_a_sweep_from_a_written_scene_runs_with_its_backend_and_options(tmp_path, capsys):
+    """cfm sweep --scene OUT/scene.toml took numba with its default options whatever the file's [run]
+    said (the sweep's --backend defaulted to numba): a sweep of one value equal to the run's gave another
+    history. Now the file's backend and options apply, and --option overrides them with a note."""
+    hg, sweep, over = (tmp_path / n for n in ("hg", "sweep", "over"))
+    assert main(["drop-test", *SMALL, "--option", "hourglass=0.05", "--out", str(hg)]) == 0
+    capsys.readouterr()
+    scene = str(hg / "scene.toml")
+    assert main(["sweep", "--scene", scene, "--vary", "k2=1.66", "--serial", "--quiet", "--out", str(sweep)]) == 0
+    assert "overrides" not in capsys.readouterr().err
+    run = next((sweep / "runs").iterdir())
+    first, repeat = (cfm.tables.read_table(f / "acceleration.csv", ["t", "a_raw", "a_cfc600"]).data
+                     for f in (hg, run))
+    assert (repeat == first).all()                       # the same run, to the bit
+    assert main(["sweep", "--scene", scene, "--vary", "k2=1.66", "--serial", "--quiet", "--option", "hourglass=0.1",
+                 "--out", str(over)]) == 0
+    assert "--option hourglass=0.1 overrides scene.toml [run] hourglass = 0.05" in capsys.readouterr().err
+    assert _summary(next((over / "runs").iterdir()))["provenance"]["backend"]["options"]["hourglass"] == 0.1
+
+
+def test_the_fitted_scene_records_the_backend_and_options_the_fit_ran_with():
+    """calibrate's fitted-scene.toml copied the input scene's [run] (or had none) instead of the fit's own
+    backend and options: repeating the fitted curve from it gave another history."""
+    from types import SimpleNamespace
+
+    from cfm_core.studies.calibrate_output import fitted_scene
+
+    scene = cfm.builtin_scene("drop-test")
+    result = SimpleNamespace(final=SimpleNamespace(params={"k2": 1.7}),
+                             problem=SimpleNamespace(backend="numba", options={"hourglass": 0.05, "safety": 0.8}))
+    fitted = fitted_scene(scene, result)
+    assert dict(fitted.material.parameters)["k2"] == 1.7
+    assert fitted.run.backend == "numba" and fitted.run.option_dict["hourglass"] == 0.05
+    assert fitted.run.option_dict["safety"] == 0.8
+    from cfm_core.scene.scene import scene_to_toml
+
+    text = scene_to_toml(fitted)
+    assert "[run.options]" in text and "hourglass = 0.05" in text

@@ -1,5 +1,6 @@
 """Options shared by the command groups: material options, ``NAME=VALUE`` parameters, the output
-directory. Imports no command module (the progress bar is the run pipeline's, ``progress=True``)."""
+directory, the backend and options a scene runs with. Imports no command module (the progress bar
+is the run pipeline's, ``progress=True``)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InputError
+from ..runs.settings import RunPlan, plan_run
 from ..simulation.registry import backend_for
 
 
@@ -92,3 +94,44 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
             options[flag] = value
             given_as[flag] = f"--{flag} {value}"
     return options, given_as
+
+
+def plan_from_args(args, scene, default: str | None = None) -> RunPlan:
+    """The backend and options a scene runs with: its ``[run]`` section, overridden by the command
+    line (``--backend``, ``--option``, ``--dtype``, ``--device``, ``--vtu``), for ``cfm drop-test``,
+    ``cfm run``, ``cfm sweep`` and ``cfm calibrate`` alike.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (``backend`` None when not given; ``scene`` the file, if any).
+    scene : Scene
+        The scene (its ``run`` section, if any).
+    default : str, optional
+        Backend when neither names one (default :func:`cfm_core.runs.pipeline.default_backend`).
+
+    Returns
+    -------
+    RunPlan
+        Backend, options, and notes on what the command line changed against the file.
+
+    Raises
+    ------
+    InputError
+        An unknown or unavailable backend (naming ``[run] backend`` when it came from the file), an
+        option the backend does not declare, a value out of range.
+    """
+    from ..runs import pipeline
+
+    default = default or pipeline.default_backend(scene)
+    run = scene.run
+    name = args.backend or (run.backend if run is not None else None) or default
+    where = f"{Path(args.scene).name} [run]" if getattr(args, "scene", None) else "the scene's [run]"
+    if not args.backend and run is not None and run.backend:
+        try:
+            backend_for(name)
+        except InputError as exc:
+            raise InputError(f"{where} backend = {name!r}: {exc}") from None
+    options, given_as = backend_options(args, name)
+    given_as["backend"] = f"--backend {args.backend}"
+    return plan_run(scene, args.backend, options, default=default, given_as=given_as, where=where)

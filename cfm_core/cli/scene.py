@@ -8,11 +8,9 @@ from ..errors import InputError
 from ..post.staging import staged_folder
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
-from ..runs.settings import plan_run
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
-from ..simulation.registry import backend_for
 from .fields import add_vtu_options, check_vtu_options
-from .options import add_material_options, backend_options, parse_params
+from .options import add_material_options, parse_params, plan_from_args
 
 
 def add_parser(sub) -> None:
@@ -77,27 +75,11 @@ def _apply_overrides(scene, args, keys=()):
     return scene.with_overrides(**over) if over else scene
 
 
-def _plan(args, scene):
-    """The backend and options of the run: the scene's [run] section, overridden by the command line."""
-    run = scene.run
-    name = args.backend or (run.backend if run is not None else None) or pipeline.default_backend(scene)
-    where = f"{Path(args.scene).name} [run]" if getattr(args, "scene", None) else "the scene's [run]"
-    if not args.backend and run is not None and run.backend:
-        try:
-            backend_for(name)
-        except InputError as exc:
-            raise InputError(f"{where} backend = {name!r}: {exc}") from None
-    options, given_as = backend_options(args, name)
-    given_as["backend"] = f"--backend {args.backend}"
-    return plan_run(scene, args.backend, options, default=pipeline.default_backend(scene), given_as=given_as,
-                    where=where)
-
-
 def _run_and_write(args, scene) -> tuple:
     """Check --out, run the scene, write its files into a stage and publish them: (outcome, the
     --out folder, the names written). An unwritable, full or wrong-kind --out is refused before
     the run; a failed run leaves --out as it was."""
-    plan = _plan(args, scene)
+    plan = plan_from_args(args, scene)
     plot, vtu = not args.no_plot, getattr(args, "vtu", False)
     fields, full = check_vtu_options(args, scene)
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)

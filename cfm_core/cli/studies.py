@@ -15,11 +15,13 @@ from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
-from .options import backend_options, parse_params
+from .options import parse_params, plan_from_args
 
 
 def _runner_options(p) -> None:
-    p.add_argument("--backend", default="numba", help="backend name (default numba; see 'cfm backends')")
+    p.add_argument("--backend", default=None, help="backend name (default: the --scene file's [run] backend, else "
+                                                   "numba; see 'cfm backends'); the file's dtype and options apply "
+                                                   "too, --option overrides them")
     p.add_argument("--option", action="append", metavar="NAME=VALUE",
                    help="a backend option of every drop test, SI units, repeatable (e.g. hourglass=0.05; "
                         "'cfm backends --options' lists them); part of the run ids")
@@ -86,9 +88,16 @@ def _progress(args):
     return lambda line: print(line, file=sys.stderr, flush=True)
 
 
-def _options(args) -> dict:
-    """The ``--option NAME=VALUE`` backend options (typed and checked as ``cfm drop-test`` does)."""
-    return backend_options(args, args.backend)[0]
+def _planned(args, scene):
+    """(the scene without its [run] section, backend, options) of a study's drop tests: the --scene
+    file's [run] section overridden by --backend and --option, as ``cfm run`` plans a run (notes on
+    stderr for what the command line changed; warnings for input files changed since)."""
+    plan = plan_from_args(args, scene, default="numba")
+    for text in plan.notes:
+        print(f"note: {text}", file=sys.stderr)
+    for text in plan.warnings:
+        print(f"warning: {text}", file=sys.stderr)
+    return scene.with_run(None), plan.backend, plan.options
 
 
 def _open(args):
@@ -120,10 +129,10 @@ def _duration(seconds: float) -> str:
 def _cmd_sweep(args) -> int:
     from ..studies.api import sweep as run
 
-    scene = _scene(args.scene)
+    scene, backend, options = _planned(args, _scene(args.scene))
     axes = sweep.parse_vary(args.vary, scene)
     sweep.check_cases(scene, axes)  # every value, before any run (exit 2 naming it)
-    sweep.run_key(scene, args.backend, _options(args))  # backend and options checked too
+    sweep.run_key(scene, backend, options)  # backend and options checked too
     out = check_folder_target(args.out)  # before any run: an unwritable --out is an input error
     n = len(sweep.cases(axes))
     seconds = sweep.estimate_seconds(scene, axes)
@@ -135,8 +144,7 @@ def _cmd_sweep(args) -> int:
         say = _progress(args)
         if say:
             say(f"running on {runner.label}")
-        result = run(scene, {a.name: list(a.values) for a in axes}, args.backend, runner, out, say or False,
-                     _options(args))
+        result = run(scene, {a.name: list(a.values) for a in axes}, backend, runner, out, say or False, options)
     print(f"{n} runs: {n - result.failed} complete ({result.skipped} from an earlier invocation), "
           f"{result.failed} failed; {result.wall:.1f} s")
     print("wrote " + ", ".join(str(f) for f in result.files) + f" and {out}/runs/")
@@ -150,7 +158,7 @@ def _cmd_sweep(args) -> int:
 def _cmd_calibrate(args) -> int:
     from ..studies.api import calibrate as run
 
-    scene = _scene(args.scene)
+    scene, backend, options = _planned(args, _scene(args.scene))
     names = calibrate.fit_names(args.fit, scene)
     start = parse_params(args.param)
     extra = sorted(set(start) - set(names))
@@ -166,8 +174,8 @@ def _cmd_calibrate(args) -> int:
         say = _progress(args)
         if say:
             say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")
-        outcome = run(scene, curves, names, start, args.backend, runner, args.out, say or False, args.rel_step,
-                      args.max_evaluations, _options(args))
+        outcome = run(scene, curves, names, start, backend, runner, args.out, say or False, args.rel_step,
+                      args.max_evaluations, options)
     result = outcome.result
     conf = result.confidence["parameters"]
     for n, u in zip(result.problem.coords.names, result.problem.coords.units):

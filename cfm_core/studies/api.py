@@ -43,7 +43,25 @@ def _bar(progress, total: int, desc: str):
     return progress if callable(progress) else None
 
 
-def sweep(scene=None, vary=None, backend: str = "numba", runner=None, out=None, progress=True,
+def _planned(scene, backend: str | None, options: dict | None):
+    """(the scene without its ``[run]`` section, the backend, the options) a study's drop tests run
+    with: the scene's ``[run]`` (backend, dtype, device, options of the run that wrote it)
+    overridden by ``backend`` and ``options`` as for :func:`cfm_core.drop_test`, notes on stderr
+    when they override it. The section is merged here once, so the drop tests do not each repeat
+    the notes, and they all run as planned."""
+    import sys
+
+    from ..runs.pipeline import report_warnings
+    from ..runs.settings import plan_run
+
+    plan = plan_run(scene, backend, options)
+    for text in plan.notes:
+        print(f"note: {text}", file=sys.stderr)
+    report_warnings({"warnings": plan.warnings})
+    return scene.with_run(None), plan.backend, plan.options
+
+
+def sweep(scene=None, vary=None, backend: str | None = None, runner=None, out=None, progress=True,
           options: dict | None = None) -> SweepOutcome:
     """Drop tests for every combination of some scene values and material parameters.
 
@@ -55,8 +73,10 @@ def sweep(scene=None, vary=None, backend: str = "numba", runner=None, out=None, 
         ``{name: [values]}`` in SI units: scene values (thickness, velocity, element_size, width,
         mass, radius, density, friction) or material parameters (c, k1, k2, ...); the last name
         changes fastest. Every value is checked before any run.
-    backend : str
-        Backend name (``cfm backends``).
+    backend : str, optional
+        Backend name (``cfm backends``); default: the scene's ``[run] backend`` (a scene.toml
+        written by a run), else ``"numba"``. The section's dtype, device and options apply too,
+        as in :func:`cfm_core.drop_test`; ``backend`` and ``options`` override them.
     runner : SerialRunner or DaskRunner, optional
         Where the runs go (:func:`cfm_core.studies.dask_runner.open_runner`); default: serially
         in this process.
@@ -85,6 +105,7 @@ def sweep(scene=None, vary=None, backend: str = "numba", runner=None, out=None, 
     scene = _scene(scene)
     if vary is None:
         raise InputError("cfm.sweep needs vary={name: [values]} (SI units), e.g. vary={'k2': [1.6, 1.8]}.")
+    scene, backend, options = _planned(scene, backend, options)
     axes = sw.parse_vary(vary, scene)
     sw.check_cases(scene, axes)
     folder = clear_earlier_output(out, keep=("runs",)) if out is not None else None
@@ -95,7 +116,7 @@ def sweep(scene=None, vary=None, backend: str = "numba", runner=None, out=None, 
     return result
 
 
-def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, backend: str = "numba", runner=None,
+def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, backend: str | None = None, runner=None,
               out=None, progress=True, rel_step: float | None = None, max_evaluations: int = 60,
               options: dict | None = None) -> CalibrationOutcome:
     """Fit material parameters to measured drop-test acceleration histories (``cfm calibrate``).
@@ -142,6 +163,7 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
     from . import measured
 
     given, scene = scene is not None, _scene(scene)
+    scene, backend, options = _planned(scene, backend, options)
     names = cal.fit_names(",".join(fit) if isinstance(fit, (list, tuple)) else fit, scene)
     start = dict(start or {})
     extra = sorted(set(start) - set(names))

@@ -54,8 +54,13 @@ def _safe(name: str) -> str:
 
 
 def fitted_scene(scene, result):
-    """The scene with the fitted parameter values (SI units)."""
-    return scene.with_overrides(parameters=result.final.params)
+    """The scene with the fitted parameter values (SI units) and the ``[run]`` section of the fit's
+    drop tests (backend, dtype, device, every option as resolved), so that ``cfm drop-test --scene
+    fitted-scene.toml`` repeats the fitted curve's run exactly."""
+    from ..runs.settings import run_record
+
+    fitted = scene.with_overrides(parameters=result.final.params)
+    return fitted.with_run(run_record(fitted, result.problem.backend, result.problem.options))
 
 
 def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
