@@ -190,3 +190,34 @@ def test_material_unit_slip_warned_by_reaction_runs_and_cfm_point(tmp_path):
                            capture_output=True, text=True)
     assert point.returncode == 0, point.stderr
     assert "k1 = 1.32 Pa" in point.stderr and "Was it kPa?" in point.stderr
+
+
+@pytest.mark.parametrize("command", [["export", "cfm", "--to", "abaqus-umat"], ["fit", "--test", "{test}", "--fit", "k2"]])
+def test_a_modulus_in_kpa_is_warned_about_by_export_and_fit(tmp_path, command):
+    """cfm export wrote a card with k1 = 1.32 Pa and cfm fit fitted around it, both silently (drop-test and
+    point warned)."""
+    test = tmp_path / "u.csv"
+    t = [0.01 * i for i in range(11)]
+    test.write_text("t,stretch,stress\n" + "".join(f"{x},{1 - x},{-2000 * x}\n" for x in t))
+    args = [a.format(test=f"{test}:uniaxial:1") for a in command]
+    code, out, err, _ = cfm(*args, "--param", "k1=1.32", "--out", str(tmp_path / "o"), timeout=300)
+    assert code == 0, err
+    assert "warning: [material] k1 = 1.32 Pa is 1,000x below the typical 1320 Pa" in err
+
+
+def test_a_lab_test_stress_column_in_kpa_is_named_as_the_likely_cause():
+    """A uniaxial curve in kPa read as Pa: the fit ended with k1 and k2 on their lower bounds and a
+    143 % misfit, with no hint at the unit."""
+    import numpy as np
+
+    from cfm_core.studies.fit import stress_scale_warnings
+    from cfm_core.studies.lab_tests import LabTest
+
+    t = np.linspace(0.0, 0.3, 31)
+    sim = -25_000.0 * t / 0.3                                 # the starting material's P (Pa)
+    kpa = LabTest("c1", "c1.csv", "uniaxial", 1.0, 1.0, t, 1.0 - t, sim / 1e3)
+    pa = LabTest("c2", "c2.csv", "uniaxial", 1.0, 1.0, t, 1.0 - t, 1.7 * sim)
+    (note,) = stress_scale_warnings([kpa, pa], [sim, sim])
+    assert note.startswith("test 'c1' (c1.csv): its measured stresses") and "Is its stress column in kPa?" in note
+    assert "MPa" in stress_scale_warnings([LabTest("c3", "c3.csv", "uniaxial", 1.0, 1.0, t, 1.0 - t, sim / 1e6)],
+                                          [sim])[0]

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..export import TARGETS, export
+from ..material.plausible import check_material
 from ..material.registry import make_material
 from .options import parse_params
 
@@ -37,6 +40,8 @@ def add_parser(sub) -> None:
 
 def _cmd_export(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
+    for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa) go into the card as given
+        print(f"warning: {text}", file=sys.stderr)
     files = export(material, args.to, args.out)
     print(f"wrote {', '.join(str(f) for f in files)}: {material.name} for {TARGETS[args.to]['solver']}")
     return 0

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import sys
 
+from ..material.plausible import check_material
+from ..material.registry import make_material
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
 from ..studies.lab_tests import KINDS
@@ -50,6 +52,8 @@ def _cmd_fit(args) -> int:
     given = parse_params(args.param)
     start = {k: v for k, v in given.items() if k in names}
     fixed = {k: v for k, v in given.items() if k not in names}
+    for text in check_material(make_material(args.material, given, args.moduli, args.elastic)):
+        print(f"warning: {text}", file=sys.stderr)  # unit slips of the fixed values and the starting point
     scene = load_scene(args.scene) if args.scene else None
     tests = lab_fit.read_tests(args.test)
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))

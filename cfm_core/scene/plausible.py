@@ -18,7 +18,17 @@ field                     "almost surely a unit slip" above      "unusually larg
 
 Radius and width above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the
 thickness) and the density (1 .. 1e5 kg/m^3) are refused by the sections themselves, whose
-messages carry the same hint (:func:`unit_hint`).
+messages carry the same hint (:func:`unit_hint`). Within those ranges, warned about:
+
+========================  =====================================  ===============================
+field                     "almost surely a unit slip"            "unusual"
+========================  =====================================  ===============================
+any density (specimen,    below 100 kg/m^3 (g/cm^3: 1.06 for     below 500 or above 3000 kg/m^3
+layer, part, element)     1060)                                  (soft tissue 900-1100, bone
+                                                                 up to ~2000)
+[element] / [relaxation]  above 0.1 m (mm: size = 1 for 1 mm)    above 0.02 m
+size (one cube's edge)
+========================  =====================================  ===============================
 
 Every scene type's material is checked too (:func:`cfm_core.material.plausible.check_material`:
 a modulus 100 times off its typical value, a Poisson ratio far from 0.5, gamma_inf near 0), and a
@@ -45,6 +55,11 @@ BOUNDS = (
     ("impactor", "radius", "m", None, 0.25, "impactor (hemisphere) radius"),
     ("specimen", "width", "m", None, 0.5, "specimen width"),
 )
+
+#: Densities (kg/m^3): below the first almost surely g/cm^3; outside (second, third) unusual for tissue.
+DENSITY_SLIP, DENSITY_USUAL = 100.0, (500.0, 3000.0)
+#: Edge of a single-element or relaxation cube (m): above the first almost surely mm, above the second unusual.
+CUBE_SLIP, CUBE_USUAL = 0.1, 0.02
 
 #: A flat impactor's rim radius under this many element sizes is warned about (not resolved).
 RIM_ELEMENTS = 2.0
@@ -121,7 +136,58 @@ def check_plausible(scene, material=None) -> list[str]:
         m = scene.material
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
     warnings = _drop_test_warnings(scene) if scene.type == "drop-test" else []
+    warnings += _cube_warnings(scene) + _density_warnings(scene)
     return warnings + check_material(material)
+
+
+def _densities(scene) -> list[tuple[str, float]]:
+    """(where, density in kg/m^3) of every density a scene gives."""
+    out = []
+    if scene.specimen is not None:
+        out.append(("[specimen] density", float(scene.specimen.density)))
+        for i, layer in enumerate(getattr(scene.specimen, "layers", ()) or ()):
+            if layer.density is not None:
+                out.append((f"[[specimen.layers]] {i + 1} ({layer.name}) density", float(layer.density)))
+    for part in scene.parts or ():
+        if part.density is not None:
+            out.append((f"[parts.{part.name}] density", float(part.density)))
+    if scene.element is not None:
+        out.append(("[element] density", float(scene.element.density)))
+    return out
+
+
+def _density_warnings(scene) -> list[str]:
+    """A density that is almost surely in g/cm^3 (below :data:`DENSITY_SLIP`), or unusual for tissue."""
+    warnings = []
+    lo, hi = DENSITY_USUAL
+    for where, rho in _densities(scene):
+        if rho < DENSITY_SLIP:
+            hint = unit_hint("density", rho, "kg/m^3", lo, hi)
+            warnings.append(f"{where} = {rho:g} kg/m^3 is not a plausible tissue density (soft tissue 900-1100, "
+                            f"bone up to ~2000 kg/m^3): below {DENSITY_SLIP:g} kg/m^3 it is almost surely a unit slip. "
+                            f"{hint or 'Give the density in kg/m^3.'} It runs as given (a specimen {1e3 / rho:.0f}x "
+                            f"lighter than soft tissue takes a {(1e3 / rho) ** 0.5:.0f}x smaller time step).")
+        elif not lo <= rho <= hi:
+            warnings.append(f"{where} = {rho:g} kg/m^3 is unusual for tissue (soft tissue 900-1100, bone up to "
+                            f"~2000 kg/m^3); it runs as given.")
+    return warnings
+
+
+def _cube_warnings(scene) -> list[str]:
+    """The edge of a single-element or relaxation cube: almost surely mm above :data:`CUBE_SLIP`."""
+    sec = scene.element if scene.element is not None else scene.relaxation
+    if sec is None:
+        return []
+    name = "element" if scene.element is not None else "relaxation"
+    size = float(sec.size)
+    if size > CUBE_SLIP:
+        hint = unit_hint("size", size, "m", 1e-5, CUBE_USUAL)
+        return [f"[{name}] size = {size:g} m is not a plausible edge of a tissue cube: above {CUBE_SLIP:g} m it is "
+                f"almost surely a unit slip. {hint or 'Give the size in m.'} It runs as given."]
+    if size > CUBE_USUAL:
+        return [f"[{name}] size = {size:g} m is unusually large for the edge of a tissue cube (above "
+                f"{CUBE_USUAL:g} m); it runs as given. {unit_hint('size', size, 'm', 1e-5, CUBE_USUAL)}".rstrip()]
+    return []
 
 
 def layers_through_thickness(specimen) -> int:

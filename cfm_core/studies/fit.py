@@ -143,6 +143,48 @@ def fit_names(text: str, material: str) -> list[str]:
     return parse_fit_names(text, spec, prony, "c,k1,k2")
 
 
+#: A test whose measured stresses are this many times larger (or smaller) than the starting material's
+#: is warned about as a probable unit slip (a stress column in kPa read as Pa).
+STRESS_SLIP = 100.0
+
+
+def stress_scale_warnings(tests, start_stresses) -> list[str]:
+    """Warnings for tests whose measured stresses are :data:`STRESS_SLIP` times off the starting material's.
+
+    The stress column is read in Pa; a column in kPa (or MPa) makes every measured value 1e-3 (1e-6)
+    times the material's, and the fit then ends on its search bounds with a large misfit (kPa data
+    of the Table 1 material: k1 and k2 on their lower bounds, rel. RMS 143 %), when it should say
+    what is wrong.
+
+    Parameters
+    ----------
+    tests : list of LabTest
+        The tests (measured nominal stress P in Pa).
+    start_stresses : list of ndarray
+        The starting material's nominal stress (Pa) at each test's rows.
+
+    Returns
+    -------
+    list of str
+        One warning per such test, naming the ratio and the likely unit.
+    """
+    out = []
+    for test, sim in zip(tests, start_stresses):
+        scale = float(np.max(np.abs(sim))) if np.size(sim) else 0.0
+        if not (scale > 0.0 and test.scale > 0.0):
+            continue
+        ratio = test.scale / scale
+        if 1.0 / STRESS_SLIP <= ratio <= STRESS_SLIP:
+            continue
+        decade = round(math.log10(ratio) / 3.0)
+        unit = {-1: "kPa", -2: "MPa", 1: "Pa multiplied by 1000 twice (kPa converted to Pa twice)"}.get(decade)
+        guess = f" Is its stress column in {unit}? The column is read in Pa." if unit else " The column is read in Pa."
+        out.append(f"test '{test.name}' ({test.path}): its measured stresses (largest |P| {test.scale:.4g} Pa) are "
+                   f"{ratio:.3g}x those of the starting material (largest {scale:.4g} Pa).{guess} Convert it to Pa, "
+                   f"or check the starting values (--param) if they are far off.")
+    return out
+
+
 def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
     """Identifiability warnings of a fit (module docstring).
 
@@ -397,11 +439,13 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     bounds = at_bounds(res.x, coords)
     conf["at_bound"] = bounds
     warnings, withheld = identifiability(conf, list(coords.names), bounds)
+    start_stresses = stresses(x0)
+    warnings = stress_scale_warnings(tests, start_stresses) + warnings
     for n in withheld:
         conf["parameters"][n]["ci"] = None
     if bounds:
         res.message = f"{res.message}; ended on a bound: {', '.join(bounds)}"
     fitted = dict(bind(res.x).values)
-    return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, stresses(x0),
+    return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, start_stresses,
                         stresses(res.x), 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,
                         withheld, str(res.message), len(history), wall, history, tried)
