@@ -163,3 +163,28 @@ def test_the_fitted_scene_records_the_backend_and_options_the_fit_ran_with():
 
     text = scene_to_toml(fitted)
     assert "[run.options]" in text and "hourglass = 0.05" in text
+
+
+def test_a_vtu_run_is_repeated_with_its_frames_and_overrides_are_named(tmp_path, capsys):
+    """The repeat of a --vtu run stored frames ([run] frame_interval) but wrote no VTU; --param and scene
+    overrides of a written scene.toml were applied without a word (only --option got a note)."""
+    vtu, again, over = (tmp_path / n for n in ("vtu", "again", "over"))
+    assert main(["drop-test", *SMALL, "--vtu", "--out", str(vtu)]) == 0
+    capsys.readouterr()
+    assert main(["run", "--scene", str(vtu / "scene.toml"), "--quiet", "--no-plot", "--out", str(again)]) == 0
+    assert "written as VTU" in capsys.readouterr().err
+    assert sorted(p.name for p in again.glob("specimen_*.vtu")) == sorted(p.name for p in vtu.glob("specimen_*.vtu"))
+    assert _csv(again) == _csv(vtu)
+    assert main(["drop-test", "--scene", str(vtu / "scene.toml"), "--param", "k2=2.5", "--thickness", "0.005",
+                 "--quiet", "--no-plot", "--out", str(over)]) == 0
+    err = capsys.readouterr().err
+    assert "--param k2=2.5 overrides scene.toml [material.parameters] k2 = 1.66" in err
+    assert "--thickness 0.005 overrides scene.toml [specimen] thickness = 0.004" in err
+
+
+def test_vtu_keeps_a_frame_interval_given_as_an_option(tmp_path):
+    """--vtu replaced --option frame_interval=... by its 0.2 ms, and so also let invalid values through."""
+    out = tmp_path / "o"
+    assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=0.001", "--out", str(out)]) == 0
+    assert "frame_interval = 0.001" in (out / "scene.toml").read_text()
+    assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=-1", "--out", str(tmp_path / "bad")]) == 2

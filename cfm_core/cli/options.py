@@ -47,6 +47,10 @@ def out_dir(args) -> Path:
     return out
 
 
+#: Frame interval (s) of ``--vtu`` when ``--option frame_interval=...`` does not give one.
+VTU_FRAME_INTERVAL = 2e-4
+
+
 def _option_value(text: str, kind: str):
     """A ``--option`` value in the type its declaration wants (number, integer, True/False, text, None)."""
     if text.strip().lower() == "none":
@@ -82,9 +86,9 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
                              f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
         options[name] = _option_value(value, specs[name].kind)
         given_as[name] = f"--option {name}={value.strip()}"
-    if getattr(args, "vtu", False):
-        options["frame_interval"] = 2e-4
-        given_as["frame_interval"] = "--vtu (frame_interval = 0.0002 s)"
+    if getattr(args, "vtu", False) and "frame_interval" not in options:  # --option frame_interval=... wins
+        options["frame_interval"] = VTU_FRAME_INTERVAL
+        given_as["frame_interval"] = f"--vtu (frame_interval = {VTU_FRAME_INTERVAL:g} s)"
     for flag in ("device", "dtype"):
         value = getattr(args, flag, None)
         if value is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from ..errors import InputError
@@ -9,6 +10,7 @@ from ..post.staging import staged_folder
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
+from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
 from .options import add_material_options, parse_params, plan_from_args
 
@@ -65,14 +67,42 @@ def scene_from_args(args):
 
 def _apply_overrides(scene, args, keys=()):
     """The scene with the command line's material options and the given scene keys applied
-    (options left at None change nothing)."""
+    (options left at None change nothing). Where the scene is a file, each value that changes what
+    the file says gets a note on stderr (``--param k2=2.5 overrides scene.toml [material.parameters]
+    k2 = 1.66``), as the backend options do: a repeat from a written scene.toml says how it differs."""
     over = {k: getattr(args, k) for k in (*keys, "material", "moduli") if getattr(args, k) is not None}
     if args.elastic:
         over["elastic"] = True
     params = parse_params(args.param)
     if params:
         over["parameters"] = params
-    return scene.with_overrides(**over) if over else scene
+    if not over:
+        return scene
+    new = scene.with_overrides(**over)
+    if getattr(args, "scene", None) and Path(args.scene).exists():
+        for text in _override_notes(scene, new, over, Path(args.scene).name):
+            print(f"note: {text}", file=sys.stderr)
+    return new
+
+
+def _override_notes(old, new, over: dict, where: str) -> list[str]:
+    """What the command-line overrides ``over`` changed from scene ``old`` (a file named ``where``) to ``new``."""
+    notes = []
+    for key, value in over.items():
+        if key == "parameters":
+            was = old.material.parameter_dict
+            for name, v in value.items():
+                if name in was and was[name] != v:
+                    notes.append(f"--param {name}={v:g} overrides {where} [material.parameters] {name} = {was[name]:g}")
+            continue
+        flag, attr = "--" + key.replace("_", "-"), "name" if key == "material" else key
+        for section in ("material", "specimen", "impactor", "contact"):
+            a, b = getattr(old, section, None), getattr(new, section, None)
+            if a is not None and b is not None and hasattr(a, attr) and getattr(a, attr) != getattr(b, attr):
+                shown = "" if key == "elastic" else f" {value}"
+                notes.append(f"{flag}{shown} overrides {where} [{section}] {attr} = {getattr(a, attr)}")
+                break
+    return notes
 
 
 def _run_and_write(args, scene) -> tuple:
@@ -82,6 +112,11 @@ def _run_and_write(args, scene) -> tuple:
     plan = plan_from_args(args, scene)
     plot, vtu = not args.no_plot, getattr(args, "vtu", False)
     fields, full = check_vtu_options(args, scene)
+    if not vtu and scene.type == "drop-test" and plan.options.get("frame_interval") is not None:
+        # a repeat of a --vtu run: its [run] frame_interval stores frames, so they are written as its VTU was
+        vtu, fields = True, parse_fields(None)
+        print(f"note: the scene's [run] frame_interval = {plan.options['frame_interval']:g} s stores specimen "
+              f"frames: they are written as VTU (specimen.pvd), as by --vtu", file=sys.stderr)
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite) as stage:
         outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)
