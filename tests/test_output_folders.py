@@ -8,6 +8,7 @@ import time
 import pytest
 
 import cfm_core as cfm
+from cfm_core.errors import InputError
 from cfm_core.cli import main
 from cfm_core.post import staging
 from cfm_core.runs.outcomes import output_bytes
@@ -106,3 +107,25 @@ def test_outcome_save_from_python_is_staged(tmp_path):
                                                      "scene.toml", "summary.json"]
     with pytest.raises(cfm.InputError, match="holds the files of an earlier run"):
         outcome.save(out, overwrite=False)
+
+
+def test_a_plot_or_json_path_cannot_replace_a_file_of_a_run(tmp_path, capsys):
+    """cfm compare --plot run/acceleration.csv wrote a PNG over the run's data; --plot and --json on one
+    path lost the JSON; cfm fields --png run/specimen.pvd replaced the run's collection."""
+    from cfm_core.cli import main
+    from cfm_core.post.staging import check_file_target
+
+    run = tmp_path / "run"
+    assert main(["drop-test", "--element-size", "0.0025", "--width", "0.03", "--quiet", "--out", str(run)]) == 0
+    before = (run / "acceleration.csv").read_bytes()
+    capsys.readouterr()
+    assert main(["compare", str(run), str(run), "--plot", str(run / "acceleration.csv")]) == 2
+    assert "a PNG file is written there, but the name ends in .csv" in capsys.readouterr().err
+    assert main(["compare", str(run), str(run), "--plot", str(run / "acceleration.png")]) == 2
+    assert "is a file of the cfm output in" in capsys.readouterr().err
+    assert main(["compare", str(run), str(run), "--plot", str(tmp_path / "c.png"), "--json", str(tmp_path / "c.png")]) == 2
+    assert "a JSON file is written there" in capsys.readouterr().err
+    assert (run / "acceleration.csv").read_bytes() == before
+    with pytest.raises(InputError, match="is a file of the cfm output"):
+        check_file_target(run / "summary.json", "--png")
+    assert check_file_target(tmp_path / "new.png", "--plot", suffix=".png") == tmp_path / "new.png"

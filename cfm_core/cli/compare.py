@@ -25,9 +25,9 @@ def add_parser(sub) -> None:
 
 
 def cmd_compare(args) -> int:
-    for flag in ("plot", "json"):  # checked before the runs are read: a directory or an unwritable place
-        if getattr(args, flag):
-            check_file_target(getattr(args, flag), f"--{flag}")
+    for flag, suffix in (("plot", ".png"), ("json", ".json")):  # before the runs are read: a directory, another
+        if getattr(args, flag):                                     # kind of file, a run's file, an unwritable place
+            check_file_target(getattr(args, flag), f"--{flag}", suffix=suffix)
     ref = read_run(args.reference)
     runs = [read_run(p) for p in args.runs]
     rows = compare_runs(ref, runs)

@@ -49,14 +49,17 @@ def add_parser(sub) -> None:
                                    "(through the impact point) at the stored frame nearest --at, deformed, with "
                                    "a colour bar in SI units (stresses in kPa) and the impactor's outline.")
     p.add_argument("run_dir", metavar="RUN_DIR", help="output folder of a run with --vtu")
-    p.add_argument("--at", type=float, required=True, help="time, s (the nearest stored frame is drawn)")
+    p.add_argument("--at", type=float, required=True, help="time, s, finite and 0 or more (the nearest stored "
+                                                            "frame is drawn)")
     p.add_argument("--field", default="von_mises", help=f"the field (default von_mises): {', '.join(SCALARS)}")
     p.add_argument("--png", required=True, help="output image")
-    p.add_argument("--y", type=float, default=0.0, help="cut plane y position, m (default 0)")
+    p.add_argument("--y", type=float, default=0.0, help="cut plane y position, m (default 0), within the specimen; "
+                                                         "a quarter or half run is mirrored about y = 0, so a "
+                                                         "negative y draws its mirror image")
 
 
 def cmd_fields(args) -> int:
-    check_file_target(args.png, "--png")
+    check_file_target(args.png, "--png", suffix=".png")
     info = render_cut(args.run_dir, args.at, args.field, args.png, y_cut=args.y)
     print(f"{args.field} at t = {1e3 * info['t']:.3f} ms ({info['file']}): {info['min']:.4g} .. {info['max']:.4g} "
           f"{info['unit']}; wrote {args.png}")

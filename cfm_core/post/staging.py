@@ -104,7 +104,7 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
     return out
 
 
-def check_file_target(path, what: str = "--out", need_bytes: int = 0) -> Path:
+def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: str | None = None) -> Path:
     """Check that ``path`` can be written as a file, before any work is done.
 
     Parameters
@@ -115,6 +115,9 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0) -> Path:
         How messages name it (``"--out"``, ``"--plot"``, ``"--json"``).
     need_bytes : int
         Bytes the file will take (0: not checked).
+    suffix : str, optional
+        The file's kind (``".png"``, ``".json"``): another suffix is refused, so that a slip of
+        the argument (``--plot run/acceleration.csv``) cannot write a picture over a data file.
 
     Returns
     -------
@@ -124,13 +127,23 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0) -> Path:
     Raises
     ------
     InputError
-        ``path`` is an existing directory, a parent is a file, the folder cannot be written or the
-        disk is too full.
+        ``path`` is an existing directory, has another suffix than ``suffix``, is one of the files
+        of a cfm output folder (listed in its manifest: a run's acceleration.csv, specimen.pvd,
+        ...), a parent is a file, the folder cannot be written or the disk is too full.
     """
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{what} {path} is an existing directory, but a file is written there; name a file "
-                         f"(e.g. {path / 'out'}{path.suffix or ''}).")
+                         f"(e.g. {path / 'out'}{suffix or path.suffix or ''}).")
+    if suffix is not None and path.suffix.lower() != suffix:
+        raise InputError(f"{what} {path}: a {suffix[1:].upper()} file is written there, but the name ends in "
+                         f"{path.suffix or 'no suffix'}; name a {suffix} file.")
+    owner = path.parent
+    if path.exists() and path.absolute() in {p.absolute() for p in (earlier_files(owner) if owner.is_dir() else [])
+                                             if (owner / MANIFEST).is_file()}:
+        raise InputError(f"{what} {path} is a file of the cfm output in {owner} (listed in its {MANIFEST}); "
+                         f"writing there would replace it and leave that output incomplete. Choose another name "
+                         f"or folder.")
     base = _existing_ancestor(path.parent)
     if not base.is_dir():
         raise InputError(f"{what} {path}: {base} is a file, so no folder can be made there; choose another path.")
