@@ -3,6 +3,7 @@ files, check the target before the solve, replace an earlier run's files (stale 
 included), keep foreign files, and refuse wrong kinds of target with exit 2, no traceback."""
 
 import json
+import os
 import time
 
 import pytest
@@ -129,3 +130,42 @@ def test_a_plot_or_json_path_cannot_replace_a_file_of_a_run(tmp_path, capsys):
     with pytest.raises(InputError, match="is a file of the cfm output"):
         check_file_target(run / "summary.json", "--png")
     assert check_file_target(tmp_path / "new.png", "--plot", suffix=".png") == tmp_path / "new.png"
+
+
+def test_a_failed_run_removes_the_folders_it_made_and_stale_stages_go(tmp_path):
+    """A failed run with a new nested --out left its parent folders behind; a stage of a killed process
+    (SIGKILL cannot be caught) stayed beside --out for good."""
+    nested = tmp_path / "a" / "b" / "c"
+    with pytest.raises(RuntimeError):
+        with staging.staged_folder(nested) as stage:
+            (stage / "x.txt").write_text("partial")
+            raise RuntimeError("the run failed")
+    assert list(tmp_path.iterdir()) == []
+    stale = tmp_path / f".out{staging.STAGE_TAG}999999999-dead"      # no such process
+    live = tmp_path / f".out{staging.STAGE_TAG}{os.getppid()}-live"   # a running process's stage stays
+    for s in (stale, live):
+        s.mkdir()
+    with staging.staged_folder(tmp_path / "out") as stage:
+        (stage / "summary.json").write_text("{}")
+    assert not stale.exists() and live.exists() and (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_sigterm_ends_a_run_like_ctrl_c_and_leaves_out_as_it_was(tmp_path):
+    """`timeout` and batch systems send SIGTERM: the stage stayed behind and the output half-made."""
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from cfm_core.cli.__main__ import console; "
+                             "sys.exit(console())", "drop-test", "--element-size", "0.001", "--out", str(out)],
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not any(staging.STAGE_TAG in p.name for p in tmp_path.iterdir()):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "terminated (SIGTERM); no result written" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []

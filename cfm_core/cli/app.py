@@ -52,9 +52,14 @@ def build_parser(modules=None) -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received (the ``cfm`` console script turns the signal into this): unwinds like Ctrl-C,
+    so that a staged output is removed, and ends the command with exit 143 (128 + SIGTERM)."""
+
+
 def main(argv=None) -> int:
     """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
-    error, 3 numerical failure, 130 interrupted)."""
+    error, 3 numerical failure, 130 interrupted, 143 terminated)."""
     modules = command_modules()
     parser = build_parser(modules)
     args, extra = parser.parse_known_args(argv)
@@ -69,6 +74,9 @@ def main(argv=None) -> int:
     except NumericalError as exc:
         print(f"cfm {args.command}: numerical failure: {exc}", file=sys.stderr)
         return 3
+    except Terminated:
+        print(f"cfm {args.command}: terminated (SIGTERM); no result written.", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print(f"cfm {args.command}: interrupted; no result written.", file=sys.stderr)
         return 130

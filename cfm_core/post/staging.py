@@ -19,6 +19,7 @@ import json
 import os
 import secrets
 import shutil
+from glob import escape as glob_escape
 from pathlib import Path
 
 from ..errors import InputError
@@ -278,20 +279,84 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
                          f"{', ...' if len(earlier_files(out)) > 4 else ''}); without overwriting, choose a new folder "
                          f"or drop the no-overwrite flag (its files are then replaced).")
     parent = out.absolute().parent
+    made = _missing_folders(parent)  # the folders made for the stage: removed again if nothing is published
     try:
         parent.mkdir(parents=True, exist_ok=True)
-        stage = parent / f".{out.absolute().name}.cfm-stage-{os.getpid()}-{secrets.token_hex(4)}"
+        remove_stale_stages(parent, out.absolute().name)
+        stage = parent / f".{out.absolute().name}{STAGE_TAG}{os.getpid()}-{secrets.token_hex(4)}"
         stage.mkdir()
     except OSError as exc:
+        _remove_empty(made)
         raise InputError(f"{what} {out} cannot be written: {exc.strerror or exc}; choose a folder you can write to.") from None
     try:
         yield stage
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
+        _remove_empty(made)
         raise
     try:
         publish(stage, out, keep)
     except OSError as exc:
         shutil.rmtree(stage, ignore_errors=True)
+        _remove_empty(made)
         raise InputError(f"{what} {out}: the finished output could not be moved into place ({exc.strerror or exc}); "
                          f"nothing was published.") from None
+
+
+#: Infix of a stage folder's name: ``.<out name>.cfm-stage-<pid>-<random>``.
+STAGE_TAG = ".cfm-stage-"
+
+
+def _missing_folders(folder: Path) -> list[Path]:
+    """``folder`` and its parents that do not exist yet, deepest first."""
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    return missing
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove the folders (deepest first) that are still empty: those a failed output made."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (on this machine; a process of another user counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+def remove_stale_stages(parent: Path, name: str) -> list[Path]:
+    """Remove the stages of output ``name`` in ``parent`` left by processes that no longer run (a
+    command killed with SIGKILL, or a machine that went down, cannot remove its own).
+
+    Parameters
+    ----------
+    parent : pathlib.Path
+        The folder holding the output folder.
+    name : str
+        The output folder's name.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The stages removed. A stage of a running process (another command writing the same
+        output now) is kept.
+    """
+    removed = []
+    for stage in parent.glob(f".{glob_escape(name)}{STAGE_TAG}*"):
+        pid = stage.name[len(f".{name}{STAGE_TAG}"):].split("-", 1)[0]
+        if stage.is_dir() and pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            shutil.rmtree(stage, ignore_errors=True)
+            removed.append(stage)
+    return removed
