@@ -7,10 +7,14 @@ Rules (every reader of numeric tables goes through :func:`read_table`):
   are refused with one paragraph saying how to save the file;
 - lines: any line ending (LF, CRLF, CR); blank lines and lines starting with ``#`` are skipped;
   the first other line is the header;
-- separator: a comma, spaces around values allowed; one trailing comma on every line is
-  tolerated; semicolon-separated files (decimal commas) are refused with a hint;
+- separator: a comma, spaces around values allowed; trailing empty cells (``t,a,,``, what a
+  spreadsheet writes for empty columns) are dropped. A header with no comma but semicolons or tabs
+  sets that separator for the whole file (Excel's CSV in locales with decimal commas, "tab
+  delimited text"); with semicolons or tabs a decimal comma is read as a decimal point (``1,5``;
+  a cell with both a comma and a point, ``1.000,5``, is refused naming it);
 - header: column names, each optionally with a unit in brackets, ``t [s]`` or ``t (s)`` (the
-  project's own sweep output style); a unit given must be the one the column is read in;
+  project's own sweep output style); a unit given must be the one the column is read in. A line
+  of units under the header (``s,m/s^2``: no cell a number) is read as the columns' units;
 - values: finite decimal numbers (``1.5``, ``-2e-3``, ``1.0E+00``); a Fortran ``D`` exponent,
   NaN, inf, or an empty cell is refused naming the line and the column;
 - time: the time column must increase (strictly or not, as the caller asks), naming the line.
@@ -152,14 +156,44 @@ def decode(path, raw: bytes) -> str:
                          f"another encoding (Latin-1 or Windows-1252?). {_SAVE_UTF8}") from None
 
 
-def _cells(line: str) -> list[str]:
-    cells = [c.strip() for c in line.split(",")]
-    if len(cells) > 1 and cells[-1] == "":
-        cells = cells[:-1]  # one trailing comma
+@dataclass(frozen=True)
+class Dialect:
+    """How the lines of one file split into cells: the separator, and whether a decimal comma is
+    read as a decimal point (only where the separator is not a comma)."""
+
+    separator: str = ","
+    decimal_comma: bool = False
+
+    @property
+    def name(self) -> str:
+        return {",": "commas", ";": "semicolons", "\t": "tabs"}[self.separator]
+
+
+def sniff(header: str) -> Dialect:
+    """The dialect of a file from its header line: commas, else semicolons, else tabs."""
+    if "," in header:
+        return Dialect()
+    for sep in (";", "\t"):
+        if sep in header:
+            return Dialect(sep, True)
+    return Dialect()
+
+
+def _cells(line: str, dialect: Dialect = Dialect()) -> list[str]:
+    cells = [c.strip() for c in line.split(dialect.separator)]
+    while len(cells) > 1 and cells[-1] == "":
+        cells.pop()  # trailing empty cells: empty spreadsheet columns
     return cells
 
 
-def parse_header(path, lineno: int, line: str) -> tuple[list[str], list[str]]:
+def _decimal(cell: str, dialect: Dialect) -> str:
+    """A cell with its decimal comma read as a point (semicolon or tab files)."""
+    if dialect.decimal_comma and "," in cell and "." not in cell and cell.count(",") == 1:
+        return cell.replace(",", ".")
+    return cell
+
+
+def parse_header(path, lineno: int, line: str, dialect: Dialect = Dialect()) -> tuple[list[str], list[str]]:
     """Column names and units of a header line: ``t [s]`` and ``t (s)`` give name t and unit s.
 
     Parameters
@@ -170,6 +204,8 @@ def parse_header(path, lineno: int, line: str) -> tuple[list[str], list[str]]:
         The header's line number (1-based).
     line : str
         The header line.
+    dialect : Dialect, optional
+        Its separator (default: commas).
 
     Returns
     -------
@@ -182,7 +218,7 @@ def parse_header(path, lineno: int, line: str) -> tuple[list[str], list[str]]:
         A cell that is not a name with an optional bracketed unit.
     """
     names, units = [], []
-    for cell in _cells(line):
+    for cell in _cells(line, dialect):
         m = _HEADER_CELL.match(cell)
         if m is None or not m.group(1):
             raise InputError(f"'{path}', line {lineno}: header cell {cell!r} is not a column name, optionally "
@@ -192,17 +228,38 @@ def parse_header(path, lineno: int, line: str) -> tuple[list[str], list[str]]:
     return names, units
 
 
-def _number(path, lineno: int, column: str, cell: str, unit: str) -> float:
+def _number(path, lineno: int, column: str, cell: str, unit: str, dialect: Dialect = Dialect()) -> float:
+    text = _decimal(cell, dialect)
     try:
-        x = float(cell) if cell and "_" not in cell else math.nan
+        x = float(text) if text and "_" not in text else math.nan
     except ValueError:
         x = None
     if x is None or not math.isfinite(x):
         hint = " It has a Fortran 'D' exponent: write it with 'E' (1.0E+00)." if _FORTRAN_D.match(cell) else ""
+        if dialect.decimal_comma and "," in cell and "." in cell:
+            hint = (" It has both a comma and a point: write numbers without thousands separators, with one "
+                    "decimal comma or point.")
         shown = cell if cell else "(empty)"
         u = f" (in {unit})" if unit not in ("", "-") else ""
         raise InputError(f"'{path}', line {lineno}: {column} = {shown!r} is not a finite decimal number{u}.{hint}")
     return x
+
+
+def _units_row(line: str, dialect: Dialect, n: int) -> bool:
+    """Whether a line is a row of units (``s,m/s^2``): as many cells as columns, none a number, each
+    short and made of unit characters."""
+    cells = _cells(line, dialect)
+    if len(cells) != n:
+        return False
+    for cell in cells:
+        try:
+            float(_decimal(cell, dialect))
+            return False
+        except ValueError:
+            pass
+        if len(cell) > 12 or not re.fullmatch(r"[\[(]?[A-Za-z0-9/^*.²³ %-]*[\])]?", cell):
+            return False
+    return True
 
 
 def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = None, *, exact: bool = False,
@@ -255,16 +312,22 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
     if not lines:
         raise InputError(f"{what} '{p}' is empty; it needs a header line '{','.join(columns)}' and rows of numbers.")
     hline, header = lines[0]
-    if ";" in header and "," not in header:
-        raise InputError(f"'{p}', line {hline}: the columns are separated by semicolons (a spreadsheet with decimal "
-                         f"commas wrote it); this reader needs commas between values and decimal points. "
-                         f"{_SAVE_UTF8}")
-    names, hunits = parse_header(p, hline, header)
+    dialect = sniff(header)
+    names, hunits = parse_header(p, hline, header, dialect)
     ok = names == list(columns) if exact else all(c in names for c in columns)
     if not ok:
         kind = "must be exactly" if exact else "must name the columns"
         raise InputError(f"'{p}', line {hline}: the header {kind} '{','.join(columns)}' (units optional, e.g. "
-                         f"'{expected}'); got '{header.strip()}' (columns {names}).")
+                         f"'{expected}'; values separated by commas, semicolons or tabs); got "
+                         f"{header.strip()!r} (columns {names}, separated by {dialect.name}).")
+    if len(lines) > 1 and _units_row(lines[1][1], dialect, len(names)):
+        row = [c.strip("[]() ") for c in _cells(lines[1][1], dialect)]
+        for j, unit in enumerate(row):
+            if hunits[j] and unit and not _same_unit(unit, hunits[j]):
+                raise InputError(f"'{p}', line {lines[1][0]}: column {names[j]} has the unit {hunits[j]!r} in the "
+                                 f"header and {unit!r} in the line of units below it; give one.")
+        hunits = [h or u for h, u in zip(hunits, row)]
+        lines = [lines[0], *lines[2:]]
     for name, unit in zip(names, hunits):
         if unit and name in units and not _same_unit(unit, units[name]):
             hint = " (milliseconds: divide the times by 1000)" if unit.replace(" ", "") == "ms" else ""
@@ -273,12 +336,13 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
                              f"header as '{name} [{units[name]}]'.")
     data = np.empty((len(lines) - 1, len(names)))
     for k, (n, line) in enumerate(lines[1:]):
-        cells = _cells(line)
+        cells = _cells(line, dialect)
         if len(cells) != len(names):
-            raise InputError(f"'{p}', line {n}: {len(cells)} comma-separated values for the {len(names)} columns "
-                             f"{','.join(names)}.")
+            raise InputError(f"'{p}', line {n}: {len(cells)} values separated by {dialect.name} for the {len(names)} "
+                             f"columns {','.join(names)} (the header's separator, {dialect.name}, applies to every "
+                             f"line).")
         for j, cell in enumerate(cells):
-            data[k, j] = _number(p, n, names[j], cell, units.get(names[j], hunits[j]))
+            data[k, j] = _number(p, n, names[j], cell, units.get(names[j], hunits[j]), dialect)
     if data.shape[0] == 0:
         raise InputError(f"{what} '{p}': no data rows after the header (line {hline}).")
     rows = np.array([n for n, _ in lines[1:]], dtype=np.int64)

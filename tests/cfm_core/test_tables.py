@@ -26,6 +26,12 @@ DIALECTS = {
     "comment": "# exported by some tool\n" + H + "\n" + "\n".join(ROWS) + "\n",
     "trailing": H + ",\n" + "\n".join(r + "," for r in ROWS) + "\n",
     "units": H.replace("t,", "t [s],") + "\n" + "\n".join(ROWS) + "\n",
+    # spreadsheets in decimal-comma locales, tab-delimited text, empty columns, a line of units
+    "semicolon": H.replace(",", ";") + "\n" + "\n".join(r.replace(",", ";").replace(".", ",") for r in ROWS) + "\n",
+    "semicolon_point": H.replace(",", ";") + "\n" + "\n".join(r.replace(",", ";") for r in ROWS) + "\n",
+    "tab": H.replace(",", "\t") + "\n" + "\n".join(r.replace(",", "\t").replace(".", ",") for r in ROWS) + "\n",
+    "empty_columns": H + ",,\n" + "\n".join(r + ",," for r in ROWS) + "\n",
+    "units_row": H + "\ns" + ",-" * 9 + "\n" + "\n".join(ROWS) + "\n",
 }
 F_EXPECTED = np.array([np.eye(3), np.diag([0.9, 1.05, 1.05])])
 
@@ -48,7 +54,9 @@ def test_history_dialects_read_the_same_numbers(tmp_path, dialect):
     ("utf16le", H + "\n" + "\n".join(ROWS) + "\n", "utf-16-le", "UTF-16 or UTF-32"),
     ("latin1", "# r\xe9sum\xe9\n" + H + "\n" + "\n".join(ROWS) + "\n", "latin-1", "not valid UTF-8"),
     ("fortran", H + "\n0.0D+00,1.0D+00,0,0,0,1D0,0,0,0,1.0D0\n" + ROWS[1] + "\n", "utf-8", "Fortran 'D' exponent"),
-    ("semicolon", H.replace(",", ";") + "\n0,0;1,0;0;0;0;1,0;0;0;0;1,0\n", "utf-8", "separated by semicolons"),
+    ("thousands", H.replace(",", ";") + "\n0;1.000,5;0;0;0;1;0;0;0;1\n", "utf-8", "both a comma and a point"),
+    ("units_row_ms", H + "\nms" + ",-" * 9 + "\n" + "\n".join(ROWS) + "\n", "utf-8", "divide the times by 1000"),
+    ("mixed", H.replace(",", ";") + "\n0,0,1,0,0,0,1,0,0,0,1\n", "utf-8", "separated by semicolons for the 10"),
     ("ms", H.replace("t,", "t [ms],") + "\n" + "\n".join(ROWS) + "\n", "utf-8", "divide the times by 1000"),
 ])
 def test_other_encodings_and_dialects_exit_2_with_one_paragraph(tmp_path, capsys, name, text, encoding, needle):

@@ -112,7 +112,7 @@ def test_bad_data_files_name_the_file_and_line(scene, tmp_path):
         "text.csv": ("t,a\n" + rows.replace("0.0005,5.0", "0.0005,five"), "line 7: a = 'five'"),
         "order.csv": ("t,a\n" + rows.replace("0.0005,5.0", "0.0001,5.0"), "line 7: t = 0.0001 s does not follow"),
         "short.csv": ("t,a\n" + "".join(rows.splitlines(True)[:5]), "has 5 rows at t >= 0 s; at least 10"),
-        "ragged.csv": ("t,a\n" + rows.replace("0.0005,5.0", "0.0005,5.0,1"), "line 7: 3 comma-separated values for the 2 columns"),
+        "ragged.csv": ("t,a\n" + rows.replace("0.0005,5.0", "0.0005,5.0,1"), "line 7: 3 values separated by commas for the 2 columns"),
         "negative.csv": ("t,a\n" + rows.replace(",", ",-"), "flip its sign"),
     }
     for name, (text, message) in cases.items():
