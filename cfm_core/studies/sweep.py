@@ -10,9 +10,11 @@ the sweep with an InputError naming it, not one run after others were computed.
 Run ids are content keys (:func:`run_key`, :func:`run_id`): a hash of the scene (with the mesh
 file's content digest in place of its path), the material definition's digest, the backend with
 every option resolved, the code's source digest, and the run's values. With a cache folder
-(``runs/`` of the output), a run whose ``runs/<id>/summary.json`` exists is read back instead of
-computed; a changed mesh file, option, material or code gives new ids, so nothing stale is
-reused. Failed runs are run again.
+(``runs/`` of the output), a complete run is read back instead of computed (:func:`cached_summary`:
+its ``summary.json`` parses, names the run and holds every figure of the table, and its
+``acceleration.csv`` reads back to the same pulse figures); a changed mesh file, option, material
+or code gives new ids, so nothing stale is reused. Failed runs are run again, and so is a damaged
+entry (its files removed first, a note on stderr naming it).
 
 Files: :mod:`cfm_core.studies.sweep_output` (table, plot, sweep.json) written by
 :class:`cfm_core.studies.outcomes.SweepOutcome`.
@@ -23,20 +25,25 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
+import shutil
+import sys
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import fingerprint
 from ..errors import InputError
 from ..material.cache import spec_fingerprint
 from ..material.registry import get_material, make_material
-from ..post.writers import write_drop_test, write_json
+from ..post.metrics import drop_test_metrics
+from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
 from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
 from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.scene import scene_to_dict
+from ..tables import read_table as read_history
 from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
 from .dask_runner import SerialRunner, error_text
 from .sweep_output import (SUMMARY_COLUMNS, TEXT_COLUMNS, columns, plot_peaks, read_table,  # noqa: F401
@@ -55,11 +62,13 @@ RUN_OVERHEAD = 0.03
 
 @dataclass(frozen=True)
 class Axis:
-    """One varied name with its unit and values (SI)."""
+    """One varied name with its unit and values (SI); ``text``: the values as given on the command
+    line (``"0.005,0.006"``), or None (given as numbers), for messages only."""
 
     name: str
     unit: str
     values: tuple
+    text: str | None = field(default=None, compare=False, repr=False)
 
 
 # ----------------------------------------------------------------------------- what to run
@@ -74,25 +83,94 @@ def variable_units(scene) -> dict:
     return units
 
 
-def _number(name: str, v, unit: str) -> float:
+_BARE_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+def _comma_hint(text) -> str:
+    """The decimal-comma reminder added to every error about a value of a comma-separated list."""
+    if not isinstance(text, str) or "," not in text:
+        return ""
+    return (" Values are separated by commas, so a decimal number needs a decimal point (0.005, not 0,005); "
+            "if a value was meant with a decimal comma, write it with a point.")
+
+
+def _number(name: str, v, unit: str, text=None) -> float:
+    """``v`` as a float in ``unit`` (SI); InputError naming the value (and the list ``text`` it came from)."""
     try:
         x = float(v.strip() if isinstance(v, str) else v)
     except (TypeError, ValueError):
         raise InputError(f"--vary {name}: value {str(v).strip()!r} is not a number ({unit}); "
-                         f"give NAME=V1,V2,...") from None
+                         f"give NAME=V1,V2,...{_comma_hint(text)}") from None
     if not math.isfinite(x):
         raise InputError(f"--vary {name}: value {str(v).strip()} is not a finite number ({unit}); every value "
-                         f"of a sweep must be finite, in SI units.")
+                         f"of a sweep must be finite, in SI units.{_comma_hint(text)}")
     return x
+
+
+def check_decimal_comma(name: str, text: str, unit: str = "") -> None:
+    """InputError when the ``--vary`` values ``text`` look like a number written with a decimal comma.
+
+    Values are separated by commas, so ``0,005`` is the two values 0 and 5, which nobody means. The
+    rule, on the items between the commas (an item is "bare" when it is an integer without a
+    decimal point or exponent, e.g. ``5``, ``005``, ``-0``):
+
+    - a bare item after the first that starts with 0 and has more digits (``005``, ``05``): list
+      values are not written with leading zeros, the digits of a decimal fraction are
+      (``thickness=0,005``, ``k2=1,05``, ``thickness=0,005,0,006``);
+    - exactly two bare items where the first is 0 (``0,5``, ``0,25``) or the second is 0
+      (``5,0``): these read as 0.5 and 5.0 written with a decimal comma.
+
+    Any other list is taken as written: ``k2=1,2``, ``k1=1000,1320``, ``c=10,100`` and also
+    ``velocity=1,5`` (1 and 5 m/s: it cannot be told apart from a list, so the progress lines and
+    the table show the two values). To sweep values the rule refuses, write one of them with a
+    decimal point (``0.0,5``: the values 0 and 5).
+
+    Parameters
+    ----------
+    name : str
+        The varied name (for the message).
+    text : str
+        What followed ``NAME=`` on the command line.
+    unit : str
+        The name's SI unit (for the message).
+
+    Raises
+    ------
+    InputError
+        The values look like a decimal comma; the message gives the decimal reading and how to
+        write either meaning.
+    """
+    items = [t.strip() for t in text.split(",")]
+    bare = [bool(_BARE_INTEGER.fullmatch(t)) for t in items]
+    at = next((k for k in range(1, len(items)) if bare[k] and bare[k - 1] and items[k][:1] == "0"
+               and len(items[k].lstrip("+-")) > 1), None)
+    if at is None and len(items) == 2 and all(bare) and (float(items[0]) == 0.0 or items[1] == "0"):
+        at = 1
+    if at is None:
+        return
+    whole, frac = items[at - 1], items[at]
+    meant = f"{whole}.{frac}"
+    numbers = [f"{float(t):g}" for t in items]
+    listed = ", ".join(numbers[:-1]) + " and " + numbers[-1]
+    unit = f" {unit}" if unit and unit != "-" else ""
+    escape = (f" To sweep the two values {listed}{unit}, write one with a decimal point ({name}={whole}.0,{frac})."
+              if len(items) == 2 else "")
+    raise InputError(f"--vary {name}={text}: this reads as the values {listed}{unit}, but '{whole},{frac}' looks "
+                     f"like the number {meant} written with a decimal comma; if you meant {meant} write a decimal "
+                     f"point ({name}={meant}); values are separated by commas.{escape}")
 
 
 def parse_vary(items, scene) -> list[Axis]:
     """The varied names and values -> axes; InputError naming the bad item and what is allowed.
 
     ``items``: ``NAME=V1,V2,...`` strings (the command line), or a mapping {name: values}
-    (``cfm.sweep(vary={"k2": [1.6, 1.8]})``). Values must be finite numbers, each given once.
+    (``cfm.sweep(vary={"k2": [1.6, 1.8]})``). Values must be finite numbers, each given once;
+    command-line values that look like a number with a decimal comma (``thickness=0,005``) are
+    refused (:func:`check_decimal_comma`), and every error about a comma-separated list says
+    that values are separated by commas.
     """
     units = variable_units(scene)
+    given = not isinstance(items, Mapping)  # command-line strings: their text is shown in messages
     if isinstance(items, Mapping):
         pairs = [(str(k), list(v) if isinstance(v, (list, tuple, range)) or hasattr(v, "tolist") else [v], str(k))
                  for k, v in items.items()]
@@ -103,6 +181,8 @@ def parse_vary(items, scene) -> list[Axis]:
             if not sep or not name.strip():
                 raise InputError(f"--vary expects NAME=V1,V2,... (SI units), got {item!r}.")
             pairs.append((name.strip(), text.split(","), text))
+            if name.strip() in units:
+                check_decimal_comma(name.strip(), text, units[name.strip()])
     axes, seen = [], set()
     for name, raw, text in pairs:
         if name not in units:
@@ -112,12 +192,14 @@ def parse_vary(items, scene) -> list[Axis]:
         if name in seen:
             raise InputError(f"--vary {name} is given twice; put all its values in one --vary.")
         seen.add(name)
-        values = [_number(name, v, units[name]) for v in (raw.tolist() if hasattr(raw, "tolist") else raw)]
+        values = [_number(name, v, units[name], text if given else v)
+                  for v in (raw.tolist() if hasattr(raw, "tolist") else raw)]
         if not values:
             raise InputError(f"--vary {name}: no values; give NAME=V1,V2,...")
         if len(set(values)) != len(values):
-            raise InputError(f"--vary {name}: a value is repeated in {text!r}; give each value once.")
-        axes.append(Axis(name, units[name], tuple(values)))
+            raise InputError(f"--vary {name}: a value is repeated in {text!r}; give each value once."
+                             f"{_comma_hint(text)}")
+        axes.append(Axis(name, units[name], tuple(values), text if given else None))
     if not axes:
         raise InputError("a sweep needs at least one --vary NAME=V1,V2,... (SI units).")
     return axes
@@ -149,7 +231,7 @@ def check_cases(scene, axes: list[Axis]) -> None:
                 case_scene(scene, {axis.name: v})
             except (InputError, ValueError) as exc:
                 raise InputError(f"--vary {axis.name}: value {v:g} {axis.unit} is not allowed, so no run was "
-                                 f"started: {exc}") from None
+                                 f"started: {exc}{_comma_hint(axis.text)}") from None
     if len(axes) > 1:
         for case in cases(axes):
             try:
@@ -216,6 +298,100 @@ def run_id(key: dict, case: dict) -> str:
     return fingerprint.digest({"key": key, "case": {k: repr(float(v)) for k, v in sorted(case.items())}}, 12)
 
 
+# ----------------------------------------------------------------------------- the run cache
+#: Summary figures every complete run writes (finite numbers): the pulse metrics (s, g), the step
+#: count, the solver and run times (s). ``elements``, ``energy_error`` and ``hourglass_ratio`` may be
+#: missing or null (backends without energies or hourglass modes) but are numbers when given.
+CACHE_REQUIRED = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time", "unloading_time", "steps",
+                  "wall_time", "run_time")
+#: Figures recomputed from a cached ``acceleration.csv`` that must equal its summary's.
+CACHE_PULSE = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time", "unloading_time")
+
+
+def _finite_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def cached_summary(entry: Path, rid: str, case: dict) -> tuple[dict | None, str | None]:
+    """The summary of a complete run in cache folder ``entry`` (``runs/<id>``), or why it is not one.
+
+    Complete means everything a finished run writes (:func:`cfm_core.post.writers.write_drop_test`)
+    is there and reads back: ``summary.json`` is a JSON object with ``run_id`` = ``rid``, the
+    run's values under ``sweep`` (SI units), every :data:`CACHE_REQUIRED` figure a finite number
+    and the optional table figures numbers or null; ``acceleration.csv`` has the header
+    ``t [s],a_raw [m/s^2],a_cfc600 [m/s^2]``, at least two rows of finite numbers at increasing
+    times, and gives the summary's pulse figures (:data:`CACHE_PULSE`) again
+    (:func:`cfm_core.post.metrics.drop_test_metrics`, relative tolerance 1e-9).
+
+    Parameters
+    ----------
+    entry : pathlib.Path
+        The run's cache folder.
+    rid : str
+        Its run id (:func:`run_id`).
+    case : dict
+        Its values {name: value} (SI units).
+
+    Returns
+    -------
+    summary : dict or None
+        The summary when the entry is complete.
+    damage : str or None
+        None when the entry is complete or holds no summary.json (never finished, or failed);
+        else one line saying what is wrong with it.
+    """
+    done = entry / "summary.json"
+    if not entry.exists() and not entry.is_symlink():
+        return None, None
+    if not entry.is_dir():
+        return None, "it is not a folder"
+    if not done.exists() and not done.is_symlink():
+        return None, None
+    try:
+        summary = json.loads(done.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        return None, f"summary.json cannot be read ({getattr(exc, 'strerror', None) or exc})"
+    except ValueError as exc:
+        return None, f"summary.json is not valid JSON ({exc})"
+    if not isinstance(summary, dict):
+        return None, "summary.json does not hold a JSON object"
+    if summary.get("run_id") != rid:
+        return None, f"summary.json names run {summary.get('run_id')!r}, not {rid!r}"
+    values = summary.get("sweep")
+    if not isinstance(values, dict) or values != {k: float(v) for k, v in case.items()}:
+        return None, f"summary.json holds the values {values!r}, not {case!r}"
+    bad = [k for k in CACHE_REQUIRED if not _finite_number(summary.get(k))]
+    bad += [k for k in SUMMARY_COLUMNS if k not in CACHE_REQUIRED and summary.get(k) is not None
+            and not _finite_number(summary.get(k))]
+    if bad:
+        return None, f"summary.json lacks finite numbers for {', '.join(bad)}"
+    try:
+        table = read_history(entry / "acceleration.csv", tuple(DROP_TEST_COLUMN_UNITS), DROP_TEST_COLUMN_UNITS,
+                             exact=True, what="cached acceleration history")
+        if table.data.shape[0] < 2:
+            return None, "acceleration.csv has fewer than 2 rows"
+        again = drop_test_metrics(table.column("t"), table.column("a_cfc600"), table.column("a_raw"))
+    except (ValueError, OSError) as exc:  # InputError: missing, unreadable or malformed file
+        return None, " ".join(str(exc).split())
+    differ = [k for k in CACHE_PULSE if not math.isclose(again[k], summary[k], rel_tol=1e-9, abs_tol=1e-15)]
+    if differ:
+        return None, f"acceleration.csv does not give the summary's {', '.join(differ)} (incomplete or altered)"
+    return summary, None
+
+
+def _discard(entry: Path) -> None:
+    """Remove a damaged cache entry's files (``entry`` itself when it is not a folder)."""
+    if entry.is_dir() and not entry.is_symlink():
+        for name in ("summary.json", "acceleration.csv"):
+            f = entry / name
+            if f.is_dir() and not f.is_symlink():
+                shutil.rmtree(f)
+            elif f.exists() or f.is_symlink():
+                f.unlink()
+    elif entry.exists() or entry.is_symlink():
+        entry.unlink()
+
+
 # ----------------------------------------------------------------------------- the sweep
 def _row(rid: str, case: dict, summary: dict | None, error: str | None) -> dict:
     row = {"run_id": rid, **case, "status": "ok" if error is None else "failed", "error": error or ""}
@@ -249,11 +425,15 @@ def execute(scene, axes: list[Axis], backend: str = "numba", options: dict | Non
     pending = []
     cache = Path(cache) if cache is not None else None
     for i, (rid, case) in enumerate(zip(ids, todo)):
-        done = cache / rid / "summary.json" if cache is not None else None
-        if done is not None and done.is_file():
-            rows[i] = _row(rid, case, json.loads(done.read_text(encoding="utf-8")), None)
-        else:
-            pending.append(i)
+        summary, damage = cached_summary(cache / rid, rid, case) if cache is not None else (None, None)
+        if summary is not None:
+            rows[i] = _row(rid, case, summary, None)
+            continue
+        if damage is not None:
+            print(f"note: run cache entry {cache / rid} ({_describe(case, axes)}) is damaged: {damage.rstrip('.')}; "
+                  f"running it again", file=sys.stderr, flush=True)
+            _discard(cache / rid)
+        pending.append(i)
     result = SweepOutcome(scene, axes, backend, resolved_options(backend, options), rows, key,
                           skipped=len(todo) - len(pending), cache=cache)
     say = progress if callable(progress) else (lambda line: None)
