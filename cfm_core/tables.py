@@ -158,19 +158,38 @@ def decode(path, raw: bytes) -> str:
 
 @dataclass(frozen=True)
 class Dialect:
-    """How the lines of one file split into cells: the separator, and whether a decimal comma is
-    read as a decimal point (only where the separator is not a comma)."""
+    """How the lines of one file split into cells.
+
+    Attributes
+    ----------
+    separator : str
+        ``","``, ``";"`` or a tab.
+    decimal_comma : bool
+        Whether a decimal comma is read as a decimal point (only where the separator is not a comma).
+    """
 
     separator: str = ","
     decimal_comma: bool = False
 
     @property
     def name(self) -> str:
+        """The separator in words, for messages (``"commas"``, ``"semicolons"``, ``"tabs"``)."""
         return {",": "commas", ";": "semicolons", "\t": "tabs"}[self.separator]
 
 
 def sniff(header: str) -> Dialect:
-    """The dialect of a file from its header line: commas, else semicolons, else tabs."""
+    """The dialect of a file from its header line: commas, else semicolons, else tabs.
+
+    Parameters
+    ----------
+    header : str
+        The header line.
+
+    Returns
+    -------
+    Dialect
+        Commas when the header has one; else semicolons or tabs, with decimal commas read.
+    """
     if "," in header:
         return Dialect()
     for sep in (";", "\t"):
