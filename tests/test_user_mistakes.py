@@ -221,3 +221,32 @@ def test_a_lab_test_stress_column_in_kpa_is_named_as_the_likely_cause():
     assert note.startswith("test 'c1' (c1.csv): its measured stresses") and "Is its stress column in kPa?" in note
     assert "MPa" in stress_scale_warnings([LabTest("c3", "c3.csv", "uniaxial", 1.0, 1.0, t, 1.0 - t, sim / 1e6)],
                                           [sim])[0]
+
+
+def test_more_input_slips_get_a_clear_word(tmp_path):
+    """An unreadable mesh said "could not be read by meshio: 1." (meshio's sys.exit); --velocity 0 got the
+    hint "did you mean 0 m/s (0 mm/s)"; a layer's element_size 0.02 got "did you mean 2e-05 m"; --hold -1
+    ran as 0 and --hold inf ended as a numerical failure; a strain column read as stretch showed a numpy
+    repr; an element wider than the specimen ran silently."""
+    from cfm_core.scene.plausible import unit_hint
+
+    (tmp_path / "bad.msh").write_text("garbage\n")
+    code, _, err, _ = cfm("drop-test", "--mesh", str(tmp_path / "bad.msh"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "could not be read by meshio (Couldn't read file" in err and ": 1." not in err
+    _one_paragraph(err)
+    assert unit_hint("velocity", 0.0, "m/s", 0.0, 100.0) == ""
+    assert unit_hint("element_size", 0.02, "m", 0.0, 0.002) == ""
+    assert "did you mean 0.002 m" in unit_hint("element_size", 2.0, "m", 0.0, 0.004)
+    for hold in ("-1", "inf", "nan"):
+        code, _, err, _ = cfm("point", "--uniaxial", "--rate", "1", "--stretch", "0.8", "--hold", hold, "--no-plot",
+                              "--out", str(tmp_path / "p.csv"))
+        assert code == 2 and "hold =" in err and "finite hold time >= 0" in err
+    strain = tmp_path / "strain.csv"
+    strain.write_text("t,stretch,stress\n" + "".join(f"{0.01 * i},{-0.01 * i},{-100.0 * i}\n" for i in range(11)))
+    from cfm_core.studies.fit import read_tests
+
+    with pytest.raises(InputError, match=r"stretch = -0.0 is outside .*a strain column") as e:
+        read_tests([f"{strain}:uniaxial:1"])
+    assert "np.float64" not in str(e.value)
+    notes = check_plausible(builtin_scene("drop-test").with_overrides(element_size=0.002, width=0.001))
+    assert any("larger than half the width" in n for n in notes)

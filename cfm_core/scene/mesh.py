@@ -25,6 +25,45 @@ HEX_REFERENCE = np.array(
 _SURFACE_CELL_TYPES = {"vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9"}
 
 
+
+def meshio_read(path: Path):
+    """``meshio.read(path)``, its failures as one InputError and its own printing kept off the terminal.
+
+    meshio raises many exception types, and for a file it cannot place it prints "Error: Couldn't
+    read file ..." and calls ``sys.exit(1)``; both become one paragraph naming the file and
+    meshio's reason.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The mesh file.
+
+    Returns
+    -------
+    meshio.Mesh
+        The mesh as read.
+
+    Raises
+    ------
+    InputError
+        meshio cannot read the file.
+    """
+    import contextlib
+    import io
+
+    import meshio
+
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except (Exception, SystemExit) as exc:  # meshio raises many types and may even sys.exit(1)
+        printed = " ".join(said.getvalue().split())
+        reason = printed if isinstance(exc, SystemExit) or not str(exc).strip() else " ".join(str(exc).split())
+        reason = reason.removeprefix("Error: ") or type(exc).__name__
+        raise InputError(f"mesh file '{path}' could not be read by meshio ({reason[:300]}). Use a format meshio "
+                         f"reads (.vtu, .msh, .inp, ...), with a suffix that names it.") from None
+
 def _shape_gradients(points: np.ndarray) -> np.ndarray:
     """dN_a/dxi_k of the trilinear shape functions at reference points (p, 3) -> (p, 8, 3)."""
     r = HEX_REFERENCE
@@ -133,17 +172,11 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     InputError
         Unreadable file, other cell types, a mesh that is not one body, a bad Jacobian.
     """
-    import meshio
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"mesh file '{path}' does not exist; give the path of a hexahedral mesh "
                          f"readable by meshio (e.g. .vtu, .msh, .inp).")
-    try:
-        mesh = meshio.read(path)
-    except (Exception, SystemExit) as exc:  # meshio raises many types and may even sys.exit(1)
-        raise InputError(f"mesh file '{path}' could not be read by meshio: {exc}. "
-                         f"Use a format meshio reads (.vtu, .msh, .inp, ...).") from None
+    mesh = meshio_read(path)
     found = {}
     blocks = []
     for block in mesh.cells:
@@ -360,12 +393,7 @@ def read_cell_sets(path) -> dict[str, np.ndarray]:
     InputError
         The file cannot be read by meshio.
     """
-    import meshio
-
-    try:
-        mesh = meshio.read(Path(path))
-    except (Exception, SystemExit) as exc:  # meshio raises many types and may even sys.exit(1)
-        raise InputError(f"mesh file '{path}' could not be read by meshio: {exc}.") from None
+    mesh = meshio_read(Path(path))
     offsets, start = {}, 0
     for b, block in enumerate(mesh.cells):
         if block.type == "hexahedron":

@@ -48,6 +48,9 @@ from ..material.registry import make_material
 #: SI unit -> (the unit often typed instead, the factor from it to the SI unit).
 UNIT_SLIPS = {"m": ("mm", 1e-3), "kg": ("g", 1e-3), "m/s": ("mm/s", 1e-3), "kg/m^3": ("g/cm^3", 1e3)}
 
+#: Smallest value a unit-slip hint proposes (SI): below it the corrected value is no more plausible.
+PLAUSIBLE_FLOOR = {"m": 1e-4, "kg": 1e-3, "m/s": 1e-2}
+
 #: (section, key, SI unit, a unit slip above (None: refused by the section), unusual above, what it is).
 BOUNDS = (
     ("impactor", "mass", "kg", 100.0, 20.0, "impactor mass (heavier than any drop-tower or fall impactor on a specimen)"),
@@ -91,9 +94,10 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
     str
         E.g. ``"220 kg: did you mean 0.22 kg (220 g)? Write mass = 0.22 (--mass 0.22)."``, or ``""``.
     """
-    if unit not in UNIT_SLIPS:
+    if unit not in UNIT_SLIPS or value == 0.0:  # zero is no unit slip
         return ""
     alt, factor = UNIT_SLIPS[unit]
+    lo = max(lo, PLAUSIBLE_FLOOR.get(unit, 0.0))  # no "did you mean 2e-05 m" for an element size
     flag = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS else ""
     if lo <= value * factor <= hi:
         todo = fix or f"Write {key} = {value * factor:g}{flag}"
@@ -230,6 +234,12 @@ def _drop_test_warnings(scene) -> list[str]:
             warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually large for the {what.split(' (')[0]} "
                             f"(above {unusual:g} {unit}); it runs as given. {hint}".rstrip())
     sp = scene.specimen
+    if sp.mesh is None and sp.element_size and float(sp.element_size) > 0.5 * float(sp.width):
+        warnings.append(f"[specimen] element_size = {sp.element_size:g} m is larger than half the width "
+                        f"{sp.width:g} m: the mesh has a single element across half the width ({0.5 * sp.width:g} m), so "
+                        f"the elements are not the size asked for and the specimen is far narrower than the "
+                        f"impactor's contact (radius {scene.impactor.radius:g} m). Was the width meant in m "
+                        f"(--width)? It runs as given.")
     layers = layers_through_thickness(sp)
     if layers < MIN_LAYERS:
         source = f"the mesh '{sp.mesh}' has" if sp.mesh is not None else f"element_size = {sp.element_size:g} m gives"

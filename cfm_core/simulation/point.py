@@ -200,7 +200,7 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
     Raises
     ------
     InputError
-        Rate, stretch or steps out of range.
+        Rate, stretch, steps or hold out of range.
     NumericalError
         No lateral stretch gives zero lateral stress near the previous one, or a non-finite stress.
 
@@ -215,6 +215,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
         raise InputError(f"stretch = {stretch!r} (-) must lie in [0.05, 5] and differ from 1.")
     if not (isinstance(steps, int) and steps >= 2):
         raise InputError(f"steps = {steps!r} must be an integer >= 2.")
+    if not (math.isfinite(hold) and hold >= 0.0):
+        raise InputError(f"hold = {hold!r} s must be a finite hold time >= 0 at the final stretch (0: none).")
     from scipy.optimize import brentq  # deferred: ~0.2 s to import, and only this study needs it (not cfm drop-test)
 
     t_load = abs(stretch - 1.0) / rate

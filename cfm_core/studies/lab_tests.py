@@ -166,7 +166,10 @@ def _check_deformation(p, kind, x, lineno):
         allowed = "0.05 <= stretch <= 5"
     if bad.size:
         k = bad[0]
-        raise InputError(f"test file '{p}', line {lineno[k]}: {KINDS[kind][0]} = {x[k]!r} is outside {allowed}.")
+        strain = (" The column holds a stretch l = 1 + engineering strain (undeformed: 1); a strain column "
+                  "(undeformed: 0) must be converted." if kind != "shear" and np.all(np.abs(x) < 1.0) else "")
+        raise InputError(f"test file '{p}', line {lineno[k]}: {KINDS[kind][0]} = {float(x[k])!r} is outside "
+                         f"{allowed}.{strain}")
     d = x - base
     peak = float(np.abs(d).max())
     if peak == 0.0:
