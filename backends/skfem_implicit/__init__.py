@@ -82,6 +82,30 @@ class SkfemImplicitBackend(Backend):
         self.check_model(model)
         return run_model(model, progress, **options)
 
+    def check_model(self, model) -> None:
+        """InputError when this backend cannot run ``model``, before any work (also what a sweep
+        checks for each of its scenes before its first run).
+
+        Parameters
+        ----------
+        model : Model
+            The model to run.
+
+        Raises
+        ------
+        InputError
+            Friction on the contact (frictionless contact only), parts this backend cannot run
+            (:func:`.parts.check_parts`), or the base class's conditions.
+        """
+        super().check_model(model)
+        if float(model.friction) != 0.0:
+            raise InputError(f"skfem backend: friction = {model.friction!r} is not supported (frictionless "
+                             f"penalty contact only); set [contact] friction = 0 or use the numba backend.")
+        if model.parts:
+            from .parts import check_parts
+
+            check_parts(model)
+
     def point(self, material, t: np.ndarray, F: np.ndarray) -> np.ndarray:
         """Cauchy stress (n, 6) in Pa (11, 22, 33, 12, 23, 13) along F (n, 3, 3) at times t (n,) in s.
 

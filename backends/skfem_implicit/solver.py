@@ -28,7 +28,6 @@ from .balance import Balance
 from .compiled import module_source
 from .options import check_options
 from .history import Recorder
-from .parts import check_parts
 from .stepper import State, StepFailure, Stepper, lateral_force
 from .system import System
 
@@ -84,15 +83,10 @@ def run_model(model, progress=None, **options) -> Result:
 
 def _run(model, progress, o) -> Result:
     wall0 = time.perf_counter()
-    quasi = _quasi_static(model, o)
-    if float(model.friction) != 0.0:
-        raise InputError(f"skfem backend: friction = {model.friction!r} is not supported (frictionless "
-                         f"penalty contact only); set [contact] friction = 0 or use the numba backend.")
+    quasi = _quasi_static(model, o)  # friction and parts: SkfemImplicitBackend.check_model, before this
     if quasi and model.sphere is not None:
         raise InputError(f"skfem backend: model '{model.name}' has a rigid impactor, which needs inertia; "
                          f"run it dynamically (quasi_static=False).")
-    if model.parts:
-        check_parts(model)
     for part in model.part_list():
         if not quasi and not (float(part.density) > 0.0):
             where = f"part '{part.name}' of model '{model.name}'" if model.parts else f"model '{model.name}'"

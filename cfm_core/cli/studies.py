@@ -133,6 +133,7 @@ def _cmd_sweep(args) -> int:
     axes = sweep.parse_vary(args.vary, scene)
     sweep.check_cases(scene, axes)  # every value, before any run (exit 2 naming it)
     sweep.run_key(scene, backend, options)  # backend and options checked too
+    sweep.check_backend(scene, axes, backend)  # and what the backend accepts (skfem: no friction)
     out = check_folder_target(args.out)  # before any run: an unwritable --out is an input error
     n = len(sweep.cases(axes))
     seconds = sweep.estimate_seconds(scene, axes)

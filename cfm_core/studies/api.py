@@ -108,6 +108,7 @@ def sweep(scene=None, vary=None, backend: str | None = None, runner=None, out=No
     scene, backend, options = _planned(scene, backend, options)
     axes = sw.parse_vary(vary, scene)
     sw.check_cases(scene, axes)
+    sw.check_backend(scene, axes, backend)
     folder = clear_earlier_output(out, keep=("runs",)) if out is not None else None
     bar = _bar(progress, len(sw.cases(axes)), "sweep")
     result = sw.execute(scene, axes, backend, options, runner, folder / "runs" if folder else None, bar)

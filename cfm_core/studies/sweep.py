@@ -241,6 +241,41 @@ def check_cases(scene, axes: list[Axis]) -> None:
                                  f"was started: {exc}") from None
 
 
+def check_backend(scene, axes: list[Axis], backend: str) -> None:
+    """The backend's own model checks (``Backend.check_model``: e.g. skfem's frictionless contact)
+    before any run, so that a sweep the backend cannot run is an InputError (exit 2), not a table of
+    failed runs. The model of the scene as given is checked, and one per value of each scene axis
+    (thickness, friction, ...; material parameters do not change what a backend accepts): at most
+    one model build per scene value, not per combination.
+
+    Parameters
+    ----------
+    scene : Scene
+        The sweep's drop-test scene.
+    axes : list of Axis
+        The varied names and values (already checked by :func:`check_cases`).
+    backend : str
+        Backend name.
+
+    Raises
+    ------
+    InputError
+        The backend refuses a case's model; names the axis value.
+    """
+    from ..scene.builder import build_model
+    from ..simulation.registry import backend_for
+
+    be = backend_for(backend)
+    checks = [(None, scene)] + [((a, v), scene.with_overrides(**overrides({a.name: v})))
+                                 for a in axes if a.name in SCENE_KEYS for v in a.values]
+    for which, sc in checks:
+        try:
+            be.check_model(build_model(sc))
+        except InputError as exc:
+            where = "the scene" if which is None else f"--vary {which[0].name}: value {which[1]:g} {which[0].unit}"
+            raise InputError(f"{where} cannot run on backend '{backend}', so no run was started: {exc}") from None
+
+
 def estimate_seconds(scene, axes: list[Axis]) -> float:
     """Rough serial time of the sweep's drop tests on numba (s), from :data:`REFERENCE_RUN`.
 

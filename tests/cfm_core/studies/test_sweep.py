@@ -162,3 +162,14 @@ def test_unreachable_scheduler_is_an_input_error(address):
 
     with pytest.raises(InputError, match=f"--scheduler {address}: cannot connect to a Dask scheduler"):
         connect(address, timeout=1.0)
+
+
+def test_a_value_the_backend_refuses_stops_the_sweep_before_any_run(tmp_path, capsys):
+    """skfem's frictionless contact: a friction sweep on skfem was a table of failed runs (exit 1) while
+    cfm drop-test refused the same input (exit 2)."""
+    pytest.importorskip("skfem")
+    out = tmp_path / "sw"
+    assert main(["sweep", "--serial", "--quiet", "--backend", "skfem", "--vary", "friction=0.1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--vary friction: value 0.1" in err and "friction = 0.1 is not supported" in err
+    assert not out.exists()
