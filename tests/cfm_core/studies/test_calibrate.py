@@ -12,19 +12,14 @@ from cfm_core.runs import pipeline as simulate
 from cfm_core.cli import main
 from cfm_core.studies.dask_runner import open_runner
 from cfm_core.errors import InputError
-from cfm_core.scene.scene import builtin_scene, load_scene, scene_to_toml
+from cfm_core.scene.scene import load_scene, scene_to_toml
 from cfm_core.post.writers import write_csv
 
 pytest.importorskip("numba")
 
-COARSE = dict(element_size=0.0025, width=0.03)
 TRUE = {"k1": 1320.0, "k2": 1.66, "g1": 0.45}  # Table 1
 THICKNESSES = (0.005, 0.008)  # two thicknesses: the fibre stiffening shows differently
 
-
-@pytest.fixture(scope="module")
-def scene():
-    return builtin_scene("drop-test").with_overrides(**COARSE)
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +77,7 @@ def test_cli_fit_writes_parameters_plots_and_a_runnable_scene(scene, measured, t
         assert (out / name).stat().st_size > 0
     fitted = load_scene(out / "fitted-scene.toml")
     assert fitted.material.parameter_dict["k1"] == fit["parameters"]["k1"]["fitted"]
-    assert fitted.specimen.element_size == COARSE["element_size"]
+    assert fitted.specimen.element_size == 0.0025  # the coarse scene of conftest.py
     assert main(["drop-test", "--scene", str(out / "fitted-scene.toml"), "--quiet", "--no-plot",
                  "--out", str(tmp_path / "drop")]) == 0
 

@@ -12,28 +12,15 @@ from cfm_core.studies import sweep
 from cfm_core.cli import main
 from cfm_core.studies.dask_runner import WORKER_ENV, SerialRunner, open_runner
 from cfm_core.errors import InputError
-from cfm_core.scene.scene import builtin_scene, scene_to_toml
 
 pytest.importorskip("numba")
 distributed = pytest.importorskip("distributed")
 
-# ~0.05 s per run once the kernels are loaded: 2.5 mm hexahedra, 30 mm specimen
-COARSE = dict(element_size=0.0025, width=0.03)
 # velocity 30 m/s inverts an element within 0.1 ms: those runs fail numerically, the others complete
 VARY = ["thickness=0.005,0.008", "k1=1000,1320", "velocity=1,30"]
 TIMES = ("run_time", "wall_time")  # differ from run to run; everything else must be equal
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return builtin_scene("drop-test").with_overrides(**COARSE)
-
-
-@pytest.fixture(scope="module")
-def scene_file(scene, tmp_path_factory):
-    path = tmp_path_factory.mktemp("scene") / "coarse.toml"
-    path.write_text(scene_to_toml(scene))
-    return str(path)
 
 
 @pytest.fixture(scope="module")

@@ -17,12 +17,7 @@ from cfm_core.studies import sweep
 
 pytest.importorskip("numba")
 
-COARSE = dict(element_size=0.0025, width=0.03)  # ~0.05 s per run once the kernels are loaded
 
-
-@pytest.fixture(scope="module")
-def scene():
-    return cfm.builtin_scene("drop-test").with_overrides(**COARSE)
 
 
 def _write_mesh(path, thickness: float, h: float = 0.0025, half: float = 0.015) -> None:

@@ -8,26 +8,14 @@ import pytest
 
 from cfm_core.cli import main
 from cfm_core.errors import InputError
-from cfm_core.scene.scene import builtin_scene, scene_to_toml
 from cfm_core.studies import sweep
 
 pytest.importorskip("numba")
 
-COARSE = dict(element_size=0.0025, width=0.03)  # ~0.05 s per run once the kernels are loaded
 VARY = "thickness=0.005,0.006"
 TIMES = ("run_time", "wall_time")  # differ from run to run; everything else must be equal
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return builtin_scene("drop-test").with_overrides(**COARSE)
-
-
-@pytest.fixture(scope="module")
-def scene_file(scene, tmp_path_factory):
-    path = tmp_path_factory.mktemp("scene") / "coarse.toml"
-    path.write_text(scene_to_toml(scene))
-    return str(path)
 
 
 @pytest.fixture(scope="module")
