@@ -89,7 +89,7 @@ class SkfemImplicitBackend(Backend):
         Parameters
         ----------
         model : Model
-            The model to run.
+            A built model of any scene type (a sweep builds one per scene value to check).
 
         Raises
         ------
