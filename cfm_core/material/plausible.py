@@ -138,8 +138,9 @@ def _scale_warning(material, p) -> str:
 
 
 def _times(ratio: float) -> str:
-    """A ratio above 100 to 3 significant digits, without exponent: 1000.0000000000001 -> "1,000"."""
-    return f"{float(f'{ratio:.3g}'):,.0f}"
+    """A ratio above 100 to 3 significant digits, without exponent up to 1e15: 1000.0000000000001 -> "1,000";
+    1.5e294 -> "1.5e+294"."""
+    return f"{float(f'{ratio:.3g}'):,.0f}" if ratio < 1e15 else f"{ratio:.3g}"  # not 300 digits for 1e300
 
 
 def _poisson_warning(material):

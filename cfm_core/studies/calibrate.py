@@ -297,6 +297,12 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     bounds = ranges or {n: tuple(float(math.exp(b) if lg else b) for b in (lo, hi))
                         for n, lg, lo, hi in zip(coords.names, coords.log, coords.lower, coords.upper)}
     ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds, residual)
+    warnings = list(ident["warnings"])
+    poor = identifiability.poorly_determined(out, [n for n in coords.names if n not in ident["unidentified"]])
+    for n, rel in poor.items():  # the linearisation cannot hold over an interval wider than the value
+        warnings.append(identifiability.poor_warning(n, rel, out[n]["ci"], coords.units[coords.names.index(n)]))
+        out[n].update(ci=None, withheld=f"poorly determined: relative standard error {rel:.3g} "
+                                        f"(above {identifiability.POOR_STD:g})")
     for n in ident["unidentified"]:  # one point of a valley: its own interval would claim too much
         valley = ident["valley"].get(n)
         valley = valley if valley and all(math.isfinite(v) for v in valley) else None
@@ -304,7 +310,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
             "the interval is the valley's extent within the bounds" if valley else "no interval"))
     return {"parameters": out, "correlation": corr, "dof": dof, "s2": s2, "t_quantile": q, "level": level,
             "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
-            "warnings": list(ident["warnings"])}
+            "poorly_determined": poor, "warnings": warnings}
 
 
 def _exp(v: float) -> float:
@@ -372,6 +378,7 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
     decl = {p.name: p for p in get_material(scene.material.name).parameters}
     conf = confidence(res.x, res.jac, final.residual, coords, ranges={n: (decl[n].low, decl[n].high) for n in names})
     bounds = mark_bounds(conf, res.x, coords, "bound of its valid range")
+    conf["warnings"] = [n for c in curves for n in getattr(c, "notes", ())] + conf["warnings"]
     status = str(res.message) + ("; ended on a bound: " + ", ".join(bounds) if bounds else "")
     return FitResult(problem, problem.evaluate(x0), final, conf, status, time.perf_counter() - t0)
 

@@ -35,7 +35,7 @@ from ..errors import InputError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
 from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
-from .identifiability import at_bounds, bound_warning
+from .identifiability import at_bounds, bound_warning, poor_warning
 from .lab_tests import KINDS, LabTest, read_lab_test, simulate
 
 #: |correlation| at or above which two parameters are reported as not separately identifiable.
@@ -47,8 +47,6 @@ CONDITION_LIMIT = 1e10
 SEARCH_FACTOR = 1e4
 #: Starting points of a fit that includes a Prony time (the given start and PRONY_STARTS - 1 others).
 PRONY_STARTS = 6
-#: Relative standard error above which a parameter is reported as poorly determined (-).
-POOR_STD = 0.5
 
 
 def parse_test_spec(spec: str) -> tuple[str, str, float, float]:
@@ -206,13 +204,10 @@ def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
     pre = [bound_warning(n, at_bound[n], "end of its search range") if isinstance(at_bound, dict) else
            f"{n} ended on the edge of its search range ({conf['parameters'][n]['value']:.6g}): the data do not "
            f"determine it (or the range excludes the best value); its interval is withheld." for n in at_bound]
-    pre += [f"{n} is poorly determined: relative standard error {conf['parameters'][n]['std'] / abs(conf['parameters'][n]['value']):.3g}; "
-            f"more data (another rate, another kind of test) would pin it down."
-            for n in names if n not in at_bound and conf["parameters"][n]["std"] is not None
-            and conf["parameters"][n]["value"] != 0
-            and conf["parameters"][n]["std"] > POOR_STD * abs(conf["parameters"][n]["value"])]
+    poor = {n: rel for n, rel in conf.get("poorly_determined", {}).items() if n not in at_bound}
+    pre += [poor_warning(n, rel, None) for n, rel in poor.items()]  # their intervals: withheld by confidence()
     warnings, withheld = _correlations(conf, names)
-    return pre + warnings, withheld | set(at_bound)
+    return pre + warnings, withheld | set(at_bound) | set(poor)
 
 
 def _correlations(conf: dict, names) -> tuple[list[str], set]:

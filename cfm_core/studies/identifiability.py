@@ -167,6 +167,60 @@ def analyse(x, jac, s2: float, q: float, names, log, values: dict, bounds: dict 
     return out
 
 
+#: Relative standard error above which a parameter counts as poorly determined: its linearised
+#: interval (wider than the value itself on either side) is withheld.
+POOR_STD = 0.5
+
+
+def poorly_determined(params: dict, names) -> dict:
+    """The parameters whose standard error exceeds :data:`POOR_STD` times their value.
+
+    Parameters
+    ----------
+    params : dict
+        {name: {"value", "std", ...}} (:func:`cfm_core.studies.calibrate.confidence`), SI units.
+    names : sequence of str
+        The names to look at (those not already withheld for another reason).
+
+    Returns
+    -------
+    dict
+        {name: relative standard error std / |value| (-)}.
+    """
+    out = {}
+    for n in names:
+        value, std = params[n]["value"], params[n].get("std")
+        if std is not None and value != 0 and std > POOR_STD * abs(value):
+            out[n] = float(std / abs(value))
+    return out
+
+
+def poor_warning(name: str, rel: float, ci, unit: str = "") -> str:
+    """The warning for a poorly determined parameter (:func:`poorly_determined`).
+
+    Parameters
+    ----------
+    name : str
+        The parameter.
+    rel : float
+        Its relative standard error (-).
+    ci : sequence of 2 float or None
+        The linearised interval being withheld (SI units), shown for what it is.
+    unit : str
+        The parameter's unit.
+
+    Returns
+    -------
+    str
+        One paragraph.
+    """
+    u = f" {unit}" if unit and unit != "-" else ""
+    span = f" (the linearised interval [{ci[0]:.4g}, {ci[1]:.4g}]{u} would claim more than the fit holds)" if ci else ""
+    return (f"{name} is poorly determined: relative standard error {rel:.3g} (above {POOR_STD:g}){span}; its "
+            f"interval is withheld. The data hardly constrain it (e.g. a Prony time much longer than the pulse); "
+            f"fix it, or add data that depend on it (tests at other rates or durations).")
+
+
 def _combo(a: str, b: str, c: float) -> str:
     sign = "+" if c >= 0 else "-"
     k = abs(c)

@@ -150,3 +150,28 @@ def test_a_calibration_ending_on_a_bound_names_it_and_still_writes_fit_json(monk
     data = json.loads((CalibrationOutcome(scene, result).save(tmp_path / "out") / "fit.json").read_text())
     assert data["at_bound"]["g1"]["side"] == "upper" and data["parameters"]["g1"]["ci95"] is None
     assert any("g1 ended on the upper bound" in w and f"{bound:.6g}" in w for w in data["warnings"])
+
+
+def test_a_poorly_determined_parameter_has_its_interval_withheld_in_both_fits():
+    """cfm calibrate gave tau3 = 0.4 s with a 95 % interval [0.084, 1.9] s excluding the true 10 s (a Prony
+    time 1000x the pulse) and no warning; cfm fit warned 'poorly determined' but printed the interval,
+    against its docs. Linear model r = J x - y in log coordinates: std of ln tau = sqrt(s2 / (J^T J)), so
+    with a small Jacobian column the relative error std / tau = std(ln tau) is known in closed form."""
+    import math
+
+    import numpy as np
+
+    from cfm_core.studies.calibrate import Coordinates, confidence
+
+    coords = Coordinates(("k1", "tau3"), ("Pa", "s"), (True, True), np.log([1.0, 1e-3]), np.log([1e6, 1e3]))
+    x = np.log([1320.0, 0.4])
+    rng = np.random.default_rng(3)
+    jac = np.column_stack([rng.standard_normal(40), 0.002 * rng.standard_normal(40)])
+    residual = 0.01 * rng.standard_normal(40)
+    conf = confidence(x, jac, residual, coords)
+    s2 = float(residual @ residual) / (40 - 2)
+    rel = math.sqrt(s2 * np.linalg.inv(jac.T @ jac)[1, 1])          # std(ln tau3) = std(tau3) / tau3
+    assert rel > 0.5 and conf["poorly_determined"] == {"tau3": pytest.approx(rel, rel=1e-9)}
+    assert conf["parameters"]["tau3"]["ci"] is None and "poorly determined" in conf["parameters"]["tau3"]["withheld"]
+    assert conf["parameters"]["k1"]["ci"] is not None
+    assert any(w.startswith("tau3 is poorly determined: relative standard error") for w in conf["warnings"])
