@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from contextlib import ExitStack
 
 import numpy as np
@@ -140,6 +141,7 @@ def _run(model, progress, o) -> Result:
     monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
     nodes = np.asarray(model.nodes, dtype=np.float64)
     impactor_z = lambda s: sys_.impactor_point(s.q)  # noqa: E731  - the whole reference point (m)
+    recent = deque(maxlen=STALL_STEPS)  # times of the last accepted steps
     while state.t < end * (1.0 - 1e-12):
         if steps >= o["max_steps"]:
             raise NumericalError(f"skfem backend: more than max_steps = {o['max_steps']} steps before "
@@ -163,7 +165,12 @@ def _run(model, progress, o) -> Result:
                 continue
             stats["newton_iterations"] += info.iterations
             stats["linear_iterations"] += info.linear_iterations
-            if tol is not None and info.error > 3.0 * tol and dt_try > dt_min * (1.0 + 1e-12):
+            if tol is not None and info.error > 3.0 * tol:
+                if dt_try <= dt_min * (1.0 + 1e-12):
+                    # accepting it would march on at dt_min with the error uncontrolled (kappa = 100 Pa:
+                    # minutes of 5e-10 s steps without a word): the step collapsed; its cause first
+                    monitor.inspect(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
+                    raise _collapse_error(model, state.t, dt_try, info.error, tol)
                 # too large a local error: retry smaller (the step's work is counted above)
                 stats["error_rejections"] += 1
                 dt_try = max(dt_try * max(0.2, 0.9 * (tol / info.error) ** (1.0 / 3.0)), dt_min)
@@ -171,6 +178,12 @@ def _run(model, progress, o) -> Result:
                 continue
             break
         balance.add(info)
+        recent.append(new.t)
+        if len(recent) == STALL_STEPS and new.t - recent[0] < STALL_FRACTION * end:
+            # the step collapsed (Newton needing ever smaller steps): stop, its cause first, instead of
+            # grinding on for hours at 1e-8 s steps
+            monitor.inspect(new.t, nodes + sys_.displacement(new.q), impactor_z(new))
+            raise _stall_error(model, new.t, new.t - recent[0], dt_try, info.iterations, end)
         if o["record_newton"]:
             newton_log.append([new.t, dt_try, info.residuals])
         q_prev, t_prev_seg = (state.q, state.t), sched.segment(state.t + 0.5 * dt_try)
@@ -268,6 +281,31 @@ def _predict(stepper: Stepper, sched: _Schedule, s: State, dt: float, q_prev, se
     if q_prev is None or seg_prev != sched.segment(s.t + 0.5 * dt) or s.t <= q_prev[1]:
         return s.q.copy()
     return s.q + (s.q - q_prev[0]) * (dt / (s.t - q_prev[1]))
+
+
+#: A run whose last STALL_STEPS accepted steps advanced less than STALL_FRACTION of its end time has
+#: collapsed (a drop test takes ~2000 steps of ~4e-5 s; kappa = 100 Pa, nu = -0.99, took 1e-8 s steps).
+STALL_STEPS = 200
+STALL_FRACTION = 1e-4
+
+
+def _stall_error(model, t: float, advanced: float, dt: float, iterations: int, end: float) -> NumericalError:
+    """The error of a run whose steps collapsed (:data:`STALL_STEPS`, :data:`STALL_FRACTION`)."""
+    return NumericalError(
+        f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': the last "
+        f"{STALL_STEPS} steps advanced {advanced:.3g} s in all (less than {STALL_FRACTION:g} of the end time "
+        f"{end:g} s; last step {dt:.3g} s, {iterations} Newton iterations), so the run would take hours and "
+        f"no step follows the response (an element folding, contact chattering, or a material far out of its "
+        f"range); the run cannot be trusted beyond this time.", time=t, quantity="time step")
+
+
+def _collapse_error(model, t: float, dt: float, error: float, tol: float) -> NumericalError:
+    """The error of a run whose local error stays above the tolerance at the smallest step."""
+    return NumericalError(
+        f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': at the smallest "
+        f"step dt_min = {dt:.3g} s the local error is {error:.3g}, above 3 x error_tol = {3.0 * tol:.3g}, so "
+        f"no step can follow the response (an element folding, contact chattering, or a material far out of "
+        f"its range); the run cannot be trusted beyond this time.", time=t, quantity="time step")
 
 
 def _final_error(model, fail: StepFailure, t: float, dt: float) -> NumericalError:

@@ -132,3 +132,24 @@ def test_the_scenes_penetration_tolerance_reaches_every_backends_monitor(backend
     with pytest.raises(NumericalError, match="tolerance 6 mm|bottoming out|reached the rigid plate") as err:
         drop_test(scene, backend)
     assert err.value.quantity == "bottoming out" and err.value.time < 1e-4
+
+
+def test_a_collapsing_implicit_step_stops_the_run_with_its_time(monkeypatch):
+    """skfem accepted ever smaller steps without limit: kappa = 100 Pa (nu = -0.99) on the coarse drop test
+    took 1e-8 s steps (1000 in 50 s, 85 ms to go) for as long as anyone waited, with no message. Now a run
+    whose last STALL_STEPS steps advanced less than STALL_FRACTION of its end time stops (exit 3) naming
+    the time (that case: 26 s, naming the node behind the plate found first). Here the thresholds are
+    tightened so that an ordinary run trips them."""
+    pytest.importorskip("skfem")
+    from cfm_backends.skfem_implicit import solver
+    from cfm_core.errors import NumericalError
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+    from cfm_core.simulation.registry import get_backend
+
+    monkeypatch.setattr(solver, "STALL_STEPS", 5)
+    monkeypatch.setattr(solver, "STALL_FRACTION", 0.9)
+    model = build_model(builtin_scene("single-element"))
+    with pytest.raises(NumericalError, match=r"the time step collapsed at t = .* the last 5 steps advanced") as err:
+        get_backend("skfem").run(model)
+    assert err.value.quantity == "time step" and err.value.time > 0.0
