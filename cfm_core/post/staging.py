@@ -140,8 +140,8 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
         raise InputError(f"{what} {path}: a {suffix[1:].upper()} file is written there, but the name ends in "
                          f"{path.suffix or 'no suffix'}; name a {suffix} file.")
     owner = path.parent
-    if path.exists() and path.absolute() in {p.absolute() for p in (earlier_files(owner) if owner.is_dir() else [])
-                                             if (owner / MANIFEST).is_file()}:
+    if (path.exists() and (owner / MANIFEST).is_file()
+            and path.absolute() in {p.absolute() for p in earlier_files(owner)}):
         raise InputError(f"{what} {path} is a file of the cfm output in {owner} (listed in its {MANIFEST}); "
                          f"writing there would replace it and leave that output incomplete. Choose another name "
                          f"or folder.")
