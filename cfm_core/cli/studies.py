@@ -13,6 +13,7 @@ import time
 from ..errors import InputError
 from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
+from ..runs.pipeline import warnings_once
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
 from .options import parse_params, plan_from_args
@@ -171,7 +172,7 @@ def _cmd_calibrate(args) -> int:
         raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
     check_folder_target(args.out)
     t0 = time.perf_counter()
-    with _open(args) as runner:
+    with _open(args) as runner, warnings_once():
         say = _progress(args)
         if say:
             say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")

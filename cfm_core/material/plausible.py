@@ -75,13 +75,18 @@ def poisson_ratio(K: float, G: float) -> float:
     return (3.0 * K - 2.0 * G) / den if den else math.nan
 
 
-def check_material(material) -> list[str]:
+def check_material(material, above: bool = True) -> list[str]:
     """Warnings about a bound material's values that are probably unit slips or near-liquid.
 
     Parameters
     ----------
     material : Material
         A bound material (any registered spec).
+    above : bool
+        Also warn about moduli far above their typical values (default). False for the layers and
+        parts of a specimen, which are often stiffer tissues than the typical values describe (skin
+        at mu = 4e5 Pa in a Neo-Hookean material whose typical mu is fat's 1000 Pa): a kPa slip
+        leaves a value far below, which is still warned about.
 
     Returns
     -------
@@ -94,7 +99,7 @@ def check_material(material) -> list[str]:
     warnings = {}
     for p in material.spec.energy_parameters:
         if p.unit == "Pa":
-            text = _scale_warning(material, p)
+            text = _scale_warning(material, p, above)
             if text:
                 warnings[p.name] = text
     poisson = _poisson_warning(material)
@@ -112,8 +117,9 @@ def check_material(material) -> list[str]:
     return out
 
 
-def _scale_warning(material, p) -> str:
-    """The warning for a modulus more than SCALE_FACTOR times away from its typical value, or ""."""
+def _scale_warning(material, p, above: bool = True) -> str:
+    """The warning for a modulus more than SCALE_FACTOR times away from its typical value (below it
+    only, unless ``above``), or ""."""
     value, scale = float(material.values[p.name]), p.scale
     if not (value > 0.0 and scale > 0.0):
         return ""
@@ -127,7 +133,7 @@ def _scale_warning(material, p) -> str:
             hint = (f" Was it {unit}? Write {p.name} = {value * factor:g} (--param {p.name}={value * factor:g}); "
                     f"every value is in SI units.")
         return f"[material] {p.name} = {value:g} Pa is {_times(ratio)}x below {where}.{hint} It runs as given."
-    if ratio < 1.0 / SCALE_FACTOR:
+    if above and ratio < 1.0 / SCALE_FACTOR:
         unit, factor = min(MODULUS_SLIPS, key=lambda s: abs(math.log10(value / s[1] / scale)))
         hint = ""
         if abs(math.log10(value / factor / scale)) <= 1.0:

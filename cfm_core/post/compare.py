@@ -11,6 +11,7 @@ common time range, relative peak difference, time-of-peak difference) plus the s
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..tables import read_table
-from .metrics import compare_histories
+from .metrics import compare_histories, unit_hint
 
 #: signal file -> (column compared, its unit)
 SIGNALS = {"acceleration.csv": ("a_cfc600", "m/s^2"), "reaction.csv": ("reaction_force", "N")}
@@ -47,17 +48,31 @@ class Run:
         [run] left out: the record has them), for
         :func:`cfm_core.runs.provenance.describe_differences`."""
         s = self.summary
-        record = dict(s.get("provenance") or {
+        prov = s.get("provenance")
+        record = dict(prov) if _cfm_record(prov) else {
             "backend": {"name": s.get("backend"), "dtype": s.get("dtype"), "device": s.get("device")},
             "material": {"name": s.get("material"), "moduli": s.get("moduli"), "elastic": s.get("elastic"),
-                         "parameters": s.get("parameters") or {}}})
+                         "parameters": s.get("parameters") if isinstance(s.get("parameters"), dict) else {}}}
         values = {}
-        for section, table in (s.get("scene") or {}).items():
+        scene = s.get("scene")
+        for section, table in (scene if isinstance(scene, dict) else {}).items():
             if section in ("material", "run") or not isinstance(table, dict):
                 continue
             values.update({f"{section}.{k}": v for k, v in table.items() if not isinstance(v, dict)})
         record["scene_values"] = values
         return record
+
+
+def _cfm_record(prov) -> bool:
+    """Whether ``prov`` has the shape of cfm's provenance record (another tool may write anything under
+    that name): a non-empty object whose backend and material are objects, parts a list of objects and
+    input files an object of texts, where present."""
+    if not isinstance(prov, dict) or not prov:
+        return False
+    files = prov.get("input_files", {})
+    return (all(isinstance(prov.get(k, {}), dict) for k in ("backend", "material"))
+            and isinstance(prov.get("parts", []), list) and all(isinstance(p, dict) for p in prov.get("parts", []))
+            and isinstance(files, dict) and all(isinstance(v, str) for v in files.values()))
 
 
 def read_run(path) -> Run:
@@ -78,9 +93,45 @@ def read_run(path) -> Run:
         summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
     except (ValueError, OSError) as exc:
         raise InputError(f"{d}: cannot read summary.json ({exc}).") from None
+    if not isinstance(summary, dict):
+        raise InputError(f"{d / 'summary.json'} holds a JSON {type(summary).__name__}, not an object; a run's "
+                         f"summary.json is an object ({{\"backend\": ..., \"wall_time\": ...}}): give the output "
+                         f"directory of a run.")
+    wall = summary.get("wall_time")
+    if not (isinstance(wall, (int, float)) and not isinstance(wall, bool) and math.isfinite(wall) and wall >= 0):
+        summary = {k: v for k, v in summary.items() if k != "wall_time"}  # not seconds: not compared
     if table.data.shape[0] < 2:
         raise InputError(f"{d / name}: needs at least 2 rows, got {table.data.shape[0]}.")
-    return Run(d, name, table.column("t"), table.column(column), summary)
+    t = table.column("t")
+    back = np.flatnonzero(np.diff(t) <= 0.0)
+    if back.size:
+        k = int(back[0]) + 1
+        raise InputError(f"{d / name}, line {list(table.lines)[k]}: t = {float(t[k])!r} s does not increase (the row "
+                         f"before has t = {float(t[k - 1])!r} s); a history's times increase from row to row.")
+    return Run(d, name, t, table.column(column), summary)
+
+
+def check_units(run: Run, reference: Run) -> None:
+    """InputError when ``run``'s history cannot be the same experiment as the reference's in SI units:
+    its time span 20 x longer or shorter (t in ms or us?) or, for accelerations, its velocity change
+    int a dt outside 0.3 - 3 x the reference's (a in g? t in ms?, :func:`.metrics.unit_hint`)."""
+    span, span0 = float(run.t[-1] - run.t[0]), float(reference.t[-1] - reference.t[0])
+    if not (span0 / SPAN_RATIO <= span <= SPAN_RATIO * span0):
+        raise InputError(f"{run.path / run.kind}: its history lasts {span:g} s, {span / span0:.3g} x the reference's "
+                         f"{span0:g} s ({reference.path}); both must be in s (is t in ms or us? divide it by 1000 "
+                         f"or 1e6).")
+    if run.kind == "acceleration.csv":
+        trapezoid = getattr(np, "trapezoid", None) or np.trapz
+        dv, dv0 = float(trapezoid(run.y, run.t)), float(trapezoid(reference.y, reference.t))
+        ratio = dv / dv0 if dv0 != 0.0 else float("nan")
+        if not (0.3 <= ratio <= 3.0):
+            raise InputError(f"{run.path / run.kind}: its velocity change int a dt = {dv:.4g} m/s is {ratio:.3g} x the "
+                             f"reference's {dv0:.4g} m/s ({reference.path}); runs of the same drop test agree within "
+                             f"a few per cent.{unit_hint(ratio)}")
+
+
+#: Largest ratio of the time spans of a compared run and the reference (:func:`check_units`).
+SPAN_RATIO = 20.0
 
 
 def compare_runs(reference: Run, others: list[Run]) -> list[dict]:
@@ -92,6 +143,7 @@ def compare_runs(reference: Run, others: list[Run]) -> list[dict]:
         if r.kind != reference.kind:
             raise InputError(f"{r.path} holds {r.kind} but the reference {reference.path} holds {reference.kind}; "
                              f"compare runs of the same kind of scene.")
+        check_units(r, reference)
         c = compare_histories(r.t, r.y, reference.t, reference.y)
         wall, wall0 = r.summary.get("wall_time"), reference.summary.get("wall_time")
         rows.append({"run": r.label, **c, "wall_time": wall, "reference_wall_time": wall0,

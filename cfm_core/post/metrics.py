@@ -99,6 +99,20 @@ def relative_l2(a, b) -> float:
     return float(np.linalg.norm(a - b) / nb)
 
 
+def unit_hint(ratio: float) -> str:
+    """The likely unit slip behind an acceleration curve whose velocity change int a dt is ``ratio``
+    times the expected one (an impact stops the impactor: 1 - 2 x its speed): a in g gives about
+    0.1 x, t in ms or a in mm/s^2 about 1000 x, a negative ratio a sign slip. One sentence, or ""
+    for a ratio within 0.3 - 3."""
+    if 0.3 <= ratio <= 3.0:
+        return ""
+    if 0.03 <= ratio < 0.3:
+        return " Is a in g? It must be in m/s^2 (multiply by 9.80665)."
+    if ratio > 3.0:
+        return " Is t in ms or a in mm/s^2? t must be in s and a in m/s^2."
+    return " Is a positive when the impactor decelerates, and in m/s^2?"
+
+
 def compare_histories(t1, a1, t2, a2) -> dict:
     """Compare history (t1, a1) with the reference (t2, a2) (times in s, values in any one unit).
 

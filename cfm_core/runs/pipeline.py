@@ -7,7 +7,9 @@ section 3). The outcome keeps the resolved scene, so that what it writes can be 
 from __future__ import annotations
 
 import hashlib
+import re
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
@@ -84,8 +86,26 @@ def _checked(be, model, result):
     return result
 
 
+#: Within :func:`warnings_once`: the warnings said so far, by their text without its numbers.
+_SAID: set | None = None
+
+
+@contextmanager
+def warnings_once():
+    """Within this block :func:`report_warnings` prints each warning once, however many runs give it:
+    the runs of one study (a calibration's evaluations) differ only in their parameters, and a warning
+    that differs only in its numbers (a Poisson ratio at each k1 tried) is said once. The runs'
+    summaries still hold every warning."""
+    global _SAID
+    outer, _SAID = _SAID, set()
+    try:
+        yield
+    finally:
+        _SAID = outer
+
+
 def report_warnings(summary: dict, stream=None) -> None:
-    """Print a summary's run-check warnings on stderr.
+    """Print a summary's run-check warnings on stderr (within :func:`warnings_once`, each kind once).
 
     Parameters
     ----------
@@ -95,6 +115,11 @@ def report_warnings(summary: dict, stream=None) -> None:
         Where to print (default ``sys.stderr``).
     """
     for text in summary.get("warnings", []):
+        if _SAID is not None:
+            key = re.sub(r"[-+]?\d[\d.,]*(e[-+]?\d+)?", "#", text)
+            if key in _SAID:
+                continue
+            _SAID.add(key)
         print(f"warning: {text}", file=stream or sys.stderr)
 
 

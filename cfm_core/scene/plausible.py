@@ -141,7 +141,34 @@ def check_plausible(scene, material=None) -> list[str]:
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
     warnings = _drop_test_warnings(scene) if scene.type == "drop-test" else []
     warnings += _cube_warnings(scene) + _density_warnings(scene)
-    return warnings + check_material(material)
+    return warnings + check_material(material) + _region_material_warnings(scene, material)
+
+
+def _regions(scene) -> list[tuple[str, object]]:
+    """(label, region) of every layer and part of a scene that has its own material or parameters."""
+    out = []
+    specimen = scene.specimen
+    for i, layer in enumerate(getattr(specimen, "layers", ()) or ()):
+        out.append((f"[[specimen.layers]] {i + 1} ({layer.name or f'layer{i + 1}'})", layer))
+    for part in scene.parts or ():
+        out.append((f"[parts.{part.name}]", part))
+    return [(label, r) for label, r in out if r.material is not None or r.parameters]
+
+
+def _region_material_warnings(scene, material) -> list[str]:
+    """:func:`check_material` of each layer's and part's own material (a kPa slip under a layer's
+    parameters ran silently while the same value in [material] was warned about), each finding
+    naming its layer or part instead of [material]; moduli far above the typical values are not
+    warned about there (a layer of skin or muscle is stiffer than fat)."""
+    from .layers import bind_material
+
+    out = []
+    density = float(scene.specimen.density) if scene.specimen is not None else 1000.0
+    for label, region in _regions(scene):
+        bound, _ = bind_material(region, scene.material, density, material)
+        out += [text.replace("[material]", label, 1) if text.startswith("[material]") else f"{label}: {text}"
+                for text in check_material(bound, above=False)]
+    return out
 
 
 def _densities(scene) -> list[tuple[str, float]]:

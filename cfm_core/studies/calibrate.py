@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import identifiability
-from .dask_runner import SerialRunner
+from .dask_runner import SerialRunner, lost_reason
 from ..errors import InputError, NumericalError
 from .measured import CFC
 from .differences import forward_jacobian, forward_steps
@@ -198,6 +198,11 @@ class Problem:
         tasks = [(s, params, self.backend, self.options) for params in points for s in scenes]
 
         def failure(i: int, error: str) -> NumericalError:
+            lost = lost_reason(error)
+            if lost:
+                return NumericalError(f"{lost}: the calibration stopped after {self.runs} drop tests. A calibration "
+                                      f"keeps no partial results: start the scheduler and its workers and rerun the "
+                                      f"same command (it starts over).")
             params, curve = points[i // len(scenes)], self.curves[i % len(scenes)]
             values = ", ".join(f"{k} = {v:.6g}" for k, v in params.items())
             return NumericalError(f"the drop test of curve '{curve.name}' ({curve.thickness:g} m) failed at "
@@ -264,7 +269,8 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     separately identifiable (|correlation| >= 0.99 with another, or in a near-null direction of the
     scaled J^T J): then ci is widened to the extent of the valley within ``ranges`` (name -> (low,
     high) in SI units: the parameters' valid ranges; default the fit's bounds; None without one), "identifiability" holds the combinations the data do determine, with their intervals,
-    and "warnings" says so.
+    and "warnings" says so; "flat" ({name: warning}) the parameters whose interval overflows the float
+    range (withheld, with a warning).
     """
     from scipy import stats
 
@@ -275,7 +281,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     q = float(stats.t.ppf(0.5 + level / 2.0, dof))
     rank = np.linalg.matrix_rank(jtj)
     cov = s2 * np.linalg.pinv(jtj) if rank == p else None
-    out, values = {}, coords.to_params(x)
+    out, values, flat = {}, coords.to_params(x), {}
     for i, n in enumerate(coords.names):
         if cov is None or not cov[i, i] >= 0.0:
             out[n] = {"value": values[n], "std": None, "ci": None}
@@ -288,6 +294,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
         if not all(math.isfinite(v) for v in (*ci, std)):  # a flat direction: beyond the float range
             out[n] = {"value": values[n], "std": None, "ci": None,
                       "withheld": "the linearised interval exceeds the float range: the data hardly depend on it"}
+            flat[n] = identifiability.flat_warning(n)
             continue
         out[n] = {"value": values[n], "std": std, "ci": ci}
     corr = None
@@ -297,7 +304,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     bounds = ranges or {n: tuple(float(math.exp(b) if lg else b) for b in (lo, hi))
                         for n, lg, lo, hi in zip(coords.names, coords.log, coords.lower, coords.upper)}
     ident = identifiability.analyse(x, jac, s2, q, coords.names, coords.log, values, bounds, residual)
-    warnings = list(ident["warnings"])
+    warnings = list(ident["warnings"]) + [text for n, text in flat.items() if n not in ident["unidentified"]]
     poor = identifiability.poorly_determined(out, [n for n in coords.names if n not in ident["unidentified"]])
     for n, rel in poor.items():  # the linearisation cannot hold over an interval wider than the value
         warnings.append(identifiability.poor_warning(n, rel, out[n]["ci"], coords.units[coords.names.index(n)]))
@@ -310,7 +317,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
             "the interval is the valley's extent within the bounds" if valley else "no interval"))
     return {"parameters": out, "correlation": corr, "dof": dof, "s2": s2, "t_quantile": q, "level": level,
             "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
-            "poorly_determined": poor, "warnings": warnings}
+            "poorly_determined": poor, "flat": flat, "warnings": warnings}
 
 
 def _exp(v: float) -> float:
@@ -379,6 +386,11 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
     conf = confidence(res.x, res.jac, final.residual, coords, ranges={n: (decl[n].low, decl[n].high) for n in names})
     bounds = mark_bounds(conf, res.x, coords, "bound of its valid range")
     conf["warnings"] = [n for c in curves for n in getattr(c, "notes", ())] + conf["warnings"]
+    miss = identifiability.misfit_warning({c.name: e for c, e in zip(curves, final.rel_l2)}, "relative L2")
+    if miss:
+        conf["warnings"].append(miss)
+        for n in names:
+            conf["parameters"][n].update(ci=None, std=None, withheld="the fitted model misses the data")
     status = str(res.message) + ("; ended on a bound: " + ", ".join(bounds) if bounds else "")
     return FitResult(problem, problem.evaluate(x0), final, conf, status, time.perf_counter() - t0)
 

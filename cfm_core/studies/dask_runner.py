@@ -85,6 +85,19 @@ class SerialRunner:
             yield Done(i, value) if ok else Done(i, error=value)
 
 
+#: The part of a lost cluster's error text after its reason (:func:`lost_reason`).
+NOT_DONE = ", so this run was not done"
+
+
+def lost_reason(error: str) -> str | None:
+    """The reason, without the advice to resume, when a run's error text says the Dask cluster was lost
+    (no worker left, or the scheduler gone: the run was not done); None for any other error. A study
+    that keeps no partial results (a calibration) gives its own advice."""
+    if error.startswith(("WorkersLost:", "SchedulerLost:")) and NOT_DONE in error:
+        return error.split(NOT_DONE, 1)[0]
+    return None
+
+
 class DaskRunner:
     """Tasks on a Dask client; ``cluster`` is the local cluster this runner owns (or None).
 
@@ -123,7 +136,7 @@ class DaskRunner:
                         lost_since = now
                     elif now - lost_since >= self.worker_timeout:
                         text = (f"WorkersLost: the Dask scheduler has had no worker for {self.worker_timeout:g} s "
-                                f"(the last one died or was stopped), so this run was not done; runs finished "
+                                f"(the last one died or was stopped){NOT_DONE}; runs finished "
                                 f"so far are kept: start workers and rerun the same command to resume.")
                         for fut in futures:
                             if fut.key in pending:
@@ -159,7 +172,7 @@ class DaskRunner:
         if exc is not None:
             return error_text(exc)
         return (f"SchedulerLost: the connection to the {self.label} was lost before this run "
-                f"finished (task {fut.status}), so it was not done; runs finished so far are kept: restart the "
+                f"finished (task {fut.status}){NOT_DONE}; runs finished so far are kept: restart the "
                 f"scheduler and its workers and rerun the same command to resume.")
 
     def _has_workers(self) -> bool:

@@ -35,7 +35,7 @@ from ..errors import InputError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
 from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
-from .identifiability import at_bounds, bound_warning, poor_warning
+from .identifiability import at_bounds, bound_warning, misfit_warning, poor_warning
 from .lab_tests import KINDS, LabTest, read_lab_test, simulate
 
 #: |correlation| at or above which two parameters are reported as not separately identifiable.
@@ -206,8 +206,10 @@ def identifiability(conf: dict, names, at_bound=()) -> tuple[list[str], set]:
            f"determine it (or the range excludes the best value); its interval is withheld." for n in at_bound]
     poor = {n: rel for n, rel in conf.get("poorly_determined", {}).items() if n not in at_bound}
     pre += [poor_warning(n, rel, None) for n, rel in poor.items()]  # their intervals: withheld by confidence()
+    flat = {n: text for n, text in conf.get("flat", {}).items() if n not in at_bound}
+    pre += list(flat.values())
     warnings, withheld = _correlations(conf, names)
-    return pre + warnings, withheld | set(at_bound) | set(poor)
+    return pre + warnings, withheld | set(at_bound) | set(poor) | set(flat)
 
 
 def _correlations(conf: dict, names) -> tuple[list[str], set]:
@@ -254,6 +256,11 @@ def _start_offsets(coords: Coordinates, x0, values: dict, names, starts: int) ->
         for row in u:
             out.append(np.clip((2 * row - 1) * half, lo + 1e-9 * np.abs(lo), hi - 1e-9 * np.abs(hi)))
     return out
+
+
+def _rel_rms(P, test: LabTest) -> float:
+    """RMS of (simulated - measured) nominal stress over the test's largest |measured| stress (-)."""
+    return float(np.sqrt(np.mean((np.asarray(P) - test.P) ** 2)) / test.scale)
 
 
 @dataclass
@@ -328,7 +335,7 @@ class LabFitResult:
             RMS of (simulated - measured) over the largest |measured| stress (-), per test.
         """
         sims = self.P_fit if which == "fit" else self.P_start
-        return [float(np.sqrt(np.mean((s - t.P) ** 2)) / t.scale) for s, t in zip(sims, self.tests)]
+        return [_rel_rms(s, t) for s, t in zip(sims, self.tests)]
 
 
 def fit_lab(material: str, tests: list, names: list, start: dict | None = None, fixed: dict | None = None,
@@ -435,12 +442,17 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     conf["at_bound"] = bounds
     warnings, withheld = identifiability(conf, list(coords.names), bounds)
     start_stresses = stresses(x0)
+    fitted_stresses = stresses(res.x)
     warnings = stress_scale_warnings(tests, start_stresses) + warnings
+    miss = misfit_warning({t.name: _rel_rms(s, t) for s, t in zip(fitted_stresses, tests)}, "relative RMS")
+    if miss:
+        warnings.append(miss)
+        withheld |= set(coords.names)
     for n in withheld:
         conf["parameters"][n]["ci"] = None
     if bounds:
         res.message = f"{res.message}; ended on a bound: {', '.join(bounds)}"
     fitted = dict(bind(res.x).values)
     return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, start_stresses,
-                        stresses(res.x), 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,
+                        fitted_stresses, 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,
                         withheld, str(res.message), len(history), wall, history, tried)

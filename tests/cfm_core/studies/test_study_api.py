@@ -14,7 +14,7 @@ from cfm_core.studies import calibrate as cal
 pytest.importorskip("numba")
 
 
-def _lab_test(path, rate=10.0, stretch=0.6, steps=30):
+def _lab_test(path, rate=10.0, stretch=0.6, steps=200):  # ramp steps below lab_tests.MAX_STEP
     t, lam, P, _ = point.uniaxial(make_material("cfm"), rate, stretch, steps=steps)
     path.write_text("t [s],stretch [-],stress [Pa]\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r}\n" for a, b, c in zip(t, lam, P)))
     return f"{path}:uniaxial:{rate:g}"

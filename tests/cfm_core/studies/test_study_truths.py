@@ -57,7 +57,7 @@ def test_lab_fit_objective_against_a_hand_computed_weighted_sum():
     start's stresses from the point driver (not from the fit's own simulation)."""
     truth, start = make_material("cfm"), make_material("cfm", {"k1": 1000.0})
     tests, expected = [], 0.0
-    for rate, stretch, steps, weight in ((10.0, 0.6, 20, 1.0), (100.0, 0.7, 50, 3.0)):
+    for rate, stretch, steps, weight in ((10.0, 0.6, 200, 1.0), (100.0, 0.7, 150, 3.0)):  # steps <= MAX_STEP
         t, lam, P, _ = point.uniaxial(truth, rate, stretch, steps=steps)
         tests.append(LabTest(f"u{rate:g}", "-", "uniaxial", rate, weight, t, lam, P))
         P_start = point.uniaxial(start, rate, stretch, steps=steps)[2]

@@ -1,0 +1,211 @@
+"""Measured data that fits and comparisons used to read wrongly without a word.
+
+Each test names the input that gave a wrong number (or a traceback) before: coarse lab rows, a
+relaxation ramp recorded by its end points, a stress column of the wrong sign or all zeros, a fit
+that misses its data, a curve with missing samples or recorded from before contact, another
+solver's run in ms or g or with a foreign summary.json, a lost Dask cluster during a calibration.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from cfm_core.cli import main
+from cfm_core.errors import InputError, NumericalError
+from cfm_core.material import make_material
+from cfm_core.post.compare import compare_runs, read_run
+from cfm_core.runs import pipeline
+from cfm_core.scene.scene import builtin_scene
+from cfm_core.simulation import point
+from cfm_core.studies import calibrate, fit, identifiability, lab_tests
+from cfm_core.studies.dask_runner import Done, lost_reason
+from cfm_core.studies.lab_tests import LabTest, simulate
+from cfm_core.studies.measured import Curve, check_plausible
+
+
+def _csv(path, t, x, P):
+    rows = "\n".join(f"{a!r},{b!r},{c!r}" for a, b, c in zip(map(float, t), map(float, x), map(float, P)))
+    path.write_text(f"t,stretch,stress\n{rows}\n")
+    return path
+
+
+# ----------------------------------------------------------------------------- lab tests (cfm fit)
+def test_coarse_rows_simulate_like_fine_ones():
+    """Six rows of a compression to 0.6: the Prony recurrence on the rows themselves was 5 % off the
+    fine driver; cut into steps of MAX_STEP it is within 3e-4 (the steps' own O(dt^2) error)."""
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=800)
+    for every in (8, 40, 160):
+        test = LabTest("u", "-", "uniaxial", 1.0, 1.0, t[::every], lam[::every], P[::every])
+        assert np.abs(simulate(m, test) - test.P).max() <= 3e-4 * np.abs(P).max()
+
+
+def test_relaxation_ramp_recorded_by_its_end_points_is_the_ramp_at_the_stated_rate():
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 100.0, 0.7, steps=600, hold=0.5)
+    end = int(np.argmax(lam <= 0.7))
+    rows = np.r_[0, np.arange(end + 1, t.size)]  # t = 0, then the hold only: the ramp is not in the file
+    test = LabTest("r", "-", "relaxation", 100.0, 1.0, t[rows], lam[rows], P[rows])
+    assert np.abs(simulate(m, test) - test.P).max() <= 1e-4 * np.abs(P).max()
+
+
+def test_fit_of_six_rows_recovers_the_parameters(tmp_path):
+    """k1 = 2000 Pa, k2 = 2 from 6 rows: 2056.5 and 2.064 before, intervals excluding the truth."""
+    m = make_material("cfm", {"k1": 2000.0, "k2": 2.0})
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=800)
+    path = _csv(tmp_path / "six.csv", t[::160], lam[::160], P[::160])
+    result = fit.fit_lab("cfm", [lab_tests.read_lab_test(path, "uniaxial", 1.0)], ["k1", "k2"])
+    assert result.fitted["k1"] == pytest.approx(2000.0, rel=2e-3)
+    assert result.fitted["k2"] == pytest.approx(2.0, rel=2e-3)
+
+
+@pytest.mark.parametrize("sign, stress, expected", [
+    (-1.0, None, "Flip the sign of the stress column"),   # compression written positive
+    (1.0, 0.0, "the stress column is 0 on every line"),   # was a ZeroDivisionError traceback in the fit
+])
+def test_stress_column_of_the_wrong_sign_or_all_zero_exits_2(tmp_path, capsys, sign, stress, expected):
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=40)
+    path = _csv(tmp_path / "bad.csv", t, lam, sign * P if stress is None else np.full_like(P, stress))
+    assert main(["fit", "--test", f"{path}:uniaxial:1", "--fit", "k1", "--quiet", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err and "np.float64" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_fit_that_misses_its_data_withholds_every_interval(tmp_path):
+    """A constant stress fitted by the CFM: 62 % relative RMS, and the intervals were reported "ok"."""
+    m = make_material("cfm")
+    t, lam, _, _ = point.uniaxial(m, 1.0, 0.6, steps=40)
+    path = _csv(tmp_path / "const.csv", t, lam, np.full_like(t, -1000.0))
+    result = fit.fit_lab("cfm", [lab_tests.read_lab_test(path, "uniaxial", 1.0)], ["k1", "k2"])
+    assert max(result.rel_rms()) > identifiability.MISFIT_LIMIT
+    assert result.withheld == {"k1", "k2"}
+    assert all(result.confidence["parameters"][n]["ci"] is None for n in ("k1", "k2"))
+    assert any("misses the data" in w for w in result.warnings)
+
+
+def test_an_interval_beyond_the_float_range_is_withheld_with_a_warning():
+    """A log coordinate whose residuals do not depend on it: its interval overflowed, was withheld without a
+    warning and written as "interval": "ok" by cfm fit."""
+    coords = calibrate.Coordinates(("tau3",), ("s",), np.array([True]), np.log([1e-3]), np.log([1e3]))
+    jac = np.array([[1e-6], [2e-6], [-1e-6]])   # half-width ~1e4 in ln tau3: exp overflows
+    conf = calibrate.confidence(np.log([1.0]), jac, np.array([0.01, -0.02, 0.01]), coords)
+    assert conf["parameters"]["tau3"]["ci"] is None and "tau3" in conf["flat"]
+    assert any("tau3 is not determined by the data" in w for w in conf["warnings"])
+    warnings, withheld = fit.identifiability(conf, ["tau3"])
+    assert "tau3" in withheld and any("tau3 is not determined" in w for w in warnings)
+
+
+def test_misfit_warning_names_the_curves_above_the_limit():
+    assert identifiability.misfit_warning({"a": 0.05, "b": 0.2}, "relative L2") is None
+    text = identifiability.misfit_warning({"a": 0.05, "b": 1.24}, "relative L2")
+    assert "'b' 124 %" in text and "'a'" not in text
+
+
+# ----------------------------------------------------------------------------- measured drop tests (cfm calibrate)
+def _pulse(t, start=0.0, T=0.01, peak=235.6):
+    """A half-sine deceleration pulse of duration T (s) from ``start``: int a dt = 2 peak T / pi (m/s)."""
+    s = np.clip((t - start) / T, 0.0, 1.0)
+    return peak * np.sin(np.pi * s)
+
+
+def test_a_gap_in_a_measured_curve_is_refused_naming_it():
+    """60 samples missing at the peak were joined by a straight line: 116 g read as 68 g, exit 0."""
+    t = np.arange(0.0, 0.012, 2e-5)
+    keep = (t < 0.004) | (t > 0.0052)
+    with pytest.raises(InputError, match=r"no samples between t = 0\.00398 s and 0\.0052"):
+        check_plausible("gap.csv", t[keep], _pulse(t[keep]), 1.0, 0.02)
+    assert check_plausible("full.csv", t, _pulse(t), 1.0, 0.02) == []  # the same curve whole: no note
+
+
+def test_a_curve_recorded_from_before_contact_is_warned():
+    t = np.arange(0.0, 0.014, 2e-5)
+    notes = check_plausible("late.csv", t, _pulse(t, start=0.002), 1.0, 0.02)
+    assert len(notes) == 1 and "stays below 1 % of its peak until t = 0.00204 s" in notes[0]
+
+
+def test_a_lost_cluster_during_a_calibration_says_it_starts_over():
+    """It promised that "runs finished so far are kept ... rerun to resume" and blamed the parameters."""
+
+    class LostRunner:
+        label = "dask (lost)"
+        workers = 1
+        in_process = True
+
+        def map(self, fn, items):
+            for i, _ in enumerate(items):
+                yield Done(i, error="WorkersLost: the Dask scheduler has had no worker for 5 s (the last one died "
+                                    "or was stopped), so this run was not done; runs finished so far are kept: start "
+                                    "workers and rerun the same command to resume.")
+
+    t = np.arange(0.0, 0.012, 2e-5)
+    curve = Curve("m", "m.csv", 0.008, t, _pulse(t))
+    scene = builtin_scene("drop-test")
+    with pytest.raises(NumericalError) as info:
+        calibrate.fit(scene, [curve], ["k1"], runner=LostRunner())
+    text = str(info.value)
+    assert "keeps no partial results" in text and "starts over" in text
+    assert "resume" not in text and "failed at" not in text
+    assert lost_reason("ValueError: bad") is None
+
+
+# ----------------------------------------------------------------------------- cfm compare
+def _run_dir(path, t, a, summary):
+    path.mkdir()
+    rows = "\n".join(f"{x!r},{y!r},{y!r}" for x, y in zip(map(float, t), map(float, a)))
+    (path / "acceleration.csv").write_text(f"t [s],a_raw [m/s^2],a_cfc600 [m/s^2]\n{rows}\n")
+    (path / "summary.json").write_text(summary if isinstance(summary, str) else json.dumps(summary))
+    return path
+
+
+@pytest.fixture
+def reference(tmp_path):
+    t = np.arange(0.0, 0.012, 2e-5)
+    return t, _run_dir(tmp_path / "ref", t, _pulse(t), {"backend": "numba", "wall_time": 0.3})
+
+
+@pytest.mark.parametrize("scale_t, scale_a, expected", [
+    (1e3, 1.0, "is t in ms or us"),     # rel L2 99.8 %, t_peak +3676 ms, exit 0 before
+    (1.0, 1 / 9.80665, "Is a in g?"),   # |peak| -89.8 %, exit 0 before
+])
+def test_compare_refuses_another_unit(tmp_path, reference, capsys, scale_t, scale_a, expected):
+    t, ref = reference
+    other = _run_dir(tmp_path / "other", scale_t * t, scale_a * _pulse(t), {"backend": "lsdyna"})
+    assert main(["compare", str(ref), str(other)]) == 2
+    assert expected in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("summary", ['[]', {"wall_time": "12 s"}, {"provenance": "abc", "scene": [1, 2]},
+                                     {"provenance": {"backend": "x", "parts": 3}}])
+def test_compare_reads_a_foreign_summary_without_a_traceback(tmp_path, reference, capsys, summary):
+    t, ref = reference
+    other = _run_dir(tmp_path / "other", t, _pulse(t), summary)
+    rc = main(["compare", str(ref), str(other)])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert rc == (2 if summary == "[]" else 0)
+    if summary != "[]":
+        row = compare_runs(read_run(ref), [read_run(other)])[0]
+        assert row["rel_l2"] == 0.0 and row["wall_ratio"] is None
+
+
+def test_compare_names_the_line_of_a_repeated_time(tmp_path, reference, capsys):
+    t, ref = reference
+    t2 = np.r_[t, t[-1]]
+    other = _run_dir(tmp_path / "other", t2, _pulse(t2), {"backend": "x"})
+    assert main(["compare", str(ref), str(other)]) == 2
+    err = capsys.readouterr().err
+    assert f"line {t2.size + 1}" in err and "does not increase" in err
+
+
+# ----------------------------------------------------------------------------- warnings of a study
+def test_warnings_once_says_a_warning_that_differs_in_its_numbers_once(capsys):
+    with pipeline.warnings_once():
+        for nu in (0.413, 0.42, 0.424):
+            pipeline.report_warnings({"warnings": [f"kappa gives nu = {nu}, far from 0.5", "other"]})
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["warning: kappa gives nu = 0.413, far from 0.5", "warning: other"]
+    pipeline.report_warnings({"warnings": ["other"]})  # outside the block: said every time
+    assert capsys.readouterr().err == "warning: other\n"
