@@ -21,6 +21,8 @@ import sys
 import time
 from contextlib import contextmanager
 
+from cfm_core.errors import InputError
+
 SAMPLE_S = 0.03      # how long /proc/stat is watched for idle time (s)
 REUSE_S = 2.0        # a measurement is reused this long (s): a sweep's runs do not each wait for one
 IDLE_SLACK = 0.15    # a core counts as free when at least 85 % of it was idle
@@ -138,6 +140,11 @@ def num_threads(lib, threads: int | None, serial: bool = False):
     old = lib.get_num_threads()
     if threads is None:
         threads = 1 if serial else min(free_cores(), max(old, 1))
+    cores = len(allowed_cpus())
+    if threads > cores:  # more threads than cores never runs faster, and waits at every barrier
+        raise InputError(f"option threads = {threads} is more than the {cores} core{'s' if cores > 1 else ''} this "
+                         f"process may use; give at most {cores}, or leave threads out (default: the cores free "
+                         f"now).")
     lib.set_num_threads(int(threads))
     try:
         yield

@@ -37,7 +37,7 @@ def ogden_term(p: int, mu: float, alpha: float):
         A default outside its range (``mu`` <= 0, ``alpha`` = 0 or beyond +-50).
     """
     mu_par = positive(f"mu{p}", "Pa", mu, f"Ogden modulus of term {p}")
-    alpha_par = Parameter(f"alpha{p}", "-", alpha, low=-50.0, high=50.0, nonzero=True,
+    alpha_par = Parameter(f"alpha{p}", "-", alpha, low=-50.0, high=50.0, nonzero=True, min_abs=1e-3,
                           description=f"Ogden exponent of term {p} (nonzero)")
 
     def energy(l1, l2, l3, *params):

@@ -188,3 +188,17 @@ def test_vtu_keeps_a_frame_interval_given_as_an_option(tmp_path):
     assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=0.001", "--out", str(out)]) == 0
     assert "frame_interval = 0.001" in (out / "scene.toml").read_text()
     assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=-1", "--out", str(tmp_path / "bad")]) == 2
+
+
+def test_a_vtu_run_is_repeated_with_its_fields_and_mirroring(tmp_path, capsys):
+    """--fields part --full: the repeat wrote quarter-model frames with every field; neither scene.toml nor
+    summary.json recorded them."""
+    first, again = tmp_path / "first", tmp_path / "again"
+    assert main(["drop-test", *SMALL, "--vtu", "--fields", "part", "--full", "--out", str(first)]) == 0
+    text = (first / "scene.toml").read_text()
+    assert 'fields = "part"' in text and "full = true" in text
+    assert main(["run", "--scene", str(first / "scene.toml"), "--quiet", "--no-plot", "--out", str(again)]) == 0
+    assert "with the fields part, mirrored into the whole specimen" in capsys.readouterr().err
+    assert (again / "fields.json").read_bytes() == (first / "fields.json").read_bytes()
+    for frame in sorted(first.glob("specimen_*.vtu"))[:3]:
+        assert (again / frame.name).read_bytes() == frame.read_bytes()

@@ -252,5 +252,8 @@ def cli(args) -> int:
     require = [s.strip() for s in req.split(",") if s.strip()] if req is not None else None
     only = getattr(args, "only", None)
     sections = [s.strip() for s in only.split(",") if s.strip()] if only else None
+    from cfm_core.post.staging import check_folder_target
+
+    check_folder_target(args.out, "--out")  # before minutes of runs: a file, an unwritable folder -> exit 2
     rep = run_suite(mode, names, args.out, budget=getattr(args, "budget", None), require=require, sections=sections)
     return rep["exit_code"]

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 from cfm_core.simulation.options import Options, document, option
 
+#: Smallest time step an option may set (s): below it 1 / (beta dt^2) overflows or underflows to 0.
+MIN_STEP = 1e-12
+
 @document
 @dataclass(frozen=True)
 class SkfemOptions(Options):
@@ -32,10 +35,10 @@ class SkfemOptions(Options):
                               "(rigid impactor), None for the others", kind="float", choices=("auto",), low=0.0,
                               low_open=True,
                               none="steps set by Newton only (grow / cut)")
-    dt: float = option(None, "s", "first step", kind="float", low=0.0, low_open=True,
+    dt: float = option(None, "s", "first step", kind="float", low=MIN_STEP,
                        none="output interval / 10 (dynamic) or segment / segment_steps")
-    dt_min: float = option(None, "s", "smallest step before giving up", kind="float", low=0.0, low_open=True, none="1e-5 dt_max")
-    dt_max: float = option(None, "s", "largest step", kind="float", low=0.0, low_open=True,
+    dt_min: float = option(None, "s", "smallest step before giving up", kind="float", low=MIN_STEP, none="1e-5 dt_max")
+    dt_max: float = option(None, "s", "largest step", kind="float", low=MIN_STEP,
                            none="2.5 output intervals with error control, else one output interval")
     segment_steps: int = option(50, "-", "at least this many steps per moving segment of a prescribed motion", low=1)
     grow: float = option(1.5, "-", "step growth after a fast Newton convergence (error_tol None)", low=1.0,
@@ -46,9 +49,11 @@ class SkfemOptions(Options):
     max_iterations: int = option(15, "-", "Newton iterations per step before the step is cut", low=1)
     rtol: float = option(None, "-", "Newton residual tolerance relative to the largest force term of the iterate "
                          "(internal forces with the reactions, inertia, contact, external; invariant to the "
-                         "stiffness scale)", kind="float", low=0.0, low_open=True,
+                         "stiffness scale; at most 1e-3: above it the step is accepted before the force balance "
+                         "is solved)", kind="float", low=0.0, low_open=True, high=1e-3,
                          none="1e-6 for impact scenes (rigid impactor), 1e-9 for the others")
-    atol: float = option(None, "N", "absolute Newton residual tolerance added to rtol's", kind="float", low=0.0, low_open=True,
+    atol: float = option(None, "N", "absolute Newton residual tolerance added to rtol's", kind="float", low=0.0,
+                         low_open=True, high=1e-3,
                          none="0: rtol only; a step whose Newton stagnates at the round-off floor (~eps kappa0 "
                               "h^2) is accepted with the force balance it reached, which the run reports (a "
                               "warning above 10 rtol, an error above 1e-3)")

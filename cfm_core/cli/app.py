@@ -13,6 +13,8 @@ traceback for either, and no partial output file.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import warnings
 
@@ -59,7 +61,7 @@ class Terminated(KeyboardInterrupt):
 
 def main(argv=None) -> int:
     """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
-    error, 3 numerical failure, 130 interrupted, 143 terminated)."""
+    error, 3 numerical failure, 130 interrupted, 141 its output's reader stopped, 143 terminated)."""
     modules = command_modules()
     parser = build_parser(modules)
     args, extra = parser.parse_known_args(argv)
@@ -80,6 +82,10 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"cfm {args.command}: interrupted; no result written.", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `cfm materials | head`: the reader stopped reading; no traceback
+        with contextlib.suppress(OSError, ValueError):  # Python's flush of stdout at exit would raise again
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, as for a command the signal ended
 
 
 if __name__ == "__main__":  # pragma: no cover

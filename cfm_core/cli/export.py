@@ -7,6 +7,7 @@ import sys
 from ..export import TARGETS, export
 from ..material.plausible import check_material
 from ..material.registry import make_material
+from ..scene.plausible import DENSITY_SLIP
 from .options import parse_params
 
 
@@ -36,13 +37,19 @@ def add_parser(sub) -> None:
     p.add_argument("--moduli", choices=["instantaneous", "long-term"], default=None,
                    help="moduli convention written on the card (constant 'moduli'); default: the material's")
     p.add_argument("--elastic", action="store_true", help="card with the Prony coefficients g_i = 0")
+    p.add_argument("--density", type=float, default=None,
+                   help="density on the explicit cards (VUMAT *DENSITY, LS-DYNA RO), kg/m^3 (default 950)")
 
 
 def _cmd_export(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa) go into the card as given
         print(f"warning: {text}", file=sys.stderr)
-    files = export(material, args.to, args.out)
+    if args.density is not None and 1.0 <= args.density < DENSITY_SLIP:  # g/cm^3: 1.06 for 1060
+        print(f"warning: --density {args.density:g} kg/m^3 is not a plausible tissue density: below "
+              f"{DENSITY_SLIP:g} kg/m^3 it is almost surely in g/cm^3 ({args.density * 1e3:g} kg/m^3 meant?). The card "
+              f"holds it as given.", file=sys.stderr)
+    files = export(material, args.to, args.out, args.density)
     print(f"wrote {', '.join(str(f) for f in files)}: {material.name} for {TARGETS[args.to]['solver']}")
     return 0
 

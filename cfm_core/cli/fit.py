@@ -37,7 +37,7 @@ def add_parser(sub) -> None:
                         "--param sets the start of these and the value of the others (SI units)")
     p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
     p.add_argument("--max-evaluations", type=int, default=400,
-                   help="most residual evaluations of the optimiser (default 400)")
+                   help="most residual evaluations of the optimiser per start (default 400; recorded in fit.json)")
     p.add_argument("--starts", type=int, default=None,
                    help="starting points of the optimiser (default 6 when a Prony time is fitted, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -58,7 +58,7 @@ def _cmd_point(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
         print(f"warning: {text}", file=sys.stderr)
-    check_file_target(args.out, "--out")  # before the work: a directory, a file as parent, unwritable
+    check_file_target(args.out, "--out", suffix=".csv")  # before the work: a directory, a file as parent, unwritable
     if args.uniaxial:
         if args.history:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")
@@ -78,6 +78,9 @@ def _cmd_point(args) -> int:
             check_file_target(png, "--out (its plot)")
         write_csv(args.out, unit_header(point.UNIAXIAL_UNITS), [t, lam, P, lat])
         written = [str(args.out)]
+        if args.no_plot and png.is_file():
+            print(f"warning: {png} is from an earlier run: --no-plot wrote no plot of this one (remove it, or run "
+                  f"without --no-plot).", file=sys.stderr)
         if not args.no_plot:
             plot_uniaxial(png, lam, P, uniaxial_title(material, args.rate, source))
             written.append(str(png))

@@ -9,6 +9,7 @@ from ..errors import InputError
 from ..post.staging import staged_folder
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
+from ..scene.layers import unused_by_layers
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
@@ -61,6 +62,9 @@ def _add_output_options(p) -> None:
 def scene_from_args(args):
     """The scene of ``cfm drop-test`` with the command-line overrides applied."""
     scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
+    if scene.type != "drop-test":
+        raise InputError(f"--scene {args.scene}: a '{scene.type}' scene; cfm drop-test runs drop-test scenes. Run "
+                         f"this one with 'cfm run --scene {args.scene} --out DIR'.")
     return _apply_overrides(scene, args, ("thickness", "element_size", "velocity", "mass", "radius", "width", "density", "mesh",
                                          "friction", "symmetry"))
 
@@ -78,6 +82,12 @@ def _apply_overrides(scene, args, keys=()):
         over["parameters"] = params
     if not over:
         return scene
+    unused = unused_by_layers(scene, [*(["density"] if "density" in over else []), *params])
+    if unused:
+        name, why = next(iter(unused.items()))
+        flag = "--density" if name == "density" else f"--param {name}"
+        raise InputError(f"{flag}: no layer of the specimen uses {'[specimen] density' if name == 'density' else f'[material] {name}'} "
+                         f"({why}), so the value would not be applied. Give the layer its value in the scene file.")
     new = scene.with_overrides(**over)
     if getattr(args, "scene", None) and Path(args.scene).exists():
         for text in _override_notes(scene, new, over, Path(args.scene).name):
@@ -113,10 +123,13 @@ def _run_and_write(args, scene) -> tuple:
     plot, vtu = not args.no_plot, getattr(args, "vtu", False)
     fields, full = check_vtu_options(args, scene)
     if not vtu and scene.type == "drop-test" and plan.options.get("frame_interval") is not None:
-        # a repeat of a --vtu run: its [run] frame_interval stores frames, so they are written as its VTU was
-        vtu, fields = True, parse_fields(None)
+        # a repeat of a --vtu run: its [run] frame_interval stores frames, so they are written as its VTU was,
+        # with the fields and mirroring its [run] records
+        run = scene.run
+        vtu, fields, full = True, parse_fields(run.fields if run else None), bool(run and run.full)
         print(f"note: the scene's [run] frame_interval = {plan.options['frame_interval']:g} s stores specimen "
-              f"frames: they are written as VTU (specimen.pvd), as by --vtu", file=sys.stderr)
+              f"frames: they are written as VTU (specimen.pvd) with the fields {','.join(fields)}"
+              f"{', mirrored into the whole specimen' if full else ''}, as by --vtu", file=sys.stderr)
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite) as stage:
         outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)

@@ -74,7 +74,7 @@ def add_parser(sub) -> None:
     c.add_argument("--rel-step", type=float, default=None,
                    help="relative finite-difference step of the Jacobian (default 1e-3)")
     c.add_argument("--max-evaluations", type=int, default=60,
-                   help="most objective evaluations of the optimiser (default 60)")
+                   help="most objective evaluations of the optimiser (default 60; recorded in fit.json)")
     _runner_options(c)
     c.add_argument("--out", required=True, help="output directory")
 
@@ -139,8 +139,9 @@ def _cmd_sweep(args) -> int:
     n = len(sweep.cases(axes))
     seconds = sweep.estimate_seconds(scene, axes)
     if not args.quiet or n > sweep.CONFIRM_RUNS:
-        print(f"sweep of {n} drop tests, about {_duration(seconds)} of serial numba runs (a rough estimate from "
-              f"the mesh sizes; complete runs in {out}/runs are reused)", file=sys.stderr, flush=True)
+        speed = "" if backend == "numba" else f" at numba's speed; {backend} runs at its own"
+        print(f"sweep of {n} drop tests, about {_duration(seconds)} of serial runs (a rough estimate from the mesh "
+              f"sizes{speed}; complete runs in {out}/runs are reused)", file=sys.stderr, flush=True)
     _confirm(n, seconds, args.yes)
     with _open(args) as runner:
         say = _progress(args)
@@ -150,6 +151,10 @@ def _cmd_sweep(args) -> int:
     print(f"{n} runs: {n - result.failed} complete ({result.skipped} from an earlier invocation), "
           f"{result.failed} failed; {result.wall:.1f} s")
     print("wrote " + ", ".join(str(f) for f in result.files) + f" and {out}/runs/")
+    warned = sum(bool(r.get("warnings")) for r in result.rows if r["status"] == "ok")
+    if warned:  # also for runs read back from an earlier invocation, whose warnings were said then
+        print(f"warning: {warned} of {n} runs finished with warnings (e.g. a pulse cut short by the end time, "
+              f"high hourglass energy); they are in the 'warnings' column of {out}/sweep.csv.", file=sys.stderr)
     if result.failed:
         print(f"cfm sweep: {result.failed} run(s) failed; their errors are in the 'error' column of "
               f"{out}/sweep.csv. Rerun the command to retry them (complete runs are skipped).", file=sys.stderr)

@@ -10,6 +10,7 @@ gives what it must return, from the numpy reference.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from ..errors import InputError
@@ -19,7 +20,7 @@ from .targets import TARGETS
 __all__ = ["TARGETS", "export"]
 
 
-def export(material, target: str, out) -> list[Path]:
+def export(material, target: str, out, density: float | None = None) -> list[Path]:
     """Write the generated source, card and manifest of ``material`` for ``target`` into ``out``.
 
     The folder is checked before the work and written whole or not at all
@@ -33,6 +34,8 @@ def export(material, target: str, out) -> list[Path]:
         Solver interface.
     out : str or path-like
         Output folder (new, or one holding an earlier cfm output).
+    density : float, optional
+        Density of the explicit cards, kg/m^3 (1 to 1e5; default 950, the project's assumption for fat).
 
     Returns
     -------
@@ -47,10 +50,14 @@ def export(material, target: str, out) -> list[Path]:
     """
     if target not in TARGETS:
         raise InputError(f"--to {target!r} is not a known target; use one of {', '.join(TARGETS)}.")
-    from .generate import generate  # deferred: imports sympy, which the command line does not need to start
+    from .generate import DENSITY, generate  # deferred: imports sympy, which the command line does not need
 
+    rho = DENSITY if density is None else density
+    if not (isinstance(rho, (int, float)) and math.isfinite(rho) and 1.0 <= rho <= 1e5):
+        raise InputError(f"--density {rho!r} kg/m^3 is not allowed; give the tissue's density in kg/m^3 (1 to 1e5; "
+                         f"soft tissue 900-1100).")
     with staged_folder(out, "--out", need_bytes=200_000) as stage:
-        result = generate(material, target)
+        result = generate(material, target, float(rho))
         for name, text in result.files.items():
             (stage / name).write_text(text)
     return [Path(out) / name for name in result.files]

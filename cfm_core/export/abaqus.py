@@ -268,6 +268,9 @@ def vumat_card(name: str, entries, nstate: int, density: float) -> str:
 def _card(name, entries, nstate, explicit, density=None):
     lines = [f"** material '{name}' for the generated {'VUMAT' if explicit else 'UMAT'} (SI units: m, s, kg, Pa)"]
     lines += [f"**   constant {i:>2} {e.name:<8} [{e.unit}] {e.meaning}" for i, e in enumerate(entries, 1)]
+    if not explicit:
+        lines += ["** CalculiX: not a drop-in for stock ccx. 'cfm calculix build' links this UMAT into ccx with the",
+                  "** adaptor its conventions need, for materials named ABAQUS... (the calculix backend's decks)"]
     lines.append(f"*MATERIAL, NAME={name.upper()}")
     if density is not None:
         lines += ["*DENSITY", repr(float(density))]

@@ -82,7 +82,7 @@ def sizes(spec) -> dict:
             "NH": nh, "NHD": max(nh, 1), "NS": nh + 1, "DP": fortran.DP}
 
 
-def generate(material, target: str) -> Export:
+def generate(material, target: str, density: float = DENSITY) -> Export:
     """Generate the source, card and manifest of ``material`` for ``target``.
 
     Parameters
@@ -91,6 +91,10 @@ def generate(material, target: str) -> Export:
         A bound material: its spec gives the code, its values the card's example constants.
     target : {"abaqus-umat", "abaqus-vumat", "lsdyna-umat"}
         Solver interface.
+    density : float
+        Density on the explicit cards (VUMAT ``*DENSITY``, LS-DYNA ``RO``), kg/m^3 (default 950, the
+        project's assumption for fat; the UMAT card has none: Abaqus/Standard takes it from
+        ``*DENSITY`` where dynamics needs it).
 
     Returns
     -------
@@ -123,8 +127,8 @@ def generate(material, target: str) -> Export:
     header = _header(spec, info, consts, states, state, definition)
     source = header + "\n" + text
     card = {"abaqus-umat": lambda: abaqus.umat_card(spec.name, consts, n["NS"]),
-            "abaqus-vumat": lambda: abaqus.vumat_card(spec.name, consts, n["NS"], DENSITY),
-            "lsdyna-umat": lambda: lsdyna.card(spec.name, consts, n["NS"], DENSITY, 41)}[target]()
+            "abaqus-vumat": lambda: abaqus.vumat_card(spec.name, consts, n["NS"], density),
+            "lsdyna-umat": lambda: lsdyna.card(spec.name, consts, n["NS"], density, 41)}[target]()
     manifest = {
         "material": spec.name, "description": spec.description, "target": target, "solver": info["solver"],
         "entry_point": info["entry"], "calling_convention": info["convention"],
@@ -136,6 +140,7 @@ def generate(material, target: str) -> Export:
         "precision": "double (real(dp), dp = selected_real_kind(15, 307)); no promotion flags needed",
         "source_form": "fixed (columns 7-72), gfortran -std=f2008 -ffixed-form",
         "units": "SI: m, s, kg, Pa",
+        "density": None if target == "abaqus-umat" else float(density),
         "constants": [dict(index=i, name=e.name, unit=e.unit, value=e.default, meaning=e.meaning)
                       for i, e in enumerate(consts, 1)],
         "state_variables": [dict(index=i, name=e.name, unit=e.unit, meaning=e.meaning)

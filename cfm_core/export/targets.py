@@ -5,8 +5,8 @@ lists them without importing the code generator)."""
 from __future__ import annotations
 
 TARGETS = {
-    "abaqus-umat": dict(source="umat.f", card="material.inp", solver="Abaqus/Standard UMAT (also CalculiX's ABAQUS "
-                        "user-material interface)", entry="umat", convention=(
+    "abaqus-umat": dict(source="umat.f", card="material.inp", solver="Abaqus/Standard UMAT (for CalculiX, 'cfm calculix "
+                        "build' links it into ccx with the adaptor ccx's conventions need)", entry="umat", convention=(
                             "UMAT(STRESS, STATEV, DDSDDE, SSE, SPD, SCD, RPL, DDSDDT, DRPLDE, DRPLDT, STRAN, DSTRAN, "
                             "TIME, DTIME, TEMP, DTEMP, PREDEF, DPRED, CMNAME, NDI, NSHR, NTENS, NSTATV, PROPS, NPROPS, "
                             "COORDS, DROT, PNEWDT, CELENT, DFGRD0, DFGRD1, NOEL, NPT, LAYER, KSPT, KSTEP, KINC); "

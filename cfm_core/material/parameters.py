@@ -33,6 +33,9 @@ class Parameter:
         One line for ``cfm materials`` and error messages.
     nonzero : bool
         Exclude 0 (e.g. an Ogden exponent).
+    min_abs : float
+        Smallest magnitude allowed (default 0: any): an Ogden exponent of magnitude 1e-16 made
+        l^alpha - 1 round to 0 and dropped its term (32 % low stresses, silently).
     typical : float, optional
         Order of magnitude of physical values, in ``unit`` (default: ``default``). A modulus
         (unit Pa) more than 100 times away from it is warned about as a likely unit slip
@@ -54,6 +57,7 @@ class Parameter:
     high_open: bool = False
     description: str = ""
     nonzero: bool = False
+    min_abs: float = 0.0
     typical: float | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
@@ -77,6 +81,8 @@ class Parameter:
         lo = "(" if self.low_open or math.isinf(self.low) else "["
         hi = ")" if self.high_open or math.isinf(self.high) else "]"
         text = f"{lo}{self.low:g}, {self.high:g}{hi}"
+        if self.min_abs > 0.0:
+            return text + f" with |{self.name}| >= {self.min_abs:g}"
         return text + " without 0" if self.nonzero else text
 
     def check(self, value, *, context: str = "parameter") -> float:
@@ -111,7 +117,7 @@ class Parameter:
         ok = math.isfinite(x)
         ok = ok and (x > self.low if self.low_open else x >= self.low)
         ok = ok and (x < self.high if self.high_open else x <= self.high)
-        ok = ok and not (self.nonzero and x == 0.0)
+        ok = ok and not (self.nonzero and x == 0.0) and abs(x) >= self.min_abs
         if not ok:
             raise InputError(
                 f"{context} '{self.name}' = {value!r}{self._unit_suffix()} is outside the allowed range "

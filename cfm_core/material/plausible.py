@@ -172,6 +172,12 @@ def _poisson_warning(material):
     moduli = (f"the small-strain Poisson ratio nu = {nu:.3g} (bulk modulus K = {K:.4g} Pa, shear modulus "
               f"G = {G:.4g} Pa instantaneous, from {iso}{scaled}; material '{material.name}' with its defaults: "
               f"nu = {nu0:.3g})")
+    default_scale = material.spec.bind(None, material.moduli, material.elastic).iso_scale
+    prony_cause = ""
+    if material.iso_scale > 2.0 * default_scale:  # the Prony series, not kappa, lowered nu
+        prony_cause = (f" The Prony coefficients leave gamma_inf = {1.0 / material.iso_scale:.3g} "
+                       f"({1.0 / default_scale:.3g} with the defaults), which raises the instantaneous shear modulus "
+                       f"{material.iso_scale / default_scale:.3g}x: check the g_i too.")
     text = (f"{named or name} gives {moduli}, far from 0.5: tissue is nearly incompressible. nu >= {NU_WARN:g} "
-            f"needs K >= {k_needed:.4g} Pa; check {name} (in Pa, not kPa) and {iso}. It runs as given.")
+            f"needs K >= {k_needed:.4g} Pa; check {name} (in Pa, not kPa) and {iso}.{prony_cause} It runs as given.")
     return name, text, f"It makes {moduli}."

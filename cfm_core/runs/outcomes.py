@@ -11,6 +11,8 @@ whole, the files of an earlier run in the folder replaced, files cfm did not wri
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -189,7 +191,11 @@ class DropTestOutcome:
                 raise InputError("vtu output needs a run with stored frames (backend option frame_interval, s; "
                                  "the command line's --vtu sets it).")
             names += write_field_series(out, self.model, self.result, parse_fields(fields), full=full)
-        write_text(out / "scene.toml", scene_to_toml(self.scene))
+        scene = self.scene
+        if vtu and scene.run is not None:  # its repeat writes the same frames (cfm run --scene scene.toml)
+            scene = scene.with_run(dataclasses.replace(scene.run, fields=",".join(parse_fields(fields)),
+                                                       full=bool(full)))
+        write_text(out / "scene.toml", scene_to_toml(scene))
         if plot:
             plot_acceleration(out / "acceleration.png", self.t, self.a_raw, self.a_cfc, self.title())
             names.insert(3, "acceleration.png")
@@ -357,6 +363,8 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
     rows = scene.end_time * float(scene.settings.output_rate) + 2
     total = int(rows * 4 * _CSV_BYTES) + (PNG_BYTES if plot else 0) + 20_000
     interval = (options or {}).get("frame_interval")
+    if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval > 0):
+        interval = None  # not given, or not a valid interval (the backend's option check says so)
     if vtu and interval and scene.type == "drop-test":
         frames = int(scene.end_time / float(interval)) + 2
         spec = scene.specimen

@@ -18,7 +18,7 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import InputError
-from .values import _choice, _num, _set, _text
+from .values import _choice, _num, _set, _text, parameter_value
 
 __all__ = ["Layer", "PartSettings", "make_layers", "make_parts", "layer_cells", "layer_z", "bind_material",
            "region_table"]
@@ -34,8 +34,7 @@ def _parameters(section: str, p) -> tuple:
     out = {}
     for k, v in items:
         _text(f"{section}.parameters", "name", k)
-        out[k] = _num(f"{section}.parameters", k, v, "(SI unit of the parameter)", -math.inf, math.inf,
-                      lo_open=True, hi_open=True)
+        out[k] = parameter_value(f"{section}.parameters", k, v)
     return tuple(sorted(out.items()))
 
 
@@ -245,6 +244,42 @@ def layer_z(layers, element_size: float) -> np.ndarray | None:
         z.append(bottom + np.linspace(0.0, lay.thickness, k + 1)[1:])
         bottom = bottom + lay.thickness
     return np.concatenate(z)
+
+
+def unused_by_layers(scene, names) -> dict:
+    """The names among ``names`` ([material] parameters, ``"density"``) that no layer of a layered
+    specimen takes from the scene's sections, with the reason: a layer that names its own material
+    takes no [material] parameter, one that gives a parameter itself does not take that one, and
+    one with its own density does not take [specimen] density. A sweep or override of such a name
+    changes nothing (every run the same, labelled with values never applied). Empty for a specimen
+    without layers (a mesh's parts are known only from the mesh: cells outside every part take
+    the [material] section).
+
+    Parameters
+    ----------
+    scene : Scene
+        A drop-test scene.
+    names : iterable of str
+        Parameter names and scene keys.
+
+    Returns
+    -------
+    dict
+        {name: reason (text)} for the names no layer uses.
+    """
+    layers = getattr(getattr(scene, "specimen", None), "layers", ()) or ()
+    if not layers:
+        return {}
+    own = [f"{lay.name or f'layer{i + 1}'} ({lay.material})" for i, lay in enumerate(layers) if lay.material]
+    out = {}
+    for name in names:
+        if name == "density":
+            if all(lay.density is not None for lay in layers):
+                out[name] = "every layer gives its own density"
+        elif not any(lay.material is None and name not in lay.parameter_dict for lay in layers):
+            out[name] = ("every layer names its own material: " + ", ".join(own) if len(own) == len(layers) else
+                         f"no layer takes {name} from [material] (each gives its own {name} or names its own material)")
+    return out
 
 
 def bind_material(region, scene_material, default_density: float, material=None):

@@ -92,6 +92,11 @@ class RunSettings:
         Backend options by name, SI units (stored as sorted ``(name, value)`` pairs).
     input_files : mapping or tuple of pairs
         ``path -> "sha256:<hex>"``: content digests of the files the run read (its mesh).
+    fields : str, optional
+        The element fields a ``--vtu`` run wrote (comma-separated keys of
+        :data:`cfm_core.post.fields.FIELDS`), so that its repeat writes the same frames.
+    full : bool, optional
+        Whether a ``--vtu`` run mirrored a quarter or half model into the whole specimen (``--full``).
 
     Raises
     ------
@@ -105,8 +110,15 @@ class RunSettings:
     device: str | None = None
     options: tuple = ()
     input_files: tuple = ()
+    fields: str | None = None
+    full: bool | None = None
 
     def __post_init__(self):
+        if self.fields is not None and (not isinstance(self.fields, str) or not self.fields.strip()):
+            raise InputError(f"[run] fields = {self.fields!r} must be the --vtu fields as text (e.g. fields = "
+                             f"\"von_mises,part\").")
+        if self.full is not None and not isinstance(self.full, bool):
+            raise InputError(f"[run] full = {self.full!r} must be true or false.")
         for key in ("backend", "dtype", "device"):
             v = getattr(self, key)
             if v is not None and (not isinstance(v, str) or not v.strip()):
@@ -140,7 +152,7 @@ class RunSettings:
         """
         if not isinstance(table, Mapping):
             raise InputError(f"[run] must be a table (section), got {table!r}.")
-        allowed = ("backend", "dtype", "device", "options", "input_files")
+        allowed = ("backend", "dtype", "device", "options", "input_files", "fields", "full")
         for k in table:
             if k not in allowed:
                 hint = did_you_mean(k, allowed)
@@ -175,7 +187,7 @@ class RunSettings:
         """
         files = {(p if Path(p).expanduser().is_absolute() else str(Path(base_dir) / Path(p).expanduser())): d
                  for p, d in self.input_files}
-        return RunSettings(self.backend, self.dtype, self.device, self.options, files)
+        return RunSettings(self.backend, self.dtype, self.device, self.options, files, self.fields, self.full)
 
     def as_dict(self) -> dict:
         """The section as TOML-ready nested dict (None entries and empty tables left out).
@@ -183,10 +195,11 @@ class RunSettings:
         Returns
         -------
         dict
-            ``backend``, ``dtype``, ``device`` (when set), ``options`` and ``input_files``
+            ``backend``, ``dtype``, ``device``, ``fields``, ``full`` (when set), ``options`` and ``input_files``
             (sub-tables, when not empty).
         """
-        out = {k: getattr(self, k) for k in ("backend", "dtype", "device") if getattr(self, k) is not None}
+        out = {k: getattr(self, k) for k in ("backend", "dtype", "device", "fields", "full")
+               if getattr(self, k) is not None}
         if self.options:
             out["options"] = dict(self.options)
         if self.input_files:
@@ -231,6 +244,9 @@ def run_toml(run: RunSettings) -> list[str]:
              "# dtype); a value on the command line overrides the one here. Options not listed: the backend's",
              "# default (an automatic choice).", "[run]"]
     lines += [f"{k} = {_value(d[k])}" for k in ("backend", "dtype", "device") if k in d]
+    if "fields" in d or "full" in d:
+        lines += ["# what its --vtu frames hold (fields) and whether they are mirrored into the whole specimen (full)"]
+        lines += [f"{k} = {_value(d[k])}" for k in ("fields", "full") if k in d]
     if "options" in d:
         lines += ["", "[run.options]  # backend options as resolved, SI units ('cfm backends --options')"]
         lines += [f"{_key(k)} = {_value(v)}" for k, v in d["options"].items()]

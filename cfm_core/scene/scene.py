@@ -345,6 +345,11 @@ def load_scene(path) -> Scene:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError(f"scene file '{p}' cannot be read: {exc.strerror or exc}.") from None
+    except UnicodeDecodeError as exc:
+        line = p.read_bytes()[:exc.start].count(b"\n") + 1
+        raise InputError(f"scene file '{p}', line {line}: byte 0x{exc.object[exc.start]:02x} is not UTF-8 text; TOML "
+                         f"files are UTF-8. Save the file as UTF-8 (a Latin-1 editor writes such bytes for characters "
+                         f"like the micro sign or the degree sign).") from None
     try:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

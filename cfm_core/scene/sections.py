@@ -27,7 +27,7 @@ DEFAULT_OUTPUT_RATE = {"drop-test": 50_000.0, "single-element": 50_000.0, "relax
 MAX_ELEMENTS = 10_000_000  # a larger modelled mesh is almost surely a unit mistake
 
 
-from .values import _choice, _num, _set, _text  # noqa: F401 (re-exported)
+from .values import _choice, _num, _set, _text, parameter_value  # noqa: F401 (re-exported)
 from .impactor_section import SYMMETRIES
 
 
@@ -313,8 +313,7 @@ class MaterialSettings:
         out = {}
         for k, v in items:
             _text("material.parameters", "name", k)
-            out[k] = _num("material.parameters", k, v, "(SI unit of the parameter)", -math.inf,
-                          math.inf, lo_open=True, hi_open=True)
+            out[k] = parameter_value("material.parameters", k, v)
         _set(self, parameters=tuple(sorted(out.items())))
 
     @property

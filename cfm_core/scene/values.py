@@ -44,3 +44,14 @@ def _text(section, key, value) -> str:
 def _set(obj, **kw):
     for k, v in kw.items():
         object.__setattr__(obj, k, v)
+
+
+def parameter_value(section: str, name: str, value) -> float:
+    """A material parameter of a scene table as a float: a finite number, else InputError naming the
+    table, the name and the value (its range is the material's, checked when the material is bound)."""
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if ok and math.isfinite(float(value)):
+        return float(value)
+    raise InputError(f"[{section}] {name} = {value!r} is not allowed: a material parameter is a finite number in SI "
+                     f"units (Pa, s, -); 'cfm materials' lists each material's parameters with their units and "
+                     f"ranges.")

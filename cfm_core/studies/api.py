@@ -15,6 +15,7 @@ import warnings as _warnings
 from pathlib import Path
 
 from ..errors import InputError
+from ..post.staging import check_folder_target
 from .fit_outcomes import CalibrationOutcome, LabFitOutcome
 from .outcomes import SweepOutcome, UniaxialOutcome, clear_earlier_output
 
@@ -179,15 +180,16 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
         curves += measured.read_curves(specs, scene, scene_given=given)
     if not (isinstance(max_evaluations, int) and max_evaluations >= 1):
         raise InputError(f"max_evaluations = {max_evaluations!r} must be a whole number >= 1.")
-    if out is not None:
-        out = clear_earlier_output(out)
+    if out is not None:  # checked now; an earlier output there is replaced when the fit is saved, kept if it fails
+        out = check_folder_target(out)
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else _bar(progress, 0, "")
     t0 = time.perf_counter()
     result = cal.fit(scene, curves, names, start, backend, runner, cal.REL_STEP if rel_step is None else rel_step,
                      max_evaluations, say, options)
     label = getattr(runner, "label", "serial (this process)")
     outcome = CalibrationOutcome(scene, result, backend, dict(options or {}),
-                                 {"runner": label, "total_time": time.perf_counter() - t0})
+                                 {"runner": label, "total_time": time.perf_counter() - t0,
+                                  "max_evaluations": max_evaluations})  # the fit stops there: a repeat needs it
     if out is not None:
         outcome.save(out)
     return outcome
@@ -248,12 +250,13 @@ def fit(material: str = "cfm", tests=None, fit="c,k1,k2", start: dict | None = N
         raise InputError("cfm.fit needs tests=['FILE:KIND:RATE[:WEIGHT]', ...] (columns t s, stretch or shear -, "
                          "stress Pa).")
     scene = _scene(scene) if scene is not None else None
-    if out is not None:
-        out = clear_earlier_output(out)
+    if out is not None:  # checked now; an earlier output there is replaced when the fit is saved, kept if it fails
+        out = check_folder_target(out)
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else _bar(progress, 0, "")
     t0 = time.perf_counter()
     result = lab.fit_lab(material, tests, names, start, fixed, moduli, elastic, max_evaluations, say, starts)
-    outcome = LabFitOutcome(result, scene, {"total_time": time.perf_counter() - t0})
+    outcome = LabFitOutcome(result, scene, {"total_time": time.perf_counter() - t0,
+                                            "max_evaluations": max_evaluations})  # per start: a repeat needs it
     if out is not None:
         outcome.save(out)
     return outcome

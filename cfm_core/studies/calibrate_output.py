@@ -121,7 +121,7 @@ def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
             "at_bound": conf.get("at_bound", {}),
             "history": pb.history, **(settings or {}),
             "units": {"thickness": "m", "peak_measured_g": "g (9.80665 m/s^2)", "peak_fitted_g": "g",
-                      "rel_l2": "-", "cost": "-", "wall_time": "s", "elapsed": "s",
+                      "rel_l2": "-", "cost": "-", "wall_time": "s", "max_evaluations": "-", "elapsed": "s",
                       "parameters": "SI (see each parameter's unit)"}}
     files.append(write_json(out / "fit.json", data))
     return files

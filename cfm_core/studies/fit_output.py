@@ -144,7 +144,7 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
             "cost": result.cost, "status": result.status, "evaluations": result.evaluations,
             "wall_time": result.wall, "dof": result.confidence["dof"], "starts": result.tried,
             **(settings or {}),
-            "units": {"rate": "1/s", "peak_stress": "Pa", "rel_rms": "-", "cost": "-", "wall_time": "s",
+            "units": {"rate": "1/s", "peak_stress": "Pa", "rel_rms": "-", "cost": "-", "wall_time": "s", "max_evaluations": "-",
                       "parameters": "SI (see each parameter's unit)"}}
     files.append(write_json(out / "fit.json", data))
     return files

@@ -66,6 +66,9 @@ RATE_TOLERANCE = 0.1
 #: interval excluding the truth) the simulation was biased by the rows' spacing. Each interval between
 #: rows is cut into equal steps of at most this change (the deformation linear in time between rows).
 MAX_STEP = 0.0025
+#: Range of the largest |nominal stress| of a test (Pa): outside it the column is not a stress in Pa (a
+#: stress scaled by 1e-300 underflowed the fit's residuals to inf).
+STRESS_RANGE = (1e-6, 1e12)
 #: Measurement noise tolerated in the deformation column, relative to the largest deformation: a value on
 #: the other side of the undeformed state, or back below the largest so far, by more is an error.
 NOISE = 0.02
@@ -213,6 +216,10 @@ def _check_stress(p, kind, x, P, lineno):
     if not peak > 0.0:
         raise InputError(f"test file '{p}': the stress column is 0 on every line; a test must record the nominal "
                          f"stress (Pa) the deformation caused.")
+    lo, hi = STRESS_RANGE
+    if not lo <= peak <= hi:
+        raise InputError(f"test file '{p}': the largest |stress| is {peak:.3g} Pa, outside {lo:g} - {hi:g} Pa, which no "
+                         f"material test records (soft tissue: kPa to MPa); give the nominal stress in Pa.")
     d = x - (0.0 if kind == "shear" else 1.0)
     k = int(np.argmax(np.abs(d)))
     if P[k] * d[k] < 0.0 and abs(P[k]) > NOISE * peak:

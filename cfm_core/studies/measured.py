@@ -208,7 +208,9 @@ def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.
     t, a = read_measured(path)
     notes = []
     if scene is not None:
-        notes = check_plausible(path, t, a, float(scene.impactor.velocity), float(scene.end_time), cfc)
+        v = scene.impactor.velocity  # a speed, or a vector [vx, vy, vz] (m/s)
+        speed = math.hypot(*v) if isinstance(v, (tuple, list)) else float(v)
+        notes = check_plausible(path, t, a, speed, float(scene.end_time), cfc)
     # Box average of the (linearly interpolated) signal on the grid: the same resampling as a
     # simulated contact force, with mass 1 kg and the signal as the "force".
     grid, _, a_cfc = acceleration_histories(SimpleNamespace(t=t, impulse=None, contact_force=a), 1.0, rate, cfc)
@@ -222,6 +224,10 @@ def read_curves(specs, scene, scene_given: bool) -> list[Curve]:
     """The curves of ``--data`` specs; names made unique; the same (file, thickness) twice is an error."""
     if not specs:
         raise InputError("give at least one --data FILE.csv[:THICKNESS] (t in s, a in m/s^2).")
+    if scene.type != "drop-test":
+        raise InputError(f"the scene is a '{scene.type}' scene; measured acceleration curves are fitted with drop "
+                         f"tests: give a drop-test scene (--scene; the built-in 'drop-test' by default). Stress-strain "
+                         f"and relaxation curves are fitted with 'cfm fit'.")
     default = scene.specimen.thickness if scene_given else None
     rate = float(scene.settings.output_rate)
     curves, seen, names = [], set(), {}

@@ -42,6 +42,7 @@ from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
 from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
 from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
+from ..scene.layers import unused_by_layers
 from ..scene.scene import scene_to_dict
 from ..tables import read_table as read_history
 from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
@@ -202,6 +203,21 @@ def parse_vary(items, scene) -> list[Axis]:
         axes.append(Axis(name, units[name], tuple(values), text if given else None))
     if not axes:
         raise InputError("a sweep needs at least one --vary NAME=V1,V2,... (SI units).")
+    impactor = getattr(scene, "impactor", None)
+    if any(a.name == "velocity" for a in axes) and isinstance(getattr(impactor, "velocity", None), (tuple, list)):
+        vx, vy, vz = (float(c) for c in impactor.velocity)
+        spec = (f"velocity = {math.hypot(vx, vy, vz):.6g}, angle = {math.degrees(math.atan2(math.hypot(vx, vy), -vz)):.6g}"
+                + (f", azimuth = {math.degrees(math.atan2(vy, vx)):.6g}" if vy else ""))
+        raise InputError(f"--vary velocity: the scene's impactor velocity is the vector {list(impactor.velocity)} m/s; "
+                         f"a swept speed would replace it by a vertical impact. To sweep the speed of this oblique "
+                         f"impact, give the scene's [impactor] velocity as a speed with an angle ({spec}).")
+    unused = unused_by_layers(scene, [a.name for a in axes if a.name == "density" or a.name not in SCENE_KEYS])
+    if unused:
+        name, why = next(iter(unused.items()))
+        where = "[specimen] density" if name == "density" else f"the [material] section's {name}"
+        raise InputError(f"--vary {name}: no layer of the specimen uses {where} ({why}), so every run would be "
+                         f"the same, labelled with values never applied. Vary a value the layers use, or give the "
+                         f"layer its value in the scene file.")
     return axes
 
 
@@ -429,7 +445,8 @@ def _discard(entry: Path) -> None:
 
 # ----------------------------------------------------------------------------- the sweep
 def _row(rid: str, case: dict, summary: dict | None, error: str | None) -> dict:
-    row = {"run_id": rid, **case, "status": "ok" if error is None else "failed", "error": error or ""}
+    row = {"run_id": rid, **case, "status": "ok" if error is None else "failed", "error": error or "",
+           "warnings": " | ".join((summary or {}).get("warnings", []))}  # a run cut short, high hourglass energy
     for key in SUMMARY_COLUMNS:
         row[key] = (summary or {}).get(key)
     return row

@@ -31,24 +31,25 @@ SUMMARY_COLUMNS = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time"
 
 
 def columns(axes: list[Axis]) -> list[tuple[str, str]]:
-    """(key, header) of the table: run_id, the varied names, status, error, summary figures."""
+    """(key, header) of the table: run_id, the varied names, status, error, the run checks' warnings
+    (joined by " | "), summary figures."""
 
     units = {**{k: u.split(" ")[0] for k, u in SUMMARY_UNITS.items()}, "run_time": "s"}
     return ([("run_id", "run_id")] + [(a.name, f"{a.name} [{a.unit}]") for a in axes]
-            + [("status", "status"), ("error", "error")]
+            + [("status", "status"), ("error", "error"), ("warnings", "warnings")]
             + [(k, f"{k} [{units.get(k, '-')}]") for k in SUMMARY_COLUMNS])
 
 
-TEXT_COLUMNS = ("run_id", "status", "error")
+TEXT_COLUMNS = ("run_id", "status", "error", "warnings")
 
 
 def table_frame(rows: list, axes: list[Axis]) -> pd.DataFrame:
     """The sweep table as a DataFrame: one row per run, columns ``name [unit]`` (SI units),
-    text columns run_id, status, error; numbers as float (NaN where a run has no value)."""
+    text columns run_id, status, error, warnings; numbers as float (NaN where a run has no value)."""
     import pandas as pd  # deferred: ~0.3 s to import; the cfm command imports this module for every command
 
     cols = columns(axes)
-    data = {h: [r[k] for r in rows] for k, h in cols}
+    data = {h: [r.get(k, "") if k == "warnings" else r[k] for r in rows] for k, h in cols}  # rows before warnings
     frame = pd.DataFrame(data, columns=[h for _, h in cols])
     for k, h in cols:
         frame[h] = frame[h].astype("string") if k in TEXT_COLUMNS else pd.to_numeric(frame[h], errors="coerce")

@@ -1,5 +1,7 @@
 """Unit-slip warnings of the layers and parts of a specimen (cfm_core.scene.plausible)."""
 
+import pytest
+
 from cfm_core.scene.plausible import check_plausible
 from cfm_core.scene.scene import builtin_scene, load_scene
 
@@ -42,3 +44,32 @@ def test_a_kpa_slip_under_a_layer_is_warned_naming_the_layer(tmp_path):
     path.write_text(LAYERED.format(kappa=666100.0))
     assert check_plausible(load_scene(path)) == []
     assert check_plausible(builtin_scene("layered-tissue")) == []   # skin mu = 4e5 Pa: no warning
+
+
+def test_values_no_layer_uses_are_refused_not_swept(tmp_path, capsys):
+    """Every layer with its own material and density: a sweep of k1 or density ran identical runs labelled
+    1000 and 2000 Pa (the same 34.41 g), and --density was noted as applied while no part took it."""
+    from cfm_core.cli import main
+    from cfm_core.errors import InputError
+    from cfm_core.studies.sweep import parse_vary
+
+    text = LAYERED.format(kappa=666100.0).replace('name = "fat"\nthickness = 0.004\n',
+                                                   'name = "fat"\nthickness = 0.004\nmaterial = "cfm"\n')
+    text = text.replace('thickness = 0.002\n', 'thickness = 0.002\ndensity = 1100.0\n').replace(
+        'name = "fat"\n', 'name = "fat"\ndensity = 950.0\n')
+    path = tmp_path / "own.toml"
+    path.write_text(text)
+    scene = load_scene(path)
+    for vary in ("k1=1000,2000", "density=900,1000"):
+        with pytest.raises(InputError, match="no layer of the specimen uses"):
+            parse_vary([vary], scene)
+    assert main(["drop-test", "--scene", str(path), "--density", "2000", "--out", str(tmp_path / "o")]) == 2
+    assert "--density: no layer of the specimen uses [specimen] density" in capsys.readouterr().err
+    # the template's fat layer takes [material]: its k1 is swept
+    assert [a.name for a in parse_vary(["k1=1000,2000"], load_scene(_write(tmp_path, LAYERED)))] == ["k1"]
+
+
+def _write(tmp_path, template):
+    path = tmp_path / "inherit.toml"
+    path.write_text(template.format(kappa=666100.0))
+    return path

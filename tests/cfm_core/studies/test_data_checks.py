@@ -16,7 +16,7 @@ from cfm_core.errors import InputError, NumericalError
 from cfm_core.material import make_material
 from cfm_core.post.compare import compare_runs, read_run
 from cfm_core.runs import pipeline
-from cfm_core.scene.scene import builtin_scene
+from cfm_core.scene.scene import builtin_scene, scene_to_toml
 from cfm_core.simulation import point
 from cfm_core.studies import calibrate, fit, identifiability, lab_tests
 from cfm_core.studies.dask_runner import Done, lost_reason
@@ -209,3 +209,58 @@ def test_warnings_once_says_a_warning_that_differs_in_its_numbers_once(capsys):
     assert err == ["warning: kappa gives nu = 0.413, far from 0.5", "warning: other"]
     pipeline.report_warnings({"warnings": ["other"]})  # outside the block: said every time
     assert capsys.readouterr().err == "warning: other\n"
+
+
+# ----------------------------------------------------------------------------- output folders of fits
+def test_a_fit_that_fails_keeps_the_earlier_output_in_its_folder(tmp_path, capsys):
+    """A fit refused after its start (--starts 0) emptied --out first: the earlier fit was lost."""
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=200)
+    path = _csv(tmp_path / "u.csv", t, lam, P)
+    out = tmp_path / "fit"
+    assert main(["fit", "--test", f"{path}:uniaxial:1", "--fit", "k1", "--quiet", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    assert "fit.json" in before
+    assert main(["fit", "--test", f"{path}:uniaxial:1", "--fit", "k1", "--starts", "0", "--quiet",
+                 "--out", str(out)]) == 2
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+
+
+def test_fit_json_records_the_evaluation_limit(tmp_path):
+    """A fit stopped by --max-evaluations could not be repeated from fit.json (k2 = 1.65417556 with 3,
+    1.65417273 with 4; neither recorded)."""
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=200)
+    path = _csv(tmp_path / "u.csv", t, lam, P)
+    out = tmp_path / "fit"
+    assert main(["fit", "--test", f"{path}:uniaxial:1", "--fit", "k1", "--max-evaluations", "7", "--quiet",
+                 "--out", str(out)]) == 0
+    data = json.loads((out / "fit.json").read_text())
+    assert data["max_evaluations"] == 7 and data["units"]["max_evaluations"] == "-"
+
+
+def test_a_sweep_table_keeps_the_runs_warnings(tmp_path, capsys):
+    """end_time = 2 ms cut every pulse short: sweep.csv said "ok", peak 9.0 g (the real one ~114 g), and a
+    rerun skipping the cached runs said nothing."""
+    scene = builtin_scene("drop-test").with_overrides(thickness=0.005, element_size=0.0025, width=0.03)
+    text = scene_to_toml(scene).replace("[scene]\n", "[scene]\nend_time = 0.002\n", 1)
+    path = tmp_path / "short.toml"
+    path.write_text(text)
+    out = tmp_path / "sw"
+    args = ["sweep", "--serial", "--scene", str(path), "--vary", "k2=1.6,1.7", "--quiet", "--out", str(out)]
+    for _ in range(2):  # the second time from the run cache
+        assert main(args) == 0
+        assert "2 of 2 runs finished with warnings" in capsys.readouterr().err
+    import pandas as pd
+    table = pd.read_csv(out / "sweep.csv")
+    assert all("end time" in w for w in table["warnings"])
+
+
+def test_a_speed_sweep_of_an_oblique_impact_is_refused_with_the_speed_and_angle():
+    """--vary velocity=0.5 on velocity = [0.2, 0, -1] ran a vertical 0.5 m/s impact, without a note."""
+    from cfm_core.studies.sweep import parse_vary
+
+    scene = builtin_scene("drop-test").with_overrides(velocity=(0.2, 0.0, -1.0))
+    with pytest.raises(InputError, match=r"velocity = 1.0198, angle = 11.3099"):
+        parse_vary(["velocity=0.5"], scene)
+    assert [a.values for a in parse_vary(["velocity=0.5,2"], builtin_scene("drop-test"))] == [(0.5, 2.0)]

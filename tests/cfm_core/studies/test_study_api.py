@@ -63,6 +63,7 @@ def test_calibrate_api_twin_and_files(tmp_path):
     record = json.loads((tmp_path / "cal" / "fit.json").read_text())
     assert record["provenance"]["input_files"] == {str(data): "sha256:" + cfm.fingerprint.file_digest(data)}
     assert record["provenance"]["backend"]["options"]["hourglass"] is not None
+    assert isinstance(record["max_evaluations"], int)  # a fit stopped by the limit is repeatable from fit.json
     assert {"fit.json", "objective.png", "fitted-scene.toml", ".cfm-output.json"} <= {
         p.name for p in (tmp_path / "cal").iterdir()}
 

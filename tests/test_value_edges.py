@@ -1,0 +1,128 @@
+"""Legal-looking values at the edges of options and parameters: each gave a silently wrong result or a
+traceback (found by trying extreme inputs as a new user); now one paragraph and exit 2, or the right value."""
+
+import numpy as np
+import pytest
+
+from cfm_core.cli import main
+from cfm_core.errors import InputError
+from cfm_core.export.lsdyna import _field
+from cfm_core.material import make_material
+from cfm_core.material.plausible import check_material
+from cfm_core.scene.scene import builtin_scene, scene_to_toml
+from cfm_core.simulation import point
+
+SMALL = ["--thickness", "0.005", "--element-size", "0.0025", "--no-plot", "--quiet"]
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["drop-test", *SMALL, "--option", "threads=64"], "is more than the"),           # ValueError traceback
+    (["drop-test", *SMALL, "--vtu", "--option", "frame_interval=nan"], "frame_interval = nan"),  # int(nan)
+    (["drop-test", *SMALL, "--option", "hourglass=inf"], "option hourglass = inf"),  # "non-finite state", exit 3
+    (["run", "--scene", "single-element", "--backend", "skfem", "--option", "dt=1e-300"], "option dt = 1e-300"),
+    (["run", "--scene", "single-element", "--backend", "skfem", "--option", "rtol=10"], "option rtol = 10"),
+])
+def test_option_values_that_broke_runs_are_refused(tmp_path, capsys, args, expected):
+    """rtol = 10 accepted the unsolved predictor: -75.75 N for -0.78 N, exit 0; dt = 1e-300 divided by 0."""
+    if "skfem" in args:
+        pytest.importorskip("skfem")
+    assert main([*args, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_scene_stop_limit_applies_below_the_warning_threshold(tmp_path, capsys):
+    """hourglass_limit = 0.001 was ignored at 1.3 % (only tested above the 10 % warning), exit 0."""
+    scene = builtin_scene("drop-test").with_overrides(thickness=0.005, element_size=0.0025)
+    text = scene_to_toml(scene).replace("[scene]\n", "[scene]\nhourglass_limit = 0.001\n", 1)
+    path = tmp_path / "limit.toml"
+    path.write_text(text)
+    assert main(["run", "--scene", str(path), "--no-plot", "--quiet", "--out", str(tmp_path / "o")]) == 3
+    assert "above the scene's stop limit hourglass_limit = 0.001" in capsys.readouterr().err
+
+
+def test_an_ogden_exponent_too_small_for_float64_is_refused_and_small_ones_are_right():
+    """|alpha| = 1e-16 made l^alpha - 1 = 0 and dropped the term: 32 % low stresses on every backend."""
+    with pytest.raises(InputError, match=r"with \|alpha1\| >= 0.001"):
+        make_material("ogden", {"alpha1": 1e-16})
+    P = {a: point.uniaxial(make_material("ogden", {"alpha1": a}), 100.0, 0.7, steps=50)[2][-1]
+         for a in (1e-3, 2e-3, 4e-3)}
+    limit = 2.0 * P[2e-3] - P[4e-3]  # Richardson: the alpha -> 0 limit (log-strain energy) to O(alpha^2)
+    assert P[1e-3] == pytest.approx(limit, rel=1e-3)
+    assert abs(P[1e-3] - limit) < 0.6 * abs(P[2e-3] - limit)  # converging linearly: no cancellation noise
+
+
+def test_a_scene_file_parameter_that_is_not_a_number_is_named(tmp_path, capsys):
+    """c = nan gave "(SI unit of the parameter) ... -inf < c < inf"."""
+    text = scene_to_toml(builtin_scene("drop-test")) + "\n[material.parameters]\nc = nan\n"
+    path = tmp_path / "nan.toml"
+    path.write_text(text)
+    assert main(["run", "--scene", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "[material.parameters] c = nan is not allowed" in err and "SI unit of the parameter" not in err
+
+
+def test_a_stress_column_out_of_any_scale_is_refused(tmp_path, capsys):
+    """x 1e-300: scipy's "array must not contain infs or NaNs" traceback; x 1e300: "NaN or inf in the data"."""
+    t, lam, P, _ = point.uniaxial(make_material("cfm"), 100.0, 0.6, steps=40)
+    for scale in (1e-300, 1e300):
+        path = tmp_path / "s.csv"
+        path.write_text("t,stretch,stress\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c * scale)!r}\n"
+                                                        for a, b, c in zip(t, lam, P)))
+        assert main(["fit", "--test", f"{path}:uniaxial:100", "--fit", "k1", "--quiet", "--out", str(tmp_path / "f")]) == 2
+        assert "no material test records" in capsys.readouterr().err
+
+
+def test_lsdyna_fields_keep_every_digit_ten_characters_hold():
+    """A 9-character limit kept 1.235e-07 of 1.23456789e-7 and 0.4709997 of 0.47099966."""
+    for value, text in ((0.47099966, "0.47099966"), (1.23456789e-7, "1.23457e-7"), (666100.0, "666100.0"),
+                        (-1.23456789e-7, "-1.2346e-7")):
+        field = _field(value)
+        assert len(field) == 10 and field.strip() == text
+    assert float(_field(1.23456789e-7)) == pytest.approx(1.23456789e-7, rel=5e-6)
+
+
+def test_the_poisson_warning_names_the_prony_series_when_it_is_the_cause():
+    """g summing to 1 - 1e-5 gave nu = -0.96 with "check kappa" only."""
+    m = make_material("cfm", {"g1": 0.471, "g2": 0.435, "g3": 0.09399})
+    text = next(w for w in check_material(m) if "Poisson" in w)
+    assert "The Prony coefficients leave gamma_inf = 1e-05" in text
+    assert not any("Prony coefficients leave" in w and "Poisson" in w for w in check_material(make_material("cfm")))
+    assert np.isfinite(m.iso_scale)
+
+
+def test_a_ringing_single_element_is_warned(tmp_path, capsys):
+    """kappa = 1e10 Pa on the explicit single element: the reaction force rang about its trend, the peak 25 %
+    high, exit 0 without a warning (the inertia check compares energies, which a stiff mode hardly has)."""
+    assert main(["run", "--scene", "single-element", "--param", "kappa=1e10", "--no-plot", "--quiet",
+                 "--out", str(tmp_path / "k10")]) == 0
+    assert "the reaction force rings" in capsys.readouterr().err
+    assert main(["run", "--scene", "single-element", "--no-plot", "--quiet", "--out", str(tmp_path / "t1")]) == 0
+    assert "rings" not in capsys.readouterr().err
+
+
+def test_export_writes_the_density_given_and_refuses_an_impossible_one(tmp_path, capsys):
+    """The VUMAT and LS-DYNA cards always said 950 kg/m^3, with no way to change it."""
+    assert main(["export", "cfm", "--to", "abaqus-vumat", "--density", "1100", "--out", str(tmp_path / "v")]) == 0
+    assert "*DENSITY\n1100.0" in (tmp_path / "v" / "material.inp").read_text()
+    assert main(["export", "cfm", "--to", "lsdyna-umat", "--density", "1.06", "--out", str(tmp_path / "d")]) == 0
+    assert "almost surely in g/cm^3" in capsys.readouterr().err
+    assert main(["export", "cfm", "--to", "lsdyna-umat", "--density", "0", "--out", str(tmp_path / "z")]) == 2
+    assert not (tmp_path / "z").exists()
+
+
+def test_bottoming_out_beside_the_specimen_is_told_from_crushing_it():
+    """angle = 89 deg: the impactor slid 0.55 m past a 25 mm half-width specimen and reached the plate beside
+    it; the error said "crushed through: too heavy or too fast"."""
+    import types
+
+    from cfm_core.simulation.checks import _uncrushed
+
+    nodes = np.array([[x, y, z] for z in (0.0, 0.004, 0.008) for y in (0.0, 0.01) for x in (0.0, 0.01)])
+    model = types.SimpleNamespace(nodes=nodes)
+    position = lambda x, i: x[i]  # noqa: E731 (the scan's mapping: here the user's own order)
+    assert _uncrushed(model, nodes, position)            # untouched: the impactor is elsewhere
+    crushed = nodes.copy()
+    crushed[-1, 2] = 0.001                               # one top node pressed to 1 mm
+    assert not _uncrushed(model, crushed, position)
