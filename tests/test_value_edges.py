@@ -126,3 +126,12 @@ def test_bottoming_out_beside_the_specimen_is_told_from_crushing_it():
     crushed = nodes.copy()
     crushed[-1, 2] = 0.001                               # one top node pressed to 1 mm
     assert not _uncrushed(model, crushed, position)
+
+
+def test_numbers_in_messages_near_their_limits_are_told_apart():
+    """gamma_inf = 9.99999999e-07 was shown as "1e-06 ... must be at least 1e-06"; c = 5e-324 as "infx below"."""
+    from cfm_core.material.plausible import _times
+    from cfm_core.material.prony import _shown
+
+    assert _shown(9.99999999e-07, 1e-06) == "9.99999999e-07" and _shown(5e-07, 1e-06) == "5e-07"
+    assert _times(float("inf")) == "more than 1e308" and _times(1000.0000000000001) == "1,000"

@@ -132,8 +132,11 @@ def eig3(A: torch.Tensor):
     buw = (V[:, 1] * AV[:, 2]).sum(0)
     # Jacobi rotation of the (u, w) block: t = sign(theta) / (|theta| + sqrt(theta^2 + 1))
     dd = bww - buu
-    t = 2.0 * buw / torch.copysign(dd.abs() + torch.sqrt(dd * dd + 4.0 * buw * buw), dd)
-    t = torch.where(buw != 0.0, t, 0.0)
+    den = dd.abs() + torch.sqrt(dd * dd + 4.0 * buw * buw)
+    t = 2.0 * buw / torch.copysign(den, dd)
+    # buw = 0, or dd = 0 with 4 buw^2 below the smallest float (den = 0: t was inf, the eigenvalues +-inf in
+    # float32 at an off-diagonal of 1e-24): no rotation, as numba's kernel (its error is below the last bit)
+    t = torch.where((buw != 0.0) & (den > 0.0), t, 0.0)
     c = 1.0 / torch.sqrt(t * t + 1.0)
     sn = t * c
     tb = t * buw

@@ -146,6 +146,8 @@ def _scale_warning(material, p, above: bool = True) -> str:
 def _times(ratio: float) -> str:
     """A ratio above 100 to 3 significant digits, without exponent up to 1e15: 1000.0000000000001 -> "1,000";
     1.5e294 -> "1.5e+294"."""
+    if not math.isfinite(ratio):  # a value near the smallest float: 5e-324 Pa is "inf times" below
+        return "more than 1e308"
     return f"{float(f'{ratio:.3g}'):,.0f}" if ratio < 1e15 else f"{ratio:.3g}"  # not 300 digits for 1e300
 
 

@@ -122,7 +122,7 @@ def check_gamma_inf(gammas) -> float:
         names = " + ".join(f"g{i}" for i in range(1, len(gammas) + 1))
         given = ", ".join(f"g{i} = {float(g)!r}" for i, g in enumerate(gammas, start=1))
         raise InputError(
-            f"Prony series: {given} leave the long-term coefficient gamma_inf = 1 - ({names}) = {g_inf:.3g} (-), "
+            f"Prony series: {given} leave the long-term coefficient gamma_inf = 1 - ({names}) = {_shown(g_inf, GAMMA_INF_MIN)} (-), "
             f"summed exactly; it must be at least {GAMMA_INF_MIN:g}: the instantaneous isochoric moduli are "
             f"1 / gamma_inf times the long-term ones (Table 1: gamma_inf = 0.021, a factor 48). Lower one of "
             f"the g_i so that their sum is at most 1 - {GAMMA_INF_MIN:g} (Table 1's sum is 0.979).")
@@ -260,3 +260,12 @@ def gamma_inf(gammas) -> float:
         gamma_inf (-); 0.021 for Table 1.
     """
     return 1.0 - math.fsum(float(g) for g in gammas)
+
+
+def _shown(value: float, limit: float) -> str:
+    """``value`` with enough digits to tell it from ``limit`` (9.99999999e-07 is not shown as the limit 1e-06)."""
+    for digits in range(3, 18):
+        text = f"{value:.{digits}g}"
+        if float(text) != limit or value == limit:
+            return text
+    return repr(value)

@@ -81,7 +81,11 @@ def read_run(path) -> Run:
     if not d.is_dir():
         raise InputError(f"{d}: not a directory; give output directories of 'cfm drop-test' or 'cfm run'.")
     if not (d / "summary.json").is_file():
-        raise InputError(f"{d}: no summary.json, so the run did not complete (summary.json is written last).")
+        other = {"sweep.json": "cfm sweep: compare its runs, the folders in runs/", "fit.json": "cfm fit or cfm "
+                 "calibrate: compare runs of fitted-scene.toml", "report.json": "cfm verify"}
+        what = next((f"{d} is the output of {text}" for name, text in other.items() if (d / name).is_file()), None)
+        raise InputError(f"{what}; give output folders of 'cfm drop-test' or 'cfm run'." if what else
+                         f"{d}: no summary.json, so the run did not complete (summary.json is written last).")
     found = [name for name in SIGNALS if (d / name).is_file()]
     if not found:
         raise InputError(f"{d}: neither {' nor '.join(SIGNALS)} found.")

@@ -193,7 +193,8 @@ def _density_warnings(scene) -> list[str]:
     lo, hi = DENSITY_USUAL
     for where, rho in _densities(scene):
         if rho < DENSITY_SLIP:
-            hint = unit_hint("density", rho, "kg/m^3", lo, hi)
+            fix = None if where.startswith("[specimen]") else f"Write density = {rho * 1e3:g} in {where.split(' density')[0]}"
+            hint = unit_hint("density", rho, "kg/m^3", lo, hi, fix=fix)  # --density sets [specimen]'s only
             warnings.append(f"{where} = {rho:g} kg/m^3 is not a plausible tissue density (soft tissue 900-1100, "
                             f"bone up to ~2000 kg/m^3): below {DENSITY_SLIP:g} kg/m^3 it is almost surely a unit slip. "
                             f"{hint or 'Give the density in kg/m^3.'} It runs as given (a specimen {1e3 / rho:.0f}x "

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, NumericalError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
 from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
@@ -408,7 +408,14 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
 
     def stresses(x):
         m = bind(x)
-        return [simulate(m, t, mem) for t, mem in zip(tests, memories)]
+        out = []
+        for t, mem in zip(tests, memories):
+            try:
+                out.append(simulate(m, t, mem))
+            except NumericalError as exc:  # which curve, at which parameters
+                values = ", ".join(f"{k} = {v:.6g}" for k, v in coords.to_params(x).items())
+                raise NumericalError(f"test '{t.name}' ({t.path}) at {values}: {exc}") from None
+        return out
 
     def residual(x):
         sims = stresses(x)

@@ -338,8 +338,12 @@ def _diagonal(material, t, axis1, free, guess=None, iterations=100):
         if np.abs(r).max() <= 1e-11 * scale or np.all(np.abs(step) <= ROUNDOFF_STEP * np.abs(q)):
             return S, lam
         lam[:, list(free)] = np.maximum(q - step, 0.5 * q)[:, None]
+    k = int(np.argmax(np.abs(r)))
     raise NumericalError(f"material '{material.name}': the lateral stretch did not converge in {iterations} "
-                         f"iterations (largest lateral stress {np.abs(r).max():.3g} Pa).", quantity="lateral stretch")
+                         f"iterations (largest lateral stress {np.abs(r).max():.3g} Pa, at t = {t[k]:.6g} s, axial "
+                         f"stretch {lam[k, 0]:.6g}, lateral {lam[k, a0]:.6g}): the stresses grow too steeply with the "
+                         f"stretch there for the simultaneous Newton iterations (e.g. a very large fibre exponent k2).",
+                         quantity="lateral stretch")
 
 
 def simulate(material, test: LabTest, memory: dict | None = None) -> np.ndarray:

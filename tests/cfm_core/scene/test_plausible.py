@@ -73,3 +73,15 @@ def _write(tmp_path, template):
     path = tmp_path / "inherit.toml"
     path.write_text(template.format(kappa=666100.0))
     return path
+
+
+def test_a_part_density_slip_is_fixed_in_its_table_not_with_the_specimen_flag():
+    """The hint for [parts.part_1] density = 1.1 said "(--density 1100)", which sets [specimen] density."""
+    import types
+
+    from cfm_core.scene.plausible import _density_warnings
+
+    scene = types.SimpleNamespace(specimen=types.SimpleNamespace(density=950.0, layers=()), element=None,
+                                  parts=(types.SimpleNamespace(name="part_1", density=1.1),))
+    (text,) = _density_warnings(scene)
+    assert "Write density = 1100 in [parts.part_1]" in text and "--density" not in text

@@ -264,3 +264,25 @@ def test_a_speed_sweep_of_an_oblique_impact_is_refused_with_the_speed_and_angle(
     with pytest.raises(InputError, match=r"velocity = 1.0198, angle = 11.3099"):
         parse_vary(["velocity=0.5"], scene)
     assert [a.values for a in parse_vary(["velocity=0.5,2"], builtin_scene("drop-test"))] == [(0.5, 2.0)]
+
+
+def test_compare_says_what_a_study_folder_is(tmp_path, reference, capsys):
+    """A sweep's folder was "no summary.json, so the run did not complete"."""
+    _, ref = reference
+    sweep = tmp_path / "sweep"
+    sweep.mkdir()
+    (sweep / "sweep.json").write_text("{}")
+    assert main(["compare", str(ref), str(sweep)]) == 2
+    assert "is the output of cfm sweep: compare its runs, the folders in runs/" in capsys.readouterr().err
+
+
+def test_a_lateral_stretch_that_does_not_converge_names_the_test_and_the_time(tmp_path, capsys):
+    """k2 = 300: "the lateral stretch did not converge ... (largest lateral stress 1.66e+19 Pa)", no test,
+    no time, no stretch."""
+    m = make_material("cfm", {"k2": 300.0})
+    t, lam, P, _ = point.uniaxial(m, 100.0, 0.6, steps=200)
+    path = _csv(tmp_path / "k2.csv", t, lam, P)
+    assert main(["fit", "--test", f"{path}:uniaxial:100", "--fit", "c", "--param", "k2=300", "--quiet",
+                 "--out", str(tmp_path / "f")]) == 3
+    err = capsys.readouterr().err
+    assert "test 'k2'" in err and "at t = " in err and "axial stretch" in err
