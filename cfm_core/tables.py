@@ -318,7 +318,8 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
     p = Path(path)
     units = dict(units or {})
     if not p.is_file():
-        raise InputError(f"{what} '{p}' cannot be read: it does not exist (expected a CSV file with the columns "
+        state = "it is a folder, not a file" if p.is_dir() else "it does not exist"
+        raise InputError(f"{what} '{p}' cannot be read: {state} (expected a CSV file with the columns "
                          f"{','.join(columns)}).")
     try:
         raw = p.read_bytes()

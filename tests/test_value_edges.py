@@ -135,3 +135,10 @@ def test_numbers_in_messages_near_their_limits_are_told_apart():
 
     assert _shown(9.99999999e-07, 1e-06) == "9.99999999e-07" and _shown(5e-07, 1e-06) == "5e-07"
     assert _times(float("inf")) == "more than 1e308" and _times(1000.0000000000001) == "1,000"
+
+
+def test_a_run_that_cannot_reach_its_end_time_says_so_at_once(tmp_path, capsys):
+    """safety = 1e-300: a step of 1e-305 s, and the run went on towards max_steps = 5e7 for hours."""
+    assert main(["drop-test", *SMALL, "--option", "safety=1e-300", "--out", str(tmp_path / "o")]) == 3
+    err = capsys.readouterr().err
+    assert "4096 steps reached only" in err and "more than option max_steps = 50000000" in err

@@ -76,3 +76,9 @@ def test_a_reader_that_stops_ends_the_command_without_a_traceback():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141
     assert "Traceback" not in err and "BrokenPipeError" not in err
+
+
+def test_a_folder_given_as_a_data_file_is_called_a_folder(tmp_path, capsys):
+    """--test, --data and --history given a folder said "it does not exist"."""
+    assert main(["fit", "--test", f"{tmp_path}:uniaxial:1", "--fit", "k1", "--out", str(tmp_path / "f")]) == 2
+    assert "it is a folder, not a file" in capsys.readouterr().err

@@ -57,6 +57,17 @@ def state(model, t: float) -> NumericalError:
                           time=t, quantity="state")
 
 
+def projected_steps(model, steps: int, t: float, limit: int) -> NumericalError:
+    """At the pace so far (``steps`` steps to time t, s), the run would need more than ``limit`` steps
+    (option max_steps) to reach its end time: said at once instead of after hours (safety = 1e-300)."""
+    end = float(model.end_time)
+    need = steps * end / t if t > 0.0 else float("inf")
+    return NumericalError(f"model '{model.name}': {steps} steps reached only t = {t:.6g} s (mean step {t / steps:.3g} "
+                          f"s); at that pace the end time {end:g} s needs about {need:.3g} steps, more than option "
+                          f"max_steps = {limit}: check the options that set the step (safety, dt_max) and the "
+                          f"element size, density and moduli (units).", time=t, quantity="steps")
+
+
 def max_steps(model, steps: int, t: float) -> NumericalError:
     """The option max_steps was reached at time t (s) before the end time."""
     return NumericalError(f"model '{model.name}': {steps} steps reached at t = {t:.6g} s before the end "

@@ -303,6 +303,11 @@ def warm_up(mod, material) -> float:
     return time.perf_counter() - start
 
 
+#: Steps after which a run whose pace (steps per simulated second) cannot reach its end time within
+#: max_steps stops with the projection (errors.projected_steps).
+PROJECT_AFTER = 4096
+
+
 def run_model(model, progress=None, **options) -> Result:
     """Run ``model``; see :class:`cfm_backends.numba_explicit.NumbaExplicitBackend`."""
     o = NumbaOptions.from_mapping(options)
@@ -370,8 +375,11 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
         if code == K.R_SEPARATED:
             stop = "separated"
             break
-        if prep.sc[K.S_STEPS] >= o.max_steps:
-            raise errors.max_steps(model, int(prep.sc[K.S_STEPS]), t)
+        steps = int(prep.sc[K.S_STEPS])
+        if steps >= o.max_steps:
+            raise errors.max_steps(model, steps, t)
+        if steps >= PROJECT_AFTER and steps * end > o.max_steps * t:  # would run for hours: say so now
+            raise errors.projected_steps(model, steps, t, o.max_steps)
     wall = time.perf_counter() - start
     monitor.final(t, prep.st[0], z())
     h = np.concatenate(chunks)

@@ -298,7 +298,9 @@ def render_cut(run_dir, at: float, field: str, png, y_cut: float = 0.0) -> dict:
     k = int(np.argmin(np.abs(times - at)))
     gap = float(np.max(np.diff(times))) if len(times) > 1 else 0.0
     if abs(times[k] - at) > max(gap, 1e-12):
-        raise InputError(f"--at {at:g} s is outside the stored frames ({times[0]:g} .. {times[-1]:g} s).")
+        ms = (f" Is it in ms? --at {at * 1e-3:g} is {at:g} ms." if times[0] - gap <= at * 1e-3 <= times[-1] + gap
+              else "")
+        raise InputError(f"--at {at:g} s is outside the stored frames ({times[0]:g} .. {times[-1]:g} s).{ms}")
     t, spec_file, imp_file = frames[k]
     mesh = _read_frame(run_dir, spec_file, frames[0][1])
     value, name = _cell_value(mesh, field, run_dir, _rel(run_dir, spec_file))

@@ -130,6 +130,11 @@ def test_at_beyond_the_frames(run, tmp_path, capsys):
     _fails(capsys, [run, "--at", "1.0", "--png", tmp_path / "f.png"], "--at 1 s", "outside the stored frames")
 
 
+def test_at_in_ms_is_asked_about(run, tmp_path, capsys):
+    """--at 3 (ms meant) was only "outside the stored frames"."""
+    _fails(capsys, [run, "--at", "3", "--png", tmp_path / "f.png"], "Is it in ms? --at 0.003 is 3 ms.")
+
+
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
 def test_y_must_be_finite(run, tmp_path, capsys, value):
     _fails(capsys, [run, "--at", "0.005", f"--y={value}", "--png", tmp_path / "f.png"], f"--y {float(value)!r}",
