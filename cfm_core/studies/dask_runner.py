@@ -203,7 +203,8 @@ def local_cluster(workers: int, worker_timeout: float = WORKER_LOST) -> DaskRunn
     distributed = _import_distributed()
     cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                        env=dict(WORKER_ENV), dashboard_address=":0",
-                                       silence_logs=logging.ERROR)
+                                       silence_logs=logging.ERROR,
+                                       preload=["cfm_core.studies.dask_preload"])  # Ctrl-C: no worker tracebacks
     try:
         client = distributed.Client(cluster)
     except BaseException:

@@ -170,3 +170,15 @@ def test_dask_log_records_stay_off_the_terminal_while_a_runner_is_open():
             assert not logging.getLogger(name).isEnabledFor(logging.CRITICAL)
     assert {name: logging.getLogger(name).level for name in dask_runner.DISTRIBUTED_LOGGERS} == before
     assert logging.getLogger("distributed.client").isEnabledFor(logging.ERROR)
+
+
+def test_a_local_cluster_worker_ends_quietly_on_sigint():
+    """Ctrl-C on a local-cluster sweep printed two tracebacks per worker process (CancelledError,
+    KeyboardInterrupt) before "interrupted; no result written"; the workers' preload ends them quietly."""
+    import subprocess
+    import sys
+
+    code = ("import os, signal, time; from cfm_core.studies.dask_preload import dask_setup; dask_setup(None); "
+            "os.kill(os.getpid(), signal.SIGINT); time.sleep(30)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 130 and proc.stderr == ""
