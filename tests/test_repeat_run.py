@@ -202,3 +202,11 @@ def test_a_vtu_run_is_repeated_with_its_fields_and_mirroring(tmp_path, capsys):
     assert (again / "fields.json").read_bytes() == (first / "fields.json").read_bytes()
     for frame in sorted(first.glob("specimen_*.vtu"))[:3]:
         assert (again / frame.name).read_bytes() == frame.read_bytes()
+
+
+def test_a_param_over_a_default_of_the_scene_file_is_noted(tmp_path, capsys):
+    """--param k2=2.5 on a scene file without [material.parameters] changed the run without a note."""
+    path = tmp_path / "plain.toml"
+    path.write_text(cfm.scene.scene.scene_to_toml(cfm.builtin_scene("drop-test")))
+    assert main(["drop-test", "--scene", str(path), *SMALL, "--param", "k2=2.5", "--out", str(tmp_path / "o")]) == 0
+    assert "--param k2=2.5 overrides the default k2 = 1.66 that plain.toml runs with" in capsys.readouterr().err

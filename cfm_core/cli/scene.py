@@ -104,6 +104,11 @@ def _override_notes(old, new, over: dict, where: str) -> list[str]:
             for name, v in value.items():
                 if name in was and was[name] != v:
                     notes.append(f"--param {name}={v:g} overrides {where} [material.parameters] {name} = {was[name]:g}")
+                elif name not in was:  # the file ran with the material's default: say so too
+                    default = _default_value(old.material.name, name)
+                    if default is not None and default != v:
+                        notes.append(f"--param {name}={v:g} overrides the default {name} = {default:g} that {where} "
+                                     f"runs with (no [material.parameters] {name} there)")
             continue
         flag, attr = "--" + key.replace("_", "-"), "name" if key == "material" else key
         for section in ("material", "specimen", "impactor", "contact"):
@@ -113,6 +118,16 @@ def _override_notes(old, new, over: dict, where: str) -> list[str]:
                 notes.append(f"{flag}{shown} overrides {where} [{section}] {attr} = {getattr(a, attr)}")
                 break
     return notes
+
+
+def _default_value(material: str, name: str) -> float | None:
+    """The default of parameter ``name`` of registered ``material`` (SI), None when either is unknown."""
+    from ..material.registry import get_material
+
+    try:
+        return next((float(p.default) for p in get_material(material).parameters if p.name == name), None)
+    except InputError:
+        return None
 
 
 def _run_and_write(args, scene) -> tuple:
