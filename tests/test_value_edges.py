@@ -142,3 +142,10 @@ def test_a_run_that_cannot_reach_its_end_time_says_so_at_once(tmp_path, capsys):
     assert main(["drop-test", *SMALL, "--option", "safety=1e-300", "--out", str(tmp_path / "o")]) == 3
     err = capsys.readouterr().err
     assert "4096 steps reached only" in err and "more than option max_steps = 50000000" in err
+
+
+def test_skfem_refuses_a_smallest_step_above_the_largest(tmp_path, capsys):
+    pytest.importorskip("skfem")
+    assert main(["run", "--scene", "single-element", "--backend", "skfem", "--option", "dt_min=1", "--option",
+                 "dt_max=1e-6", "--no-plot", "--out", str(tmp_path / "o")]) == 2
+    assert "dt_min = 1 s is above dt_max = 1e-06 s" in capsys.readouterr().err

@@ -117,6 +117,9 @@ def _run(model, progress, o) -> Result:
     else:
         dt = dt_max / 10.0
     dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
+    if dt_min > dt_max:
+        raise InputError(f"skfem backend: option dt_min = {dt_min:g} s is above dt_max = {dt_max:g} s; the smallest "
+                         f"step must not exceed the largest (leave dt_min out: 1e-5 dt_max).")
     stepper = Stepper(sys_, o, solver)
     with ExitStack() as notices:  # the first evaluation compiles the element kernels of each material
         if o["kernels"] == "numba":  # the numba backend's notice of a cold first run

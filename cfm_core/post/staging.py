@@ -64,8 +64,9 @@ def _check_space(folder: Path, need_bytes: int, what: str, target: Path) -> None
         return
     free = shutil.disk_usage(folder).free
     if free < need_bytes + SPACE_MARGIN:
-        raise InputError(f"{what} {target}: the output needs about {need_bytes / 2**20:.1f} MiB but only "
-                         f"{free / 2**20:.1f} MiB are free on that disk; free some space or choose another folder.")
+        raise InputError(f"{what} {target}: the output needs about {need_bytes / 2**20:.4g} MiB but only "
+                         f"{free / 2**20:.1f} MiB are free on that disk; free some space or choose another folder "
+                         f"(or store fewer frames: option frame_interval).")
 
 
 def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:

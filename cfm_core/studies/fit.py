@@ -451,6 +451,11 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     start_stresses = stresses(x0)
     fitted_stresses = stresses(res.x)
     warnings = stress_scale_warnings(tests, start_stresses) + warnings
+    limited = [t for t in tried if t["evaluations"] >= max_evaluations]
+    if limited:  # scipy's status is the best start's; the others may have stopped anywhere
+        warnings.append(f"{len(limited)} of {len(tried)} start(s) stopped at the limit of {max_evaluations} evaluations "
+                        f"(max_evaluations, per start) before converging, so the best start may not be the best "
+                        f"fit; raise it (--max-evaluations).")
     miss = misfit_warning({t.name: _rel_rms(s, t) for s, t in zip(fitted_stresses, tests)}, "relative RMS")
     if miss:
         warnings.append(miss)

@@ -286,3 +286,13 @@ def test_a_lateral_stretch_that_does_not_converge_names_the_test_and_the_time(tm
                  "--out", str(tmp_path / "f")]) == 3
     err = capsys.readouterr().err
     assert "test 'k2'" in err and "at t = " in err and "axial stretch" in err
+
+
+def test_starts_stopped_by_the_evaluation_limit_are_warned():
+    """5 of 6 starts hit --max-evaluations while the status read "gtol termination condition is satisfied"."""
+    m = make_material("cfm", {"k1": 2000.0})
+    t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=200)
+    test = LabTest("u", "-", "uniaxial", 1.0, 1.0, t, lam, P)
+    result = fit.fit_lab("cfm", [test], ["k1", "k2"], max_evaluations=3, starts=1)
+    assert any("1 of 1 start(s) stopped at the limit of 3 evaluations" in w for w in result.warnings)
+    assert not any("stopped at the limit" in w for w in fit.fit_lab("cfm", [test], ["k1"], starts=1).warnings)
