@@ -166,7 +166,10 @@ def run_suite(mode: str = "quick", backends=None, out="verify-out", progress=pri
            "runtime": time.perf_counter() - t_start,
            "tolerances": {k: {"rel_l2": t[0], "peak": t[1], "t_peak": t[2], "duration": t[3], "why": t[4]}
                           for k, t in agreement.TOLERANCES.items()}}
-    report.write(Path(out), rep, scene_runs)
+    from cfm_core.post.staging import staged_folder
+
+    with staged_folder(out, "--out") as stage:  # published whole: an earlier report's figures do not stay behind
+        report.write(stage, rep, scene_runs)
     say(f"verify: {v['verdict']} in {rep['runtime']:.1f} s ({v['checks']} checks, {len(v['failed'])} failed, "
         f"{len(v['incomplete'])} not run); report in {Path(out) / 'report.md'}")
     for msg in v["failed"][:20]:

@@ -155,3 +155,22 @@ def test_report_json_records_the_code_plugins_and_gold_inputs(tmp_path):
     assert prov["gold"]["point-cfm-septa-visco-uniaxial-numpy"] == inputs("point-cfm-septa-visco-uniaxial-numpy")
     assert prov["code"]["source_digest"] in (tmp_path / "out" / "report.md").read_text()
     assert rep["provenance"] == prov
+
+
+def test_a_second_report_replaces_the_first_one_whole(tmp_path, monkeypatch):
+    """`--only drucker` then `--only point` into one folder left drucker_*.png beside a report saying that
+    section was not run; the report is now published whole, replacing the earlier one and its figures."""
+    from cfm_verification import report
+
+    write = report.write
+
+    def with_a_figure(out, rep, runs):
+        write(out, rep, runs)
+        (out / "drucker_earlier.png").write_bytes(b"an earlier run's figure")
+
+    monkeypatch.setattr(report, "write", with_a_figure)
+    _suite(tmp_path, ["numpy"], ["point"])
+    assert (tmp_path / "out" / "drucker_earlier.png").is_file()
+    monkeypatch.setattr(report, "write", write)
+    _suite(tmp_path, ["numpy"], ["point"])
+    assert not (tmp_path / "out" / "drucker_earlier.png").exists() and (tmp_path / "out" / "report.md").is_file()
