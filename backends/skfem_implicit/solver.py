@@ -117,7 +117,7 @@ def _run(model, progress, o) -> Result:
     else:
         dt = dt_max / 10.0
     dt_min = float(o["dt_min"]) if o["dt_min"] is not None else 1e-5 * dt_max
-    if dt_min > dt_max:
+    if o["dt_min"] is not None and o["dt_max"] is not None and dt_min > dt_max:  # both given: contradictory
         raise InputError(f"skfem backend: option dt_min = {dt_min:g} s is above dt_max = {dt_max:g} s; the smallest "
                          f"step must not exceed the largest (leave dt_min out: 1e-5 dt_max).")
     stepper = Stepper(sys_, o, solver)
