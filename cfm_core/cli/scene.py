@@ -9,7 +9,7 @@ from ..errors import InputError
 from ..post.staging import staged_folder
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
-from ..scene.layers import unused_by_layers
+from ..scene.layers import refuse_unused
 from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
@@ -82,12 +82,8 @@ def _apply_overrides(scene, args, keys=()):
         over["parameters"] = params
     if not over:
         return scene
-    unused = unused_by_layers(scene, [*(["density"] if "density" in over else []), *params])
-    if unused:
-        name, why = next(iter(unused.items()))
-        flag = "--density" if name == "density" else f"--param {name}"
-        raise InputError(f"{flag}: no layer of the specimen uses {'[specimen] density' if name == 'density' else f'[material] {name}'} "
-                         f"({why}), so the value would not be applied. Give the layer its value in the scene file.")
+    refuse_unused(scene, [*(["density"] if "density" in over else []), *params],
+                  lambda name: "--density" if name == "density" else f"--param {name}", "the value would not be applied")
     new = scene.with_overrides(**over)
     if getattr(args, "scene", None) and Path(args.scene).exists():
         for text in _override_notes(scene, new, over, Path(args.scene).name):

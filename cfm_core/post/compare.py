@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..tables import read_table
-from .metrics import compare_histories, unit_hint
+from .metrics import compare_histories, unit_hint, velocity_change
 
 #: signal file -> (column compared, its unit)
 SIGNALS = {"acceleration.csv": ("a_cfc600", "m/s^2"), "reaction.csv": ("reaction_force", "N")}
@@ -125,8 +125,7 @@ def check_units(run: Run, reference: Run) -> None:
                          f"{span0:g} s ({reference.path}); both must be in s (is t in ms or us? divide it by 1000 "
                          f"or 1e6).")
     if run.kind == "acceleration.csv":
-        trapezoid = getattr(np, "trapezoid", None) or np.trapz
-        dv, dv0 = float(trapezoid(run.y, run.t)), float(trapezoid(reference.y, reference.t))
+        dv, dv0 = velocity_change(run.t, run.y), velocity_change(reference.t, reference.y)
         ratio = dv / dv0 if dv0 != 0.0 else float("nan")
         if not (0.3 <= ratio <= 3.0):
             raise InputError(f"{run.path / run.kind}: its velocity change int a dt = {dv:.4g} m/s is {ratio:.3g} x the "

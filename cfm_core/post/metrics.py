@@ -99,6 +99,13 @@ def relative_l2(a, b) -> float:
     return float(np.linalg.norm(a - b) / nb)
 
 
+def velocity_change(t, a) -> float:
+    """The velocity change int a dt (m/s) of an acceleration history a (m/s^2) at times t (s), trapezoid
+    rule; shapes (n,)."""
+    trapezoid = getattr(np, "trapezoid", None) or np.trapz  # numpy < 2 names it trapz
+    return float(trapezoid(a, t))
+
+
 def unit_hint(ratio: float) -> str:
     """The likely unit slip behind an acceleration curve whose velocity change int a dt is ``ratio``
     times the expected one (an impact stops the impactor: 1 - 2 x its speed): a in g gives about

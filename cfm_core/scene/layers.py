@@ -282,6 +282,28 @@ def unused_by_layers(scene, names) -> dict:
     return out
 
 
+def refuse_unused(scene, names, flag, effect: str) -> None:
+    """InputError for the first of ``names`` no layer uses (:func:`unused_by_layers`).
+
+    Parameters
+    ----------
+    scene : Scene
+        A drop-test scene.
+    names : iterable of str
+        Parameter names and ``"density"``.
+    flag : callable
+        name -> how the command line names it (``"--vary k1"``, ``"--density"``).
+    effect : str
+        What would happen otherwise, for the message.
+    """
+    unused = unused_by_layers(scene, names)
+    if unused:
+        name, why = next(iter(unused.items()))
+        where = "[specimen] density" if name == "density" else f"[material] {name}"
+        raise InputError(f"{flag(name)}: no layer of the specimen uses {where} ({why}), so {effect}. Give the "
+                         f"layer its value in the scene file.")
+
+
 def bind_material(region, scene_material, default_density: float, material=None):
     """(Material, density) of a layer or part.
 

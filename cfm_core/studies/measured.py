@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..post import acceleration_histories
-from ..post.metrics import unit_hint
+from ..post.metrics import unit_hint, velocity_change
 from ..tables import read_table
 
 #: Fewest samples a measured curve must have (rows after t >= 0).
@@ -172,7 +172,7 @@ def check_plausible(path, t: np.ndarray, a: np.ndarray, velocity: float, end_tim
                          f"J211/1's 1 / (10 CFC) = {0.1 / cfc:g} s: the curve would be joined by a straight line "
                          f"there, which cuts a peak (a 1.2 ms gap at the peak of a drop test: 116 g read as 68 g). "
                          f"Give the curve without gaps.")
-    dv = float(np.trapezoid(a, t)) if hasattr(np, "trapezoid") else float(np.trapz(a, t))
+    dv = velocity_change(t, a)
     ratio = dv / velocity if velocity > 0 else float("nan")
     if not (0.3 <= ratio <= 3.0):
         hint = unit_hint(ratio)
@@ -208,9 +208,7 @@ def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.
     t, a = read_measured(path)
     notes = []
     if scene is not None:
-        v = scene.impactor.velocity  # a speed, or a vector [vx, vy, vz] (m/s)
-        speed = math.hypot(*v) if isinstance(v, (tuple, list)) else float(v)
-        notes = check_plausible(path, t, a, speed, float(scene.end_time), cfc)
+        notes = check_plausible(path, t, a, scene.impactor.speed, float(scene.end_time), cfc)  # |v| of a vector too
     # Box average of the (linearly interpolated) signal on the grid: the same resampling as a
     # simulated contact force, with mass 1 kg and the signal as the "force".
     grid, _, a_cfc = acceleration_histories(SimpleNamespace(t=t, impulse=None, contact_force=a), 1.0, rate, cfc)

@@ -42,7 +42,7 @@ from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
 from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
 from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
-from ..scene.layers import unused_by_layers
+from ..scene.layers import refuse_unused
 from ..scene.scene import scene_to_dict
 from ..tables import read_table as read_history
 from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
@@ -211,13 +211,8 @@ def parse_vary(items, scene) -> list[Axis]:
         raise InputError(f"--vary velocity: the scene's impactor velocity is the vector {list(impactor.velocity)} m/s; "
                          f"a swept speed would replace it by a vertical impact. To sweep the speed of this oblique "
                          f"impact, give the scene's [impactor] velocity as a speed with an angle ({spec}).")
-    unused = unused_by_layers(scene, [a.name for a in axes if a.name == "density" or a.name not in SCENE_KEYS])
-    if unused:
-        name, why = next(iter(unused.items()))
-        where = "[specimen] density" if name == "density" else f"the [material] section's {name}"
-        raise InputError(f"--vary {name}: no layer of the specimen uses {where} ({why}), so every run would be "
-                         f"the same, labelled with values never applied. Vary a value the layers use, or give the "
-                         f"layer its value in the scene file.")
+    refuse_unused(scene, [a.name for a in axes if a.name == "density" or a.name not in SCENE_KEYS],
+                  lambda name: f"--vary {name}", "every run would be the same, labelled with values never applied")
     return axes
 
 
