@@ -83,6 +83,31 @@ def test_lsdyna_fields_keep_every_digit_ten_characters_hold():
     assert float(_field(1.23456789e-7)) == pytest.approx(1.23456789e-7, rel=5e-6)
 
 
+def test_the_lsdyna_card_says_how_its_rounding_moves_gamma_inf(tmp_path, capsys):
+    """g_i written to 10 characters moved each by 1e-8 relative but gamma_inf = 1 - sum g_i by 1.1 % (to below
+    the floor the routine accepts), and the card named only the 1e-8: the card and the command now say so."""
+    from fractions import Fraction
+
+    from cfm_core.export.lsdyna import gamma_inf_on_card
+    from cfm_core.export.layout import constants
+
+    gs = ("0.333333335", "0.333333335", "0.333332329")
+    args = ["export", "cfm", "--to", "lsdyna-umat", *[f"--param=g{i}={g}" for i, g in enumerate(gs, 1)]]
+    assert main([*args, "--out", str(tmp_path / "d")]) == 0
+    card = (tmp_path / "d" / "material.k").read_text()
+    assert "gamma_inf = 1 - sum g_i = 1.001e-06 is 9.9e-07 from the written g_i (relative change 0.01" in card
+    err = capsys.readouterr().err
+    assert "relative change 0.01" in err and "error code 3" in err
+    m = make_material("cfm", {f"g{i}": float(g) for i, g in enumerate(gs, 1)})
+    exact, held = gamma_inf_on_card(constants(m.spec, lsdyna=True, material=m))
+    written = [Fraction(v) for v in ("0.33333334", "0.33333334", "0.33333233")]
+    assert exact == pytest.approx(float(1 - sum(Fraction(float(g)) for g in gs)), rel=1e-12)
+    assert held == pytest.approx(float(1 - sum(written)), rel=1e-9)
+    assert main(["export", "cfm", "--to", "lsdyna-umat", "--out", str(tmp_path / "t1")]) == 0  # Table 1: exact
+    assert "fields: gamma_inf" not in (tmp_path / "t1" / "material.k").read_text()
+    assert "gamma_inf" not in capsys.readouterr().err
+
+
 def test_the_poisson_warning_names_the_prony_series_when_it_is_the_cause():
     """g summing to 1 - 1e-5 gave nu = -0.96 with "check kappa" only."""
     m = make_material("cfm", {"g1": 0.471, "g2": 0.435, "g3": 0.09399})
@@ -149,3 +174,53 @@ def test_skfem_refuses_a_smallest_step_above_the_largest(tmp_path, capsys):
     assert main(["run", "--scene", "single-element", "--backend", "skfem", "--option", "dt_min=1", "--option",
                  "dt_max=1e-6", "--no-plot", "--out", str(tmp_path / "o")]) == 2
     assert "dt_min = 1 s is above dt_max = 1e-06 s" in capsys.readouterr().err
+
+
+def test_a_frame_interval_longer_than_the_run_is_warned(tmp_path, capsys):
+    """frame_interval = 0.5 (meant in ms) stored the t = 0 frame only, exit 0, no word."""
+    assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=0.5", "--out", str(tmp_path / "f")]) == 0
+    err = capsys.readouterr().err
+    assert "frame_interval = 0.5 s is longer than the run" in err and "meant in ms" in err
+    assert main(["drop-test", *SMALL, "--vtu", "--option", "frame_interval=0.001", "--out", str(tmp_path / "g")]) == 0
+    assert "frame_interval" not in capsys.readouterr().err
+
+
+def test_a_penetration_tolerance_in_mm_is_refused(tmp_path, capsys):
+    """[scene] penetration_tolerance = 0.05 (meant as 0.05 mm) stopped the paper's drop test at first contact,
+    exit 3, explaining that an oblique impact had slid off."""
+    scene = builtin_scene("drop-test").with_overrides(thickness=0.005, element_size=0.0025)
+    text = scene_to_toml(scene).replace("[scene]\n", "[scene]\npenetration_tolerance = 0.05\n", 1)
+    (tmp_path / "s.toml").write_text(text)
+    assert main(["drop-test", "--scene", str(tmp_path / "s.toml"), "--no-plot", "--quiet", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "penetration_tolerance = 0.05 m is not allowed" in err and "write 5e-05" in err
+    (tmp_path / "t.toml").write_text(text.replace("penetration_tolerance = 0.05", "penetration_tolerance = 5e-05"))
+    assert main(["drop-test", "--scene", str(tmp_path / "t.toml"), "--no-plot", "--quiet", "--out", str(tmp_path / "p")]) == 0
+
+
+def test_hints_for_a_layer_name_the_layer_not_a_flag_that_sets_another_section(tmp_path, capsys):
+    """A layer's k1 = 1.32 was told '(--param k1=1320)' and its element_size = 2.0 '(--element-size 0.002)': both
+    flags set [material] and [specimen], not the layer."""
+    base = scene_to_toml(builtin_scene("drop-test").with_overrides(width=0.03, element_size=0.0025))
+    layers = ('[[specimen.layers]]\nthickness = 0.004\n[specimen.layers.parameters]\nk1 = 1.32\n'
+              '[[specimen.layers]]\nthickness = 0.004\n')
+    (tmp_path / "a.toml").write_text(base.replace("[impactor]", layers + "[impactor]", 1))
+    assert main(["drop-test", "--scene", str(tmp_path / "a.toml"), "--no-plot", "--quiet", "--out", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "Write k1 = 1320 in the parameters of [[specimen.layers]] 1" in err and "--param" not in err
+    (tmp_path / "b.toml").write_text(base.replace("[impactor]", layers.replace("k1 = 1.32\n", "k1 = 1320.0\n")
+                                                  .replace("thickness = 0.004\n[specimen.layers.p",
+                                                           "thickness = 0.004\nelement_size = 2.0\n[specimen.layers.p", 1)
+                                                  + "[impactor]", 1))
+    assert main(["drop-test", "--scene", str(tmp_path / "b.toml"), "--no-plot", "--quiet", "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err
+    assert "Write element_size = 0.002;" in err and "--element-size" not in err
+
+
+def test_a_thickness_sweep_of_a_layered_specimen_is_refused_saying_why(tmp_path, capsys):
+    """It failed with "[specimen] thickness disagrees with the sum of the layers" and a decimal-comma hint."""
+    (tmp_path / "l.toml").write_text(scene_to_toml(builtin_scene("layered-tissue")))
+    assert main(["sweep", "--scene", str(tmp_path / "l.toml"), "--vary", "thickness=0.008,0.01", "--serial",
+                 "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert "the specimen is layered (3 [[specimen.layers]])" in err and "decimal" not in err

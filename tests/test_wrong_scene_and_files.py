@@ -82,3 +82,33 @@ def test_a_folder_given_as_a_data_file_is_called_a_folder(tmp_path, capsys):
     """--test, --data and --history given a folder said "it does not exist"."""
     assert main(["fit", "--test", f"{tmp_path}:uniaxial:1", "--fit", "k1", "--out", str(tmp_path / "f")]) == 2
     assert "it is a folder, not a file" in capsys.readouterr().err
+
+
+def test_an_output_of_another_kind_replaced_in_its_folder_is_named(tmp_path, capsys):
+    """cfm export --out into a drop test's folder removed its acceleration.csv, summary.json and scene.toml with
+    exit 0 and no word (the documented rule replaces an earlier cfm output, but a mistyped --out lost a run)."""
+    out = tmp_path / "o"
+    assert main(["drop-test", "--thickness", "0.005", "--element-size", "0.0025", "--no-plot", "--quiet",
+                 "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["export", "cfm", "--to", "abaqus-umat", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {out} held the output of a run (3 files); it is replaced by this material export's." in err
+    assert not (out / "summary.json").exists()
+    assert main(["export", "cfm", "--to", "lsdyna-umat", "--out", str(out)]) == 0
+    assert "held the output" not in capsys.readouterr().err          # the same kind: replaced as before
+
+
+def test_result_files_left_beside_a_new_output_are_named(tmp_path, capsys):
+    """A cut view and a comparison written into a run's folder stayed beside the next run's files, describing
+    the run that was gone, with no note."""
+    out = tmp_path / "o"
+    args = ["drop-test", "--thickness", "0.005", "--element-size", "0.0025", "--no-plot", "--quiet", "--out", str(out)]
+    assert main(args) == 0
+    (out / "cut.png").write_bytes(b"png")
+    (out / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert f"note: {out} keeps cut.png, not written by this command" in err and "notes.txt" not in err
+    assert (out / "cut.png").exists() and (out / "notes.txt").exists()      # never removed

@@ -8,7 +8,10 @@ Formulae of the numpy reference (:mod:`cfm_core.material.reference`, :mod:`~cfm_
   eigenvalues need no special case: the stress is assembled as sum_a 2 psi_a N_a (x) N_a, which
   eigenvector errors between equal eigenvalues do not change.
 - ``<p>params``: constants -> energy parameters, s_iso (1 / gamma_inf for long-term moduli),
-  gamma_i, tau_i; error 3 when a constant is outside its declared range or sum gamma_i >= 1.
+  gamma_i, tau_i; error 3 when a constant is outside its declared range or gamma_inf = 1 - sum
+  gamma_i is below the floor cfm itself refuses (:data:`cfm_core.material.prony.GAMMA_INF_MIN`, less
+  1e-12 for the round-off of the Fortran sum): a card edited to such values would otherwise run at
+  moduli up to 1 / gamma_inf times the intended ones.
 - ``<p>point``: one step at a material point: instantaneous isochoric and volumetric second
   Piola-Kirchhoff stress from the generated derivatives, the Prony recurrence on the isochoric
   part with the exact exponential factors (docs/conventions.md section 2), the total S, the new
@@ -124,7 +127,8 @@ CORE = """\
       ginf = 1.0d0 - sum(gam)
       pv({NK}) = 1.0d0
       if (.false.) pv({NK}) = tau(1)
-      if ({P}badprops(props) .or. .not. ginf .gt. 0.0d0) then
+!     gamma_inf below cfm's floor (1 - sum has ~1e-16 of round-off)
+      if ({P}badprops(props) .or. .not. ginf .ge. {GMIN}) then
         ierr = 3
       else if (props({NC}) .eq. 1.0d0) then
         pv({NK}) = 1.0d0 / ginf

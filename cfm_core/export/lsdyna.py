@@ -27,6 +27,9 @@ writes a line to unit 6; umat4N reports the same error for the step through ``re
 
 from __future__ import annotations
 
+import math
+import re
+
 UMAT41 = """\
       subroutine umat{N}(cm, eps, sig, epsp, hsv, dt1, capa, etype, tt,
      &  temper, failel, crv, nnpcrv, cma, qmat, elsiz, idele, reject)
@@ -227,11 +230,33 @@ FIELD = 10
 
 def rounded(entries) -> list[str]:
     """The constants a card's 10-character fields change by more than 1e-9 relative (:func:`_field`), one
-    text each: name, the value, what the field holds and the relative change."""
+    text each: name, the value, what the field holds and the relative change; then gamma_inf = 1 -
+    sum g_i if the written g_i change it by more than 1e-9 relative (:func:`gamma_inf_on_card`)."""
     out = []
     for e in entries:
         v = float(e.default)
         held = float(_field(v))
         if abs(held - v) > 1e-9 * abs(v):
             out.append(f"{e.name} = {v!r} is written {held!r} (relative change {abs(held - v) / abs(v):.1g})")
+    exact, held = gamma_inf_on_card(entries)
+    if exact is not None and abs(held - exact) > 1e-9 * abs(exact):
+        out.append(f"gamma_inf = 1 - sum g_i = {exact:.6g} is {held:.6g} from the written g_i (relative change "
+                   f"{abs(held - exact) / abs(exact):.1g}; moduli scale by it)")
     return out
+
+
+#: Relative change of gamma_inf by the card's rounding above which ``cfm export`` warns.
+GAMMA_INF_CHANGE_WARN = 1e-3
+
+
+def gamma_inf_on_card(entries) -> tuple:
+    """(gamma_inf of the constants, gamma_inf of the card's 10-character fields) = 1 - sum of the
+    Prony coefficients g1, g2, ... (summed exactly, ``math.fsum``; (None, None) without them).
+    Each field keeps ~8 significant digits, so each g_i moves by up to ~5e-9; near cfm's floor of
+    gamma_inf = 1e-6 that moves gamma_inf, and the moduli it scales (1 / gamma_inf for long-term
+    constants), by up to ~1.5 % though every g_i changed by only 1e-8 relative."""
+    g = [e for e in entries if re.fullmatch(r"g\d+", e.name)]
+    if not g:
+        return None, None
+    return (math.fsum([1.0] + [-float(e.default) for e in g]),
+            math.fsum([1.0] + [-float(_field(float(e.default))) for e in g]))

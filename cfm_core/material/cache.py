@@ -102,6 +102,28 @@ def _top(obj) -> str:
     return (getattr(obj, "__module__", None) or getattr(obj, "__name__", "") or "").split(".")[0]
 
 
+@functools.lru_cache(maxsize=1)
+def _installed_roots() -> tuple:
+    """Folders of the Python installation: the standard library and every site-packages."""
+    import site
+    import sysconfig
+
+    roots = {sysconfig.get_paths()[k] for k in ("stdlib", "platstdlib", "purelib", "platlib")}
+    roots |= set(getattr(site, "getsitepackages", lambda: [])())
+    roots.add(getattr(site, "getusersitepackages", lambda: "")() or "")
+    return tuple(os.path.realpath(r) + os.sep for r in roots if r)
+
+
+def _user_module_file(obj) -> str | None:
+    """The source file of ``obj`` (a function or module) when it is the user's own code: a file outside
+    the standard library and site-packages (a helper module beside a plugin, imported from its folder)."""
+    path = getattr(obj, "__file__", None) if isinstance(obj, types.ModuleType) else _source_file(obj)
+    if not path or not os.path.isfile(path):
+        return None
+    real = os.path.realpath(path)
+    return None if real.startswith(_installed_roots()) else path
+
+
 def _code_names(code) -> set:
     """Global and attribute names used by a code object and the functions nested in it."""
     names = set(code.co_names)
@@ -114,7 +136,9 @@ def _code_names(code) -> set:
 def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
     """Source files a term's energy function depends on: its own and, recursively, those of the
     functions, terms and modules it reaches through its globals and closure, within its own
-    top-level package and ``packages``.
+    top-level package and ``packages``, and in any module that is the user's own code (outside the
+    standard library and site-packages: a helper module beside a plugin file, whose edits must
+    regenerate the code as the plugin's own do).
 
     Parameters
     ----------
@@ -143,10 +167,10 @@ def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
             continue
         if isinstance(obj, types.ModuleType):
             path = getattr(obj, "__file__", None)
-            if _top(obj) in follow and path and os.path.isfile(path):
+            if (_top(obj) in follow or _user_module_file(obj)) and path and os.path.isfile(path):
                 files.add(path)
             continue
-        if not isinstance(obj, types.FunctionType) or _top(obj) not in follow:
+        if not isinstance(obj, types.FunctionType) or not (_top(obj) in follow or _user_module_file(obj)):
             continue
         path = _source_file(obj)
         if path:
@@ -156,7 +180,7 @@ def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
         reached += [c.cell_contents for c in (obj.__closure__ or ()) if _cell_set(c)]
         for value in reached:
             todo.append(value)
-            if isinstance(value, types.ModuleType) and _top(value) in follow:
+            if isinstance(value, types.ModuleType) and (_top(value) in follow or _user_module_file(value)):
                 todo += [getattr(value, n) for n in names if isinstance(getattr(value, n, None), types.FunctionType)]
     return sorted(files)
 
@@ -208,6 +232,33 @@ def spec_fingerprint(spec) -> str | None:
         for text in sorted(fingerprint.digest_bytes(Path(f).read_bytes()) for f in files):
             h.update(text.encode())
     return h.hexdigest()[:24]
+
+
+def definition_digest(spec) -> str | None:
+    """Hash identifying everything a material spec defines: its code (:func:`spec_fingerprint`) and
+    what is not in the code, the Prony series' default g_i and tau_i and the default moduli
+    convention; or None where the code cannot be fingerprinted (a term defined interactively).
+
+    The generated code does not depend on the Prony series (its values are run-time parameters), so
+    :func:`spec_fingerprint` alone keys the code caches; results (provenance, the sweep's run cache)
+    are keyed by this digest: two plugins with the same terms and other Prony defaults gave the same
+    run id and the second reused the first one's results (67.3 g for 170.0 g).
+
+    Parameters
+    ----------
+    spec : MaterialSpec
+        The material definition.
+
+    Returns
+    -------
+    str or None
+        24 hexadecimal characters.
+    """
+    code = spec_fingerprint(spec)
+    if code is None:
+        return None
+    prony = tuple(spec.prony.defaults) if spec.prony is not None else ()
+    return fingerprint.digest({"code": code, "prony": repr(prony), "moduli": spec.default_moduli}, 24)
 
 
 def codegen_cache(spec, dialect: str, generate) -> str:

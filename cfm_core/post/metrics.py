@@ -109,12 +109,14 @@ def velocity_change(t, a) -> float:
 def unit_hint(ratio: float) -> str:
     """The likely unit slip behind an acceleration curve whose velocity change int a dt is ``ratio``
     times the expected one (an impact stops the impactor: 1 - 2 x its speed): a in g gives about
-    0.1 x, t in ms or a in mm/s^2 about 1000 x, a negative ratio a sign slip. One sentence, or ""
+    0.1 x (or a curve cut short), t in ms or a in mm/s^2 about 1000 x, a negative ratio a sign slip. A
+    sentence or two, or ""
     for a ratio within 0.3 - 3."""
     if 0.3 <= ratio <= 3.0:
         return ""
     if 0.03 <= ratio < 0.3:
-        return " Is a in g? It must be in m/s^2 (multiply by 9.80665)."
+        return (" Is a in g? It must be in m/s^2 (multiply by 9.80665). Or does the curve end before the pulse"
+                " does (a record cut short, or the impactor's speed in the scene too high)?")
     if ratio > 3.0:
         return " Is t in ms or a in mm/s^2? t must be in s and a in m/s^2."
     return " Is a positive when the impactor decelerates, and in m/s^2?"

@@ -183,6 +183,20 @@ def earlier_files(out: Path) -> list[Path]:
     return sorted(p for p in found if p.exists() or p.is_symlink())
 
 
+#: Suffixes of result files (plots, tables, data): such a file left beside a new output is named.
+RESULT_SUFFIXES = (".png", ".json", ".csv", ".vtu", ".pvd", ".parquet", ".pdf", ".svg")
+
+#: The kind of output a file marks (the first found, in this order).
+KINDS = (("sweep.json", "sweep"), ("fit.json", "fit"), ("report.json", "verification report"),
+         ("manifest.json", "material export"), ("summary.json", "run"))
+
+
+def output_kind(names) -> str | None:
+    """The kind of cfm output a folder's file names make (:data:`KINDS`), None if none."""
+    names = set(names)
+    return next((kind for marker, kind in KINDS if marker in names), None)
+
+
 def remove_entry(path: Path) -> None:
     """Remove a file, link or folder (with its contents) of an output.
 
@@ -220,9 +234,24 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
         _write_manifest(stage, names)
         os.replace(stage, out)
         return names
-    for old in earlier_files(out):
+    earlier = earlier_files(out)
+    before, now = output_kind(p.name for p in earlier), output_kind(names)
+    if before is not None and now is not None and before != now:  # a mistyped --out: say what is gone
+        import sys
+
+        print(f"note: {out} held the output of a {before} ({len([p for p in earlier if p.name != MANIFEST])} files); "
+              f"it is replaced by this {now}'s.", file=sys.stderr)
+    for old in earlier:
         if old.name not in keep or old.name in names:
             remove_entry(old)
+    others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
+                    and p.name not in keep and not p.name.startswith("."))
+    if earlier and others:  # cfm fields --png out/x/cut.png, cfm compare --json out/x/c.json: of the run now gone
+        import sys
+
+        print(f"note: {out} keeps {', '.join(others[:6])}{' ...' if len(others) > 6 else ''}, not written by this "
+              f"command: if they were made from the earlier output there, they no longer describe the folder's "
+              f"files.", file=sys.stderr)
     for name in sorted(names, key=lambda n: (n in MARKERS, n)):  # the completion marker last
         target = out / name
         if target.exists() or target.is_symlink():

@@ -75,7 +75,14 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         result = be.run(model, progress=progress, **options)
     except MemoryError:
         raise InputError(too_big(model.n_elements, model.n_nodes, f"model '{model.name}' on backend '{backend}'")) from None
-    return _checked(be, model, result)
+    result = _checked(be, model, result)
+    interval = options.get("frame_interval")
+    if result.frames is not None and len(result.frames) <= 1 and isinstance(interval, (int, float)) and len(result.t):
+        result.info["warnings"].append(
+            f"option frame_interval = {interval:g} s is longer than the run ({float(result.t[-1]):.4g} s): only the "
+            f"frame at t = 0 was stored{' (was it meant in ms?)' if interval >= 0.05 else ''}; give the interval in s, "
+            f"e.g. frame_interval = {float(result.t[-1]) / 20:.2g} for 20 frames.")
+    return result
 
 
 def _checked(be, model, result):

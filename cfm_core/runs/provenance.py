@@ -15,7 +15,7 @@ import platform
 from pathlib import Path
 
 from .. import fingerprint, plugins
-from ..material.cache import spec_fingerprint
+from ..material.cache import definition_digest
 from ..simulation.registry import backend_for
 
 
@@ -87,7 +87,8 @@ def material_record(material) -> dict:
     dict
         ``name``, ``distribution``, ``version``, ``entry_point`` of the material plugin (None for
         a material composed in Python and not registered), ``definition_digest`` (changes when any
-        term's source, parameters or the code generator changes; None for interactively defined
+        term's source, parameters, the Prony defaults, the default moduli or the code generator
+        change, :func:`cfm_core.material.cache.definition_digest`; None for interactively defined
         terms), ``terms`` (each energy term's name with the distribution, version and entry point
         of the ``cfm.terms`` plugin of that name, None where it is not registered),
         ``parameters`` (every value, SI), ``overrides`` (:func:`parameter_overrides`), ``moduli``,
@@ -97,7 +98,7 @@ def material_record(material) -> dict:
     where = _origin("materials", spec.name)
     terms = [*spec.isochoric, *((spec.volumetric,) if spec.volumetric else ())]
     return {"name": spec.name, "distribution": where["distribution"], "version": where["version"],
-            "entry_point": where["value"], "definition_digest": spec_fingerprint(spec),
+            "entry_point": where["value"], "definition_digest": definition_digest(spec),
             "terms": [{"name": t.name, **{k: v for k, v in _origin("terms", t.name).items() if k != "name"}}
                       for t in terms],
             "parameters": dict(material.values), "overrides": parameter_overrides(material),

@@ -80,7 +80,23 @@ def build_model(scene: Scene, material=None) -> Model:
             raise
         raise InputError(too_big(n_el, n_nodes, what)) from None
     model.meta["checks"] = scene.settings.checks()  # limits of cfm_core.simulation.checks
+    _check_tolerance(model)
     return model
+
+
+def _check_tolerance(model) -> None:
+    """Refuse a ``[scene] penetration_tolerance`` of at least half the model's height: the bottoming-out
+    check counts an impactor within the tolerance of the plate as having reached it, so such a run stopped
+    at first contact blaming an oblique impact (0.05 written for 0.05 mm)."""
+    tol = model.meta["checks"].get("penetration_tolerance")
+    z = np.asarray(model.nodes)[:, 2] if len(model.nodes) else np.zeros(1)
+    height = float(z.max() - z.min())
+    if tol is not None and height > 0.0 and tol >= 0.5 * height:
+        raise InputError(
+            f"[scene] penetration_tolerance = {tol:g} m is not allowed for this {height * 1e3:.3g} mm high specimen: "
+            f"it is the penetration (m) the run checks allow, a fraction of an element (the default is 5 % of the "
+            f"smallest edge); at half the specimen's height or more every contact reads as bottoming out. Is it in "
+            f"mm? Then write {tol * 1e-3:g}.")
 
 
 def check_history_size(scene: Scene) -> int:

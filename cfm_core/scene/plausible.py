@@ -40,6 +40,8 @@ below), measured in ``tests/cfm_core/scene/test_plausible.py``.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ..material.plausible import check_material
@@ -73,7 +75,8 @@ _FLAGS = {"mass": "--mass", "radius": "--radius", "velocity": "--velocity", "wid
           "thickness": "--thickness", "element_size": "--element-size", "density": "--density"}
 
 
-def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = float("inf"), fix: str | None = None) -> str:
+def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = float("inf"), fix: str | None = None,
+              flag: bool = True) -> str:
     """The likely unit slip of a value outside its range, as a sentence ("" when none fits).
 
     Parameters
@@ -88,6 +91,9 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
         The allowed or plausible range (SI); the corrected value must fall inside it.
     fix : str, optional
         What to do instead of writing the corrected value (e.g. for a value taken from a mesh file).
+    flag : bool
+        Name the command-line flag that sets the field (default); False for a layer's or part's field,
+        which no flag sets (``--element-size`` sets [specimen]'s).
 
     Returns
     -------
@@ -98,7 +104,7 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
         return ""
     alt, factor = UNIT_SLIPS[unit]
     lo = max(lo, PLAUSIBLE_FLOOR.get(unit, 0.0))  # no "did you mean 2e-05 m" for an element size
-    flag = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS else ""
+    flag = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS and flag else ""
     if lo <= value * factor <= hi:
         todo = fix or f"Write {key} = {value * factor:g}{flag}"
         return (f"{value:g} {unit}: did you mean {value * factor:g} {unit} ({value:g} {alt})? "
@@ -166,9 +172,15 @@ def _region_material_warnings(scene, material) -> list[str]:
     density = float(scene.specimen.density) if scene.specimen is not None else 1000.0
     for label, region in _regions(scene):
         bound, _ = bind_material(region, scene.material, density, material)
-        out += [text.replace("[material]", label, 1) if text.startswith("[material]") else f"{label}: {text}"
-                for text in check_material(bound, above=False)]
+        out += [_in_region(text, label) for text in check_material(bound, above=False)]
     return out
+
+
+def _in_region(text: str, label: str) -> str:
+    """A [material] warning said of a layer or part: its label for [material], and the fix written in the
+    layer's or part's parameters (``--param`` sets [material]'s, not theirs)."""
+    text = re.sub(r" \(--param (\w+)=([^)]+)\)", r" in the parameters of " + label.replace("\\", "") + "", text)
+    return text.replace("[material]", label, 1) if text.startswith("[material]") else f"{label}: {text}"
 
 
 def _densities(scene) -> list[tuple[str, float]]:

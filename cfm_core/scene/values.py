@@ -22,7 +22,7 @@ def _num(section, key, value, unit, lo, hi, *, lo_open=False, hi_open=False, not
     x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
     if not ok:
-        hint = unit_hint(key, x, unit, lo, hi, fix) if math.isfinite(x) else ""
+        hint = unit_hint(key, x, unit, lo, hi, fix, flag="." not in section) if math.isfinite(x) else ""  # layers: no flag
         raise InputError(" ".join(filter(None, (f"[{section}] {key} = {value!r} {unit} is out of range; it "
                                                  f"must be {allowed}.", note, hint))))
     return x

@@ -117,6 +117,7 @@ def write_fit(out, scene, result, settings: dict | None = None) -> list[Path]:
             "status": result.status, "drop_tests": pb.runs, "evaluations": len(pb.history),
             "wall_time": result.wall, "rel_step": pb.rel_step, "backend": pb.backend,
             "dof": conf["dof"], "t_quantile": conf["t_quantile"], "cond_JTJ": conf["cond_JTJ"],
+            "independent_samples": conf.get("independent_samples"), "correlation_factor": conf.get("correlation_factor"),
             "warnings": conf.get("warnings", []), "identifiability": conf.get("identifiability"),
             "at_bound": conf.get("at_bound", {}),
             "history": pb.history, **(settings or {}),

@@ -9,7 +9,8 @@ nominal stress of test j at row k (Pa), n_j its rows, w_j its weight and s_j = m
 so each curve counts by its weight, not by its number of rows or its stress level.
 ``scipy.optimize.least_squares`` (trust region reflective, 2-point Jacobian) works on ln p for
 parameters whose range starts at 0 and on p otherwise, inside the parameters' valid ranges; a
-fitted Prony coefficient g_i is bounded so that the fitted ones keep sum g_i < 1
+fitted Prony coefficient g_i is bounded so that the fitted ones keep gamma_inf = 1 - sum g_i at or above
+cfm's floor (:data:`cfm_core.material.prony.GAMMA_INF_MIN`)
 (:func:`cfm_core.studies.calibrate.coordinates`).
 
 Intervals (:func:`cfm_core.studies.calibrate.confidence`): cov = s^2 (J^T J)^-1, 95 % Student t;
@@ -258,6 +259,30 @@ def _start_offsets(coords: Coordinates, x0, values: dict, names, starts: int) ->
     return out
 
 
+def _trf(fun, y0, bounds, max_evaluations: int):
+    """``least_squares`` (trust region reflective, 2-point Jacobian, xtol = ftol = gtol = 1e-10) from y0,
+    then, if it stopped on the gradient test with evaluations left, again from where it stopped
+    without that test (xtol and ftol only), kept if its cost is no higher; ``nfev`` counts both.
+
+    The gradient test reads the gradient scaled by the distance to the bound it points at (Coleman and
+    Li's scaling), so a fit whose optimum lies on or near a bound stops early: a Prony coefficient
+    fitted toward sum g_i = 1 - 1e-6 (gamma_inf at cfm's floor) stopped after 4 evaluations at gamma_inf
+    = 6.9e-6 with a 95 % interval 14 standard deviations from the truth; the second run reaches it
+    to 1e-9 (scipy.optimize.least_squares, ``gtol``; T. F. Coleman, Y. Li, SIAM J. Optim. 6, 1996)."""
+    from scipy.optimize import least_squares
+
+    res = least_squares(fun, y0, bounds=bounds, method="trf", jac="2-point", x_scale=1.0, xtol=1e-10, ftol=1e-10,
+                        gtol=1e-10, max_nfev=max_evaluations)
+    if res.status == 1 and res.nfev < max_evaluations:
+        more = least_squares(fun, res.x, bounds=bounds, method="trf", jac="2-point", x_scale=1.0, xtol=1e-10,
+                             ftol=1e-10, gtol=None, max_nfev=max_evaluations - res.nfev)
+        if float(more.fun @ more.fun) <= float(res.fun @ res.fun):
+            more.nfev += res.nfev
+            return more
+        res.nfev += more.nfev
+    return res
+
+
 def _rel_rms(P, test: LabTest) -> float:
     """RMS of (simulated - measured) nominal stress over the test's largest |measured| stress (-)."""
     return float(np.sqrt(np.mean((np.asarray(P) - test.P) ** 2)) / test.scale)
@@ -378,7 +403,6 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     NumericalError
         A test's simulation failed (exponential overflow, no lateral stretch).
     """
-    from scipy.optimize import least_squares
 
     spec = get_material(material)
     if not tests:
@@ -434,9 +458,7 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         # Work in y = x - x0: scipy's first trust radius is |y0| (or 1 when y0 = 0), so the first step stays
         # near the start instead of jumping by |ln p| (a jump of ln tau by ~7 lands on the plateau where a
         # Prony time has no effect, and the fit stops there).
-        res = least_squares(lambda y: residual(x0 + y), y0, bounds=(coords.lower - x0, coords.upper - x0),
-                            method="trf", jac="2-point", x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10,
-                            max_nfev=max_evaluations)
+        res = _trf(lambda y: residual(x0 + y), y0, (coords.lower - x0, coords.upper - x0), max_evaluations)
         res.x = x0 + res.x
         tried.append({"start": coords.to_params(x0 + y0), "fitted": coords.to_params(res.x),
                       "cost": 0.5 * float(res.fun @ res.fun), "evaluations": int(res.nfev)})

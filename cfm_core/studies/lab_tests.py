@@ -149,8 +149,10 @@ def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str |
         raise InputError(f"test '{path}': weight = {weight!r} is not allowed; give a positive number (-).")
     deformation = KINDS[kind][0]
     table = read_table(p, ["t", deformation], {**UNITS, "nominal_stress": "Pa"}, what="test file")
-    stress = next((c for c in ("stress", "nominal_stress") if c in table.columns), None)  # cfm point --uniaxial
-    if stress is None:                                                                      # writes nominal_stress
+    # the fit compares nominal stress: a column named so wins over a plain "stress" (lab exports often carry
+    # the true stress beside the engineering one; cfm point --uniaxial writes nominal_stress)
+    stress = next((c for c in ("nominal_stress", "stress") if c in table.columns), None)
+    if stress is None:
         raise InputError(f"test file '{p}': the header names the columns {list(table.columns)} but no stress; a "
                          f"{kind} test needs t (s), {deformation} (-) and stress (nominal, Pa), e.g. "
                          f"'t,{deformation},stress'.")

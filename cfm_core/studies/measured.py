@@ -9,6 +9,7 @@ then SAE J211 CFC 600 (:func:`cfm_core.post.cfc_filter`).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +38,7 @@ class Curve:
     t: np.ndarray
     a: np.ndarray
     notes: tuple = ()  # warnings about the file (e.g. sampled below 10 x CFC), carried into the fit's
+    samples: float = 0.0  # independent samples of the record (independent_samples); 0: unknown, every grid point
 
     @property
     def peak(self) -> float:
@@ -105,6 +107,11 @@ def read_measured(path) -> tuple[np.ndarray, np.ndarray]:
 
 #: A step between samples above this many times the median (and above 1 / (10 CFC)) is a gap.
 GAP = 4.0
+#: Velocity change int a dt of a measured curve over the scene's impact speed allowed: an impact stops the
+#: impactor and at most throws it back (1 - 2); below 0.7 the curve is cut short or the speed is not in m/s
+#: (3.6 for 1 m/s, written in km/h, read 0.44 and the fit failed at k1 = 1.6e-20 Pa without naming it).
+DV_LOW = 0.7
+DV_HIGH = 3.0
 #: A measured curve below this fraction of its peak for more than LEAD_FRACTION of the time to its
 #: peak starts before contact (warned): the Table 1 drop test reaches 1 % of its peak at 3 % of that time.
 LEAD_LEVEL = 0.01
@@ -144,7 +151,7 @@ def check_plausible(path, t: np.ndarray, a: np.ndarray, velocity: float, end_tim
         - duration: the curve lasts longer than 10 x the scene's end time (t in ms?);
         - sampling: the median step is coarser than 1 / (2 CFC) (t in ms, or too coarse for the filter);
         - gap: a step between samples above GAP x the median and 1 / (10 CFC) (missing samples);
-        - peak: the velocity change int a dt is not within 0.3 - 3 x the impact speed (an impact
+        - peak: the velocity change int a dt is not within DV_LOW - DV_HIGH (0.7 - 3) x the impact speed (an impact
           stops the impactor and at most throws it back: 1 - 2 x; a in g gives about 0.1 x, t in ms 1000 x).
 
     Notes
@@ -174,11 +181,12 @@ def check_plausible(path, t: np.ndarray, a: np.ndarray, velocity: float, end_tim
                          f"Give the curve without gaps.")
     dv = velocity_change(t, a)
     ratio = dv / velocity if velocity > 0 else float("nan")
-    if not (0.3 <= ratio <= 3.0):
-        hint = unit_hint(ratio)
+    if not (DV_LOW <= ratio <= DV_HIGH):
+        hint = unit_hint(ratio) or (f" Does the curve end before the impactor stopped (a record cut short), or is the "
+                                    f"scene's speed too high (in km/h? {velocity:g} km/h is {velocity / 3.6:.4g} m/s)?")
         raise InputError(f"data file '{path}': the curve's velocity change int a dt = {dv:.4g} m/s is {ratio:.3g} times "
                          f"the scene's impact speed {velocity:g} m/s; an impact that stops the impactor gives 1 to 2 "
-                         f"times (0.3 to 3 allowed).{hint}")
+                         f"times ({DV_LOW:g} to {DV_HIGH:g} allowed).{hint}")
     notes = []
     k_peak = int(np.argmax(a))
     rise = np.flatnonzero(a[:k_peak + 1] > LEAD_LEVEL * a[k_peak])
@@ -199,6 +207,29 @@ def check_plausible(path, t: np.ndarray, a: np.ndarray, velocity: float, end_tim
     return notes
 
 
+@functools.lru_cache(maxsize=8)
+def independent_rate(cfc: float = CFC) -> float:
+    """Independent samples per second of white noise after the SAE J211 CFC ``cfc`` filter: rate / k, k =
+    (sum h)^2 / sum h^2 the sum of the filtered noise's autocorrelation coefficients in samples (h the
+    filter's impulse response at a rate well above the filter's band; the result does not depend on it).
+    CFC 600: about 2 077 per s (about 24 of the 50 kHz grid's samples carry one sample's information)."""
+    from ..post.filters import cfc_filter
+
+    rate = 50.0 * cfc * 5.0 / 3.0
+    x = np.zeros(int(rate * 0.2) | 1)
+    x[x.size // 2] = 1.0
+    h = cfc_filter(x, rate, cfc)
+    return float(rate * np.sum(h ** 2) / np.sum(h) ** 2)
+
+
+def independent_samples(t: np.ndarray, duration: float, cfc: float = CFC) -> float:
+    """Independent samples of a measured record over [0, duration] (s) once filtered: its rows there, or
+    duration x :func:`independent_rate` where that is fewer (a record sampled above the filter's band).
+    The fit's intervals count these, not the grid's points (:func:`cfm_core.studies.calibrate.confidence`)."""
+    rows = int(np.count_nonzero((t >= 0.0) & (t <= duration)))
+    return float(min(rows, independent_rate(cfc) * duration))
+
+
 def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.0, cfc: float = CFC,
                scene=None) -> Curve:
     """A measured curve from ``file.csv[:thickness]`` on the grid k / rate, CFC-filtered; with a drop-test
@@ -215,7 +246,8 @@ def read_curve(spec: str, default_thickness: float | None, rate: float = 50_000.
     if not np.max(a_cfc) > 0.0:
         raise InputError(f"data file '{path}': the filtered acceleration is never positive; a is positive "
                          f"when the impactor decelerates (m/s^2): flip its sign.")
-    return Curve(Path(path).stem, path, thickness, grid, a_cfc, tuple(notes))
+    samples = independent_samples(t, float(grid[-1] - grid[0]) + 1.0 / rate, cfc)
+    return Curve(Path(path).stem, path, thickness, grid, a_cfc, tuple(notes), samples)
 
 
 def read_curves(specs, scene, scene_given: bool) -> list[Curve]:
@@ -238,5 +270,5 @@ def read_curves(specs, scene, scene_given: bool) -> list[Curve]:
         seen.add(key)
         names[c.name] = names.get(c.name, 0) + 1
         name = c.name if names[c.name] == 1 else f"{c.name}-{names[c.name]}"
-        curves.append(Curve(name, c.path, c.thickness, c.t, c.a, c.notes))
+        curves.append(Curve(name, c.path, c.thickness, c.t, c.a, c.notes, c.samples))
     return curves

@@ -35,7 +35,7 @@ from pathlib import Path
 
 from .. import fingerprint
 from ..errors import InputError
-from ..material.cache import spec_fingerprint
+from ..material.cache import definition_digest
 from ..material.registry import get_material, make_material
 from ..post.metrics import drop_test_metrics
 from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
@@ -211,6 +211,11 @@ def parse_vary(items, scene) -> list[Axis]:
         raise InputError(f"--vary velocity: the scene's impactor velocity is the vector {list(impactor.velocity)} m/s; "
                          f"a swept speed would replace it by a vertical impact. To sweep the speed of this oblique "
                          f"impact, give the scene's [impactor] velocity as a speed with an angle ({spec}).")
+    layers = getattr(getattr(scene, "specimen", None), "layers", None)
+    if layers and any(a.name == "thickness" for a in axes):
+        raise InputError(f"--vary thickness: the specimen is layered ({len(layers)} [[specimen.layers]]); its thickness "
+                         f"is the sum of the layers' and a sweep cannot tell which layer to change. Write one scene "
+                         f"per thickness, or sweep a material parameter.")
     refuse_unused(scene, [a.name for a in axes if a.name == "density" or a.name not in SCENE_KEYS],
                   lambda name: f"--vary {name}", "every run would be the same, labelled with values never applied")
     return axes
@@ -277,13 +282,18 @@ def check_backend(scene, axes: list[Axis], backend: str) -> None:
     from ..simulation.registry import backend_for
 
     be = backend_for(backend)
-    checks = [(None, scene)] + [((a, v), scene.with_overrides(**overrides({a.name: v})))
-                                 for a in axes if a.name in SCENE_KEYS for v in a.values]
+    # the scene with every swept material parameter at its first value, not the bare scene: one may be what makes
+    # it valid (a scene with g2 = 0.5 beside the default g1 = 0.45 is not, swept over g1 = 0.3, 0.35 it is)
+    materials = {a.name: a.values[0] for a in axes if a.name not in SCENE_KEYS}
+    first = scene.with_overrides(**overrides(materials)) if materials else scene
+    checks = [(None, first)] + [((a, v), scene.with_overrides(**overrides({a.name: v})))
+                                for a in axes if a.name in SCENE_KEYS for v in a.values]
     for which, sc in checks:
         try:
             be.check_model(build_model(sc))
         except InputError as exc:
-            where = "the scene" if which is None else f"--vary {which[0].name}: value {which[1]:g} {which[0].unit}"
+            where = ("the scene" + (" (each swept parameter at its first value)" if materials else "") if which is None
+                     else f"--vary {which[0].name}: value {which[1]:g} {which[0].unit}")
             raise InputError(f"{where} cannot run on backend '{backend}', so no run was started: {exc}") from None
 
 
@@ -320,7 +330,8 @@ def run_key(scene, backend: str, options: dict | None = None) -> dict:
     -------
     dict
         ``scene`` (its dict with the mesh path replaced by the file's content digest),
-        ``material`` (definition digest, :func:`cfm_core.material.cache.spec_fingerprint`),
+        ``material`` (definition digest, :func:`cfm_core.material.cache.definition_digest`),
+        ``materials`` (the same of every material a layer or part names),
         ``backend`` and ``options`` (every option resolved,
         :func:`cfm_core.runs.provenance.resolved_options`), ``code``
         (:func:`cfm_core.fingerprint.source_digest`).
@@ -335,8 +346,24 @@ def run_key(scene, backend: str, options: dict | None = None) -> dict:
     if mesh:
         digests = scene_files(scene)
         d["specimen"] = dict(d["specimen"], mesh=next(iter(digests.values()), None))
-    return {"scene": d, "material": spec_fingerprint(get_material(scene.material.name)), "backend": backend,
+    return {"scene": d, "material": definition_digest(get_material(scene.material.name)),
+            "materials": {n: definition_digest(get_material(n)) for n in sorted(_material_names(d))}, "backend": backend,
             "options": resolved_options(backend, options), "code": fingerprint.source_digest()}
+
+
+def _material_names(d) -> set:
+    """Names of the materials the layers and parts of a scene dict name (``material = "name"``)."""
+    out = set()
+    if isinstance(d, dict):
+        for k, v in d.items():
+            if k == "material" and isinstance(v, str):
+                out.add(v)
+            else:
+                out |= _material_names(v)
+    elif isinstance(d, list):
+        for v in d:
+            out |= _material_names(v)
+    return out
 
 
 def run_id(key: dict, case: dict) -> str:

@@ -120,11 +120,16 @@ def test_overflow_asks_for_a_cutback(libs, nstate):
     assert np.isfinite(out["stress"]).all() and np.isfinite(out["statev"]).all()
 
 
-@pytest.mark.parametrize("change", ["sum of g >= 1", "tau <= 0", "moduli 2", "nprops"])
+@pytest.mark.parametrize("change", ["sum of g >= 1", "sum of g 1 in decimal", "gamma_inf 1e-7", "tau <= 0",
+                                    "moduli 2", "nprops"])
 def test_invalid_constants_are_refused(libs, cfm, nstate, change):
     props = layout.props(cfm)
     if change == "sum of g >= 1":
         props[[4, 6, 8]] = [0.5, 0.4, 0.2]
+    elif change == "sum of g 1 in decimal":           # 1 - sum is 1.1e-16 in floating point: was run,
+        props[[4, 6, 8]] = [0.471, 0.435, 0.094]      # at moduli 1e16 times too large (8e17 Pa)
+    elif change == "gamma_inf 1e-7":                  # below the floor cfm refuses (prony.GAMMA_INF_MIN)
+        props[[4, 6, 8]] = [0.5, 0.4999999, 0.0]
     elif change == "tau <= 0":
         props[5] = 0.0
     elif change == "moduli 2":
@@ -133,3 +138,16 @@ def test_invalid_constants_are_refused(libs, cfm, nstate, change):
         props = props[:-1]
     out = _one_step(libs["abaqus-umat"], props, np.diag([0.9, 1.0, 1.0]), nstate)
     assert out["pnewdt"][1] == 0.25 and out["statev"][1, -1] == 3.0
+
+
+def test_gamma_inf_at_the_floor_cfm_accepts_runs(libs, nstate):
+    """gamma_inf = 1e-6 (the floor, accepted by cfm with a warning) runs, with the moduli 1e6 times
+    the long-term ones, as the reference computes them."""
+    from cfm_core.material.prony import GAMMA_INF_MIN
+
+    material = make_material("cfm", {"g1": 0.471 - GAMMA_INF_MIN})
+    t, F = uniaxial(1.0, 0.95, n=4)
+    sigma, _ = expected.history(material, t, F)
+    out = run_umat(libs["abaqus-umat"], layout.props(material), t, F, nstate)
+    assert (out["pnewdt"] == 1.0).all() and (out["statev"][:, -1] == 0).all()
+    _close(out["stress"], expected.to_order(sigma, ABAQUS_STANDARD), material.values["kappa"], rtol=1e-8)

@@ -22,3 +22,19 @@ def test_per_cycle_and_memory_of_a_small_block():
 
 def test_the_machines_own_two_thread_ceiling_is_a_plausible_ratio():
     assert 0.3 < scale.ceiling(0.05) < 3.0
+
+
+def test_the_torch_ratio_leaves_out_the_periodic_scans_on_both_sides_and_restores_them(monkeypatch):
+    from cfm_core.simulation import checks
+
+    calls = []
+    check = checks.Monitor.check
+    monkeypatch.setattr(checks.Monitor, "check", lambda self, *a: (calls.append(a[0]), check(self, *a))[1])
+    tiny = scale.drop_model(2.5e-3, end_time=5e-5)
+    n, t = scale.torch_ratio(tiny, 2e-4)
+    assert n > 0 and t > 0
+    assert len(calls) == 3 and min(calls) >= 2e-4    # the final check of each of the 3 runs only
+    from cfm_backends.numba_explicit import NumbaExplicitBackend
+    from dataclasses import replace
+    NumbaExplicitBackend().run(replace(tiny, end_time=2e-4), threads=1)
+    assert len(calls) > 3 + 3 and min(calls[3:]) < 1e-4   # outside, the periodic checks run

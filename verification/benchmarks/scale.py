@@ -15,7 +15,8 @@ machine are not meaningful: compare rows of one run, not runs of different days)
    largest / smallest ratio and the solver's memory per element (float64; every array of the
    run, nodes included, divided by the elements).
 2. torch (eager float64, one thread) / numba at each drop-test size, both run end to end for
-   the same short end time (few steps: torch eager is slow), wall time per element-cycle.
+   the same short end time (few steps: torch eager is slow), wall time per element-cycle, the
+   run monitor's periodic scans left out on both sides (:func:`without_periodic_checks`).
 3. Threads at the largest drop-test size: 2 threads against 1 (wall time, alternating, best of
    ``repeat``); then with one core kept busy by a second process this benchmark starts (a
    bounded busy loop, killed at the end), the default thread count (``threads=None``) against
@@ -144,16 +145,35 @@ def prestrain(model):
     return hook
 
 
+@contextlib.contextmanager
+def without_periodic_checks():
+    """Runs inside skip the run monitor's periodic physics scans (``Monitor.due`` is False; the
+    final check still runs). A run checks about 100 times whatever its length; in the few steps
+    a short benchmark run takes that is nearly every step, and torch's scan (numpy) then costs
+    more than its step, so a per-step ratio would measure the scans (numba's per-cycle figures,
+    timed on the compiled loop alone, exclude them too)."""
+    from cfm_core.simulation.checks import Monitor
+
+    due = Monitor.due
+    Monitor.due = lambda self, t: False
+    try:
+        yield
+    finally:
+        Monitor.due = due
+
+
 def torch_ratio(model, end_time: float) -> tuple[float, float]:
-    """(numba, torch eager float64) wall ns per element-cycle, one thread, run to ``end_time``."""
+    """(numba, torch eager float64) wall ns per element-cycle, one thread, run to ``end_time``,
+    both without the periodic physics scans (:func:`without_periodic_checks`)."""
     from dataclasses import replace
 
     from cfm_backends.numba_explicit import NumbaExplicitBackend
     from cfm_backends.torch_explicit import TorchExplicitBackend
 
     m = replace(model, end_time=end_time)
-    n = min(NumbaExplicitBackend().run(m, threads=1).info["ns_per_element_cycle"] for _ in range(2))
-    t = TorchExplicitBackend().run(m, threads=1, dtype="float64").info["ns_per_element_cycle"]
+    with without_periodic_checks():
+        n = min(NumbaExplicitBackend().run(m, threads=1).info["ns_per_element_cycle"] for _ in range(2))
+        t = TorchExplicitBackend().run(m, threads=1, dtype="float64").info["ns_per_element_cycle"]
     return n, t
 
 

@@ -125,3 +125,48 @@ def test_an_interactive_energy_is_never_cached(monkeypatch):
     exec("def energy(l1, l2, l3, a):\n    return a * (l1**2 + l2**2 + l3**2 - 3)\n", namespace)
     term = isochoric(positive("a", "Pa", 1.0), name="typed")(namespace["energy"])
     assert cache.spec_fingerprint(term & quadratic_volumetric) is None
+
+
+def test_a_helper_module_beside_a_single_file_plugin_is_followed(tmp_path, monkeypatch):
+    """A plugin file (not a package) whose energy calls a function of another top-level module in its
+    folder: an edit of the helper kept the key, and cfm reused the stale derivatives and kernels
+    (s11 -26400.8 Pa for -26802.0)."""
+    name = f"cachehelp_{uuid.uuid4().hex[:8]}"
+    (tmp_path / f"{name}_helper.py").write_text("def scale():\n    return 1.0\n")
+    (tmp_path / f"{name}.py").write_text(TERM.replace("from . import helpers", f"import {name}_helper as helpers")
+                                         .replace("helpers.shape(l1) + helpers.shape(l2) + helpers.shape(l3) - 3",
+                                                  "helpers.scale() * (l1**2 + l2**2 + l3**2 - 3)"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        spec = __import__(name).SPEC
+        first = cache.spec_fingerprint(spec)
+        assert str(tmp_path / f"{name}_helper.py") in cache.dependency_files(spec.isochoric[0].energy)
+        (tmp_path / f"{name}_helper.py").write_text("def scale():\n    return 2.0\n")
+        assert cache.spec_fingerprint(spec) != first
+    finally:
+        for key in [k for k in sys.modules if k.startswith(name)]:
+            del sys.modules[key]
+
+
+def test_installed_libraries_are_not_followed():
+    """numpy, sympy and the standard library are not the user's code: their files stay out of the key."""
+    import numpy
+
+    assert cache._user_module_file(numpy) is None and cache._user_module_file(textwrap.dedent) is None
+
+
+def test_the_definition_digest_tells_prony_defaults_and_moduli_apart():
+    """Two plugins with the same terms and other Prony defaults had one digest: the sweep cache served the
+    first one's results to the second (67.3 g for 170.0 g)."""
+    from cfm_core.material.prony import PronySeries
+    from cfm_plugins.cfm import circular_fibers, lipid
+    from cfm_plugins.volumetric import ogden_volumetric
+
+    def spec(g1, moduli="long-term"):
+        s = (lipid & circular_fibers & ogden_volumetric & PronySeries(((g1, 1e-3), (0.435, 0.1)))).named("p")
+        return s if moduli == "long-term" else type(s)(**{**s.__dict__, "default_moduli": moduli})
+
+    a, b, c = spec(0.45), spec(0.0), spec(0.45, "instantaneous")
+    assert cache.spec_fingerprint(a) == cache.spec_fingerprint(b)      # the same code
+    assert len({cache.definition_digest(x) for x in (a, b, c)}) == 3     # other definitions
+    assert cache.definition_digest(spec(0.45)) == cache.definition_digest(a)

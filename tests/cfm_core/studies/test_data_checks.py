@@ -60,6 +60,45 @@ def test_fit_of_six_rows_recovers_the_parameters(tmp_path):
     assert result.fitted["k2"] == pytest.approx(2.0, rel=2e-3)
 
 
+def _relaxation(tmp_path, g1):
+    m = make_material("cfm", {"g1": g1}, "instantaneous")
+    t, lam, P, _ = point.uniaxial(m, 100.0, 0.8, steps=100, hold=5.0)
+    return lab_tests.read_lab_test(_csv(tmp_path / "relax.csv", t, lam, P), "relaxation", 100.0)
+
+
+@pytest.mark.parametrize("start", [0.4709, 0.47])
+def test_a_prony_coefficient_near_sum_one_is_fitted_to_its_value(tmp_path, start):
+    """gamma_inf = 2e-5: the gradient test, scaled by the distance to the bound, could stop the fit early
+    (a second run without it, fit._trf, goes on to the minimum)."""
+    result = fit.fit_lab("cfm", [_relaxation(tmp_path, 0.47098)], ["g1"], start={"g1": start}, moduli="instantaneous")
+    assert result.fitted["g1"] == pytest.approx(0.47098, rel=1e-9)
+    lo, hi = result.confidence["parameters"]["g1"]["ci"]
+    assert lo <= 0.47098 <= hi
+
+
+def test_a_prony_coefficient_fitted_toward_the_floor_ends_on_its_bound_not_on_a_false_interval(tmp_path):
+    """Data with gamma_inf at cfm's floor (1e-6): the fit stopped after 4 evaluations at gamma_inf = 6.9e-6 with
+    a 95 % interval 14 standard deviations from the truth and no warning; then, pushed on, it evaluated
+    gamma_inf < 1e-6 and failed. The bound keeps gamma_inf above the floor and the fit says it ended there."""
+    result = fit.fit_lab("cfm", [_relaxation(tmp_path, 0.470999)], ["g1"], start={"g1": 0.47095},
+                         moduli="instantaneous")
+    assert "g1" in result.confidence["at_bound"] and result.confidence["parameters"]["g1"]["ci"] is None
+    assert any("ended on the upper end of its search range" in w for w in result.warnings)
+    assert 1e-6 <= 1 - result.fitted["g1"] - 0.435 - 0.094 < 2e-6
+
+
+def test_a_file_with_nominal_and_true_stress_is_read_by_its_nominal_column(tmp_path):
+    """Header t,stretch,nominal_stress,stress (true stress P / stretch): the plain 'stress' column was taken, and
+    k1 = 2000 Pa was fitted as 3243 Pa, CI [3189, 3298], exit 0."""
+    m = make_material("cfm", {"k1": 2000.0})
+    t, lam, P, _ = point.uniaxial(m, 100.0, 0.7, steps=60)
+    path = tmp_path / "both.csv"
+    path.write_text("t [s],stretch [-],nominal_stress [Pa],stress [Pa]\n" + "".join(
+        f"{float(a)!r},{float(b)!r},{float(c)!r},{float(c / b)!r}\n" for a, b, c in zip(t, lam, P)))
+    test = lab_tests.read_lab_test(path, "uniaxial", 100.0)
+    assert np.array_equal(test.P, P)
+
+
 @pytest.mark.parametrize("sign, stress, expected", [
     (-1.0, None, "Flip the sign of the stress column"),   # compression written positive
     (1.0, 0.0, "the stress column is 0 on every line"),   # was a ZeroDivisionError traceback in the fit
@@ -118,6 +157,21 @@ def test_a_gap_in_a_measured_curve_is_refused_naming_it():
     with pytest.raises(InputError, match=r"no samples between t = 0\.00398 s and 0\.0052"):
         check_plausible("gap.csv", t[keep], _pulse(t[keep]), 1.0, 0.02)
     assert check_plausible("full.csv", t, _pulse(t), 1.0, 0.02) == []  # the same curve whole: no note
+
+
+def test_a_scene_speed_in_km_h_or_a_curve_cut_short_is_refused_naming_both():
+    """velocity = 3.6 (km/h for 1 m/s) passed the 0.3 - 3 check with a ratio of 0.44; the fit then ran to k1 =
+    1.6e-20 Pa and failed naming a folded element."""
+    from cfm_core.post.metrics import velocity_change
+
+    t = np.arange(0.0, 0.012, 2e-5)
+    a = _pulse(t)
+    speed = velocity_change(t, a) / 1.6                  # the pulse of an impact at this speed, e = 0.6
+    assert check_plausible("ok.csv", t, a, speed, 0.02) == []
+    with pytest.raises(InputError, match=r"0\.444 times .* \(in km/h\? "):
+        check_plausible("kmh.csv", t, a, 3.6 * velocity_change(t, a) / 1.6, 0.02)
+    with pytest.raises(InputError, match="cut short"):
+        check_plausible("short.csv", t[t < 0.004], a[t < 0.004], speed, 0.02)
 
 
 def test_a_curve_recorded_from_before_contact_is_warned():

@@ -77,7 +77,7 @@ def test_run_id_changes_with_each_ingredient_and_only_then(scene, tmp_path, monk
     # the case's values
     assert sweep.run_id(sweep.run_key(base, "numba"), {"k2": 1.81}) != ref
     # the material's definition
-    monkeypatch.setattr(sweep, "spec_fingerprint", lambda spec: "another definition")
+    monkeypatch.setattr(sweep, "definition_digest", lambda spec: "another definition")
     assert sweep.run_id(sweep.run_key(base, "numba"), case) != ref
     monkeypatch.undo()
     # the code
