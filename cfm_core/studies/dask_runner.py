@@ -23,6 +23,7 @@ import contextlib
 import functools
 import logging
 import os
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
@@ -41,6 +42,11 @@ WORKER_WAIT = 60.0
 WORKER_LOST = 30.0
 #: Seconds between two looks at the scheduler's workers while no task finishes.
 POLL = 0.25
+#: Seconds without a finished task, workers present, after which (and again after each as many) a
+#: running map says so on stderr: a suspended or deadlocked worker stays registered, and the study
+#: waited without a word (the scheduler drops a silent worker only after its worker-ttl, 5 minutes
+#: by default, and an external scheduler may never).
+STALL_NOTE = 300.0
 
 
 @dataclass(frozen=True)
@@ -125,6 +131,7 @@ class DaskRunner:
         pending = set(index)
         ac = as_completed(futures)
         lost_since = None
+        progress = noted = time.monotonic()
         try:
             while not ac.is_empty():
                 batch = ac.next_batch(block=False)
@@ -132,6 +139,13 @@ class DaskRunner:
                     now = time.monotonic()
                     if self._has_workers():
                         lost_since = None
+                        if now - noted >= STALL_NOTE:
+                            noted = now
+                            print(f"note: no run has finished for {now - progress:.0f} s on {self.label} "
+                                  f"({len(pending)} left) although it has workers: a worker may be stuck "
+                                  f"(suspended, swapping or deadlocked); check the cluster (its dashboard). Ctrl-C "
+                                  f"stops the study; a sweep's rerun keeps the runs finished so far.",
+                                  file=sys.stderr, flush=True)
                     elif lost_since is None:
                         lost_since = now
                     elif now - lost_since >= self.worker_timeout:
@@ -146,6 +160,7 @@ class DaskRunner:
                     time.sleep(POLL)
                     continue
                 lost_since = None
+                progress = noted = time.monotonic()
                 for fut in batch:
                     pending.discard(fut.key)
                     i = index[fut.key]

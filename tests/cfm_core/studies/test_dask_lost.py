@@ -99,6 +99,19 @@ def test_slow_tasks_with_a_worker_are_waited_for(fake):
     assert [d.ok for d in done] == [True, True] and [d.value for d in done] == [("done", 1), ("done", 2)]
 
 
+def test_a_stuck_worker_is_said_while_the_map_waits(fake, monkeypatch, capsys):
+    """A worker suspended with kill -STOP stays registered: the sweep waited 400 s without a word."""
+    monkeypatch.setattr(dask_runner, "STALL_NOTE", 0.2)
+    client = fake(workers=lambda t: 1, finish_at=0.5)
+    done = list(DaskRunner(client, "fake scheduler", worker_timeout=0.1).map(lambda x: x, [1, 2]))
+    assert [d.ok for d in done] == [True, True]
+    err = capsys.readouterr().err
+    assert err.count("note: no run has finished for") == 2 and "on fake scheduler (2 left)" in err
+    client = fake(workers=lambda t: 1, finish_at=0.1)
+    list(DaskRunner(client, "fake", worker_timeout=0.1).map(lambda x: x, [1]))
+    assert "no run has finished" not in capsys.readouterr().err
+
+
 def test_a_worker_restarted_within_the_timeout_does_not_stop_the_run(fake):
     client = fake(workers=lambda t: 0 if 0.1 < t < 0.3 else 1, finish_at=0.6)  # a nanny restarts it
     done = list(DaskRunner(client, "fake", worker_timeout=0.5).map(lambda x: x, [1]))
