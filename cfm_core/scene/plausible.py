@@ -16,7 +16,8 @@ field                     "almost surely a unit slip" above      "unusually larg
 [specimen] width          (refused above 1 m by the section)     0.5 m
 ========================  =====================================  ===============================
 
-Radius and width above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the
+An impactor mass below 1 g (1e-3 kg) and a speed below 1 cm/s are warned about as converted twice
+(:data:`LOW_BOUNDS`). Radius and width above 1 m, the thickness (1e-4 .. 0.1 m), the element size (at most the
 thickness) and the density (1 .. 1e5 kg/m^3) are refused by the sections themselves, whose
 messages carry the same hint (:func:`unit_hint`). Within those ranges, warned about:
 
@@ -59,6 +60,13 @@ BOUNDS = (
     ("impactor", "velocity", "m/s", 100.0, 20.0, "impact speed"),
     ("impactor", "radius", "m", None, 0.25, "impactor (hemisphere) radius"),
     ("specimen", "width", "m", None, 0.5, "specimen width"),
+)
+
+#: (section, key, SI unit, unusual below, what it is): a value below is warned about as converted twice (0.22 g
+#: written 0.00022 kg for a 220 g impactor ran a 0.22 g one without a word).
+LOW_BOUNDS = (
+    ("impactor", "mass", "kg", 1e-3, "impactor mass"),
+    ("impactor", "velocity", "m/s", 1e-2, "impact speed"),
 )
 
 #: Densities (kg/m^3): below the first almost surely g/cm^3; outside (second, third) unusual for tissue.
@@ -273,6 +281,13 @@ def _drop_test_warnings(scene) -> list[str]:
             hint = unit_hint(key, value, unit, 0.0, unusual)
             warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually large for the {what.split(' (')[0]} "
                             f"(above {unusual:g} {unit}); it runs as given. {hint}".rstrip())
+    for section, key, unit, low, what in LOW_BOUNDS:
+        obj = getattr(scene, section)
+        value = float(obj.speed if key == "velocity" else getattr(obj, key))
+        if 0.0 < value < low:
+            warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually small for the {what} (below {low:g} "
+                            f"{unit}): was it converted twice ({value * 1e3:g} {unit} meant)? Every value is in SI "
+                            f"units. It runs as given.")
     sp = scene.specimen
     if sp.mesh is None and sp.element_size and float(sp.element_size) > 0.5 * float(sp.width):
         warnings.append(f"[specimen] element_size = {sp.element_size:g} m is larger than half the width "

@@ -85,3 +85,12 @@ def test_a_part_density_slip_is_fixed_in_its_table_not_with_the_specimen_flag():
                                   parts=(types.SimpleNamespace(name="part_1", density=1.1),))
     (text,) = _density_warnings(scene)
     assert "Write density = 1100 in [parts.part_1]" in text and "--density" not in text
+
+
+@pytest.mark.parametrize("key, value, meant", [("mass", 0.00022, "0.22 kg"), ("velocity", 0.001, "1 m/s")])
+def test_a_value_converted_twice_is_warned(key, value, meant):
+    """A 220 g impactor written 0.00022 kg ran a 0.22 g one without a word."""
+    scene = builtin_scene("drop-test").with_overrides(**{key: value})
+    text = [w for w in check_plausible(scene) if f"[impactor] {key} = {value:g}" in w]
+    assert len(text) == 1 and f"({meant} meant)" in text[0]
+    assert not any(f"[impactor] {key}" in w for w in check_plausible(builtin_scene("drop-test")))
