@@ -224,3 +224,12 @@ def test_a_thickness_sweep_of_a_layered_specimen_is_refused_saying_why(tmp_path,
                  "--out", str(tmp_path / "s")]) == 2
     err = capsys.readouterr().err
     assert "the specimen is layered (3 [[specimen.layers]])" in err and "decimal" not in err
+
+
+def test_a_run_failing_with_a_high_hourglass_coefficient_names_it(tmp_path, capsys):
+    """hourglass = 1 (allowed: at most 1) inverted an element of the default drop test and the message advised to
+    raise the hourglass coefficient; the viscous hourglass forces are not in the stable step."""
+    args = ["drop-test", "--width", "0.03", "--element-size", "0.0025", "--no-plot", "--quiet"]
+    assert main([*args, "--option", "hourglass=1.0", "--out", str(tmp_path / "a")]) == 3
+    assert "The option hourglass = 1 is above 0.15" in capsys.readouterr().err
+    assert main([*args, "--option", "hourglass=1.0", "--option", "safety=0.2", "--out", str(tmp_path / "b")]) == 0

@@ -16,7 +16,7 @@ def inverted(model, element: int, t: float, J: float) -> NumericalError:
     return NumericalError(
         f"element {element} inverted at t = {t:.6g} s (J = det F = {J:.4g} <= 0) in model "
         f"'{model.name}': the mesh cannot follow this deformation; refine the mesh, lower the load "
-        f"or raise the hourglass coefficient.", time=t, element=element, quantity="J")
+        f"or raise the hourglass coefficient (up to 0.15).", time=t, element=element, quantity="J")
 
 
 def nonfinite(material, where: str, m, J: float, t: float, index: int, float32: bool = False) -> NumericalError:

@@ -24,7 +24,8 @@ class ExplicitOptions(Options):
 
     owner = "explicit backend"
     hourglass: float = option(0.1, "-", "viscous hourglass coefficient Q_hg in c_hg = Q_hg rho c V0^(2/3) / 4 "
-                              "(typical 0.05-0.15; at most 1)", low=0.0, high=1.0)
+                              "(typical 0.05-0.15; at most 1; not in the stable step, so above 0.15 a run can go unstable)",
+                              low=0.0, high=1.0)
     hourglass_wave: str = option("shear", "-", "wave speed c of the hourglass viscosity: 'shear' from the "
                                  "isochoric modulus, 'longitudinal' from the full one",
                                  choices=("shear", "longitudinal"))

@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from .. import post
-from ..errors import InputError
+from ..errors import InputError, NumericalError
 from ..post.filters import MIN_RATE_OVER_CFC
 from ..scene.builder import build_model
 from ..scene.model import too_big
@@ -75,6 +75,16 @@ def run_model(model, backend: str = "numba", progress: Callable[[float], None] |
         result = be.run(model, progress=progress, **options)
     except MemoryError:
         raise InputError(too_big(model.n_elements, model.n_nodes, f"model '{model.name}' on backend '{backend}'")) from None
+    except NumericalError as exc:
+        hg = options.get("hourglass")
+        if isinstance(hg, (int, float)) and hg > HOURGLASS_STABLE:   # the likelier cause: say it first
+            raise NumericalError(
+                f"{exc} The option hourglass = {hg:g} is above {HOURGLASS_STABLE:g}: the viscous hourglass forces "
+                f"are not in the stable time step, and above about {HOURGLASS_STABLE:g} they can make the run "
+                f"unstable as an element stiffens (the default drop test failed at 0.5 and 1 and ran at 0.3, and at 1 "
+                f"with safety = 0.2); lower it, or lower the option safety.",
+                time=exc.time, element=exc.element, quantity=exc.quantity) from None
+        raise
     result = _checked(be, model, result)
     interval = options.get("frame_interval")
     if result.frames is not None and len(result.frames) <= 1 and isinstance(interval, (int, float)) and len(result.t):
@@ -92,6 +102,10 @@ def _checked(be, model, result):
     result.info.setdefault("hourglass_control", bool(be.hourglass_control))
     return result
 
+
+#: Viscous hourglass coefficient above which a failed explicit run names it as a likely cause (LS-DYNA's manual
+#: recommends at most 0.15 for its viscous hourglass forms).
+HOURGLASS_STABLE = 0.15
 
 #: Within :func:`warnings_once`: the warnings said so far, by their text without its numbers.
 _SAID: set | None = None

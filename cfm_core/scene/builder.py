@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .mesh import nodes_on_plane, structured_hex_mesh
+from .mesh import facing_nodes, nodes_on_plane, structured_hex_mesh
 from .layers import bind_material, layer_cells, layer_z, mesh_part_elements
 from .model import Model, Part, Prescribed, RigidPlane, RigidSphere, check_memory, too_big
 from .scene import Scene
@@ -230,8 +230,10 @@ def _drop_test(scene: Scene, material) -> Model:
         nodes, hexes, grid = _block(sp)
     h = sp.thickness
     tol = 1e-6 * sp.element_size
-    top = nodes_on_plane(nodes, 2, h, tol)
-    bottom = nodes_on_plane(nodes, 2, 0.0, tol)
+    if grid is None:  # a user mesh: its top and bottom surfaces, flat or not (mesh.facing_nodes)
+        top, bottom = facing_nodes(nodes, hexes, up=True), facing_nodes(nodes, hexes, up=False)
+    else:
+        top, bottom = nodes_on_plane(nodes, 2, h, tol), nodes_on_plane(nodes, 2, 0.0, tol)
     factor, moves = _SYMMETRY[sp.symmetry]
     planes = {"quarter": [(0, 0), (1, 1)], "half": [(1, 1)], "none": []}[sp.symmetry]
     fixed = _fixed([(nodes_on_plane(nodes, axis, 0.0, tol), dof) for axis, dof in planes])

@@ -41,6 +41,7 @@ below), measured in ``tests/cfm_core/scene/test_plausible.py``.
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -305,8 +306,10 @@ def _drop_test_warnings(scene) -> list[str]:
                         f"56.7 g with 2 mm elements); give it at least {MIN_LAYERS}: {fix}. It runs as given.")
     imp = scene.impactor
     h = float(sp.element_size) if sp.element_size else 0.0
-    if getattr(imp, "shape", "hemisphere") == "flat" and 0.0 < float(imp.edge_radius) < RIM_ELEMENTS * h:
-        warnings.append(f"[impactor] edge_radius = {imp.edge_radius:g} m is less than {RIM_ELEMENTS:g} element sizes "
+    edge = float(imp.edge) if getattr(imp, "shape", "hemisphere") == "flat" else 0.0   # the default when not given
+    corner = math.hypot(*(0.5 * float(sp.width) + abs(float(c)) for c in imp.point))     # farthest specimen corner
+    if 0.0 < edge < RIM_ELEMENTS * h and float(imp.radius) - edge < corner:             # the rim meets the specimen
+        warnings.append(f"[impactor] edge_radius = {edge:g} m is less than {RIM_ELEMENTS:g} element sizes "
                         f"({RIM_ELEMENTS * h:g} m at element_size = {h:g} m): the mesh does not resolve the flat "
                         f"impactor's rim, and the fat squeezed round it may fold elements (the built-in "
                         f"flat-impactor scene folded at 4 ms with a 1 mm rim on 1 mm elements; 3 mm ran). It runs "

@@ -94,3 +94,12 @@ def test_a_value_converted_twice_is_warned(key, value, meant):
     text = [w for w in check_plausible(scene) if f"[impactor] {key} = {value:g}" in w]
     assert len(text) == 1 and f"({meant} meant)" in text[0]
     assert not any(f"[impactor] {key}" in w for w in check_plausible(builtin_scene("drop-test")))
+
+
+def test_a_flat_impactor_without_edge_radius_is_checked_with_its_default_rim():
+    """[impactor] shape = "flat" without edge_radius: TypeError traceback (float(None)) before any run; and the rim
+    warning came for a rim outside the specimen too."""
+    base = builtin_scene("drop-test").with_overrides(width=0.03, element_size=0.0025, shape="flat")
+    small = [w for w in check_plausible(base.with_overrides(radius=0.01)) if "edge_radius" in w]
+    assert len(small) == 1 and "edge_radius = 0.001 m" in small[0]         # the default min(1 mm, radius / 2)
+    assert not [w for w in check_plausible(base.with_overrides(radius=0.05)) if "edge_radius" in w]  # rim outside
