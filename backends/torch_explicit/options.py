@@ -33,7 +33,8 @@ class TorchOptions(ExplicitOptions):
     dtype: str = option("float64", "-", "floating point type of state, stresses and forces ('float64' or "
                         "'float32'; torch dtypes accepted)", kind="any")
     threads: int = option(None, "-", "torch intra-op threads for the run", kind="int", low=1,
-                          none=f"1 below {PARALLEL_MIN} elements on the CPU, else torch's setting")
+                          none=f"1 below {PARALLEL_MIN} elements on the CPU, else the cores free now (at most torch's "
+                               f"setting)")
     compile: object = option(False, "-", "torch.compile the pointwise part of the element pass: False, True or "
                              "a mode name ('default', 'reduce-overhead', 'max-autotune'); tens of seconds once",
                              kind="any", choices=(False, True, "default", "reduce-overhead", "max-autotune",

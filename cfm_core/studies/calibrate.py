@@ -306,9 +306,9 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     from scipy import stats
 
     m, p = jac.shape
-    n = float(m) if not samples or samples >= m else float(samples)
-    k = m / n
-    dof = max(n - p, 1.0)
+    n_ind = float(m) if not samples or samples >= m else float(samples)
+    k = m / n_ind
+    dof = max(n_ind - p, 1.0)
     s2 = float(residual @ residual) / max(m - p, 1)
     jtj = jac.T @ jac
     q = float(stats.t.ppf(0.5 + level / 2.0, dof))
@@ -349,7 +349,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
         out[n].update(std=None, ci=valley, withheld="not separately identifiable: " + (
             "the interval is the valley's extent within the bounds" if valley else "no interval"))
     return {"parameters": out, "correlation": corr, "dof": dof, "s2": s2, "t_quantile": q, "level": level,
-            "independent_samples": n, "correlation_factor": k,
+            "independent_samples": n_ind, "correlation_factor": k,
             "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
             "poorly_determined": poor, "flat": flat, "warnings": warnings}
 

@@ -244,5 +244,9 @@ def test_intervals_of_a_filtered_record_count_its_independent_samples():
 
     assert independent_rate() == pytest.approx(2077.0, rel=2e-3)          # CFC 600; fs / k, k = 24.08 at 50 kHz
     assert independent_samples(np.arange(13) * 8e-4, 0.01) == 13         # a record of 13 rows: its rows
+    A = np.column_stack([np.ones(100), np.linspace(0.0, 1.0, 100)])
+    coords = calibrate.Coordinates(("a", "b"), ("-", "-"), (False, False), np.full(2, -np.inf), np.full(2, np.inf))
+    conf = calibrate.confidence(np.zeros(2), A, np.sin(np.arange(100.0)), coords, samples=20.0)
+    assert (conf["independent_samples"], conf["dof"], conf["correlation_factor"]) == (20.0, 18.0, 5.0)
     assert _filtered_noise_coverage(None) < 0.6                          # grid points as independent
     assert 0.9 <= _filtered_noise_coverage(lambda t: independent_samples(t, t[-1] + 2e-5)) <= 0.99
