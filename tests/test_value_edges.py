@@ -233,3 +233,15 @@ def test_a_run_failing_with_a_high_hourglass_coefficient_names_it(tmp_path, caps
     assert main([*args, "--option", "hourglass=1.0", "--out", str(tmp_path / "a")]) == 3
     assert "The option hourglass = 1 is above 0.15" in capsys.readouterr().err
     assert main([*args, "--option", "hourglass=1.0", "--option", "safety=0.2", "--out", str(tmp_path / "b")]) == 0
+
+
+def test_a_speed_given_over_a_velocity_vector_says_the_direction_is_dropped(tmp_path, capsys):
+    """--velocity 2 on a scene with velocity = [0.5, 0, -0.866] ran a vertical impact; the note only said the
+    value was overridden."""
+    scene = builtin_scene("drop-test").with_overrides(width=0.03, element_size=0.0025, thickness=0.005)
+    text = scene_to_toml(scene).replace("velocity = 1.0", "velocity = [0.5, 0.0, -0.866]").replace(
+        'symmetry = "auto"', 'symmetry = "none"')
+    (tmp_path / "v.toml").write_text(text)
+    assert main(["drop-test", "--scene", str(tmp_path / "v.toml"), "--velocity", "2", "--no-plot", "--quiet",
+                 "--out", str(tmp_path / "o")]) == 0
+    assert "the impact is now vertical" in capsys.readouterr().err

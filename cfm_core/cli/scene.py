@@ -111,7 +111,10 @@ def _override_notes(old, new, over: dict, where: str) -> list[str]:
             a, b = getattr(old, section, None), getattr(new, section, None)
             if a is not None and b is not None and hasattr(a, attr) and getattr(a, attr) != getattr(b, attr):
                 shown = "" if key == "elastic" else f" {value}"
-                notes.append(f"{flag}{shown} overrides {where} [{section}] {attr} = {getattr(a, attr)}")
+                vector = key == "velocity" and isinstance(getattr(a, attr), (tuple, list))
+                notes.append(f"{flag}{shown} overrides {where} [{section}] {attr} = {list(getattr(a, attr)) if vector else getattr(a, attr)}"
+                             + (": the impact is now vertical (the file's direction is dropped; to keep it, give "
+                                "[impactor] velocity as a speed with an angle in the file)" if vector else ""))
                 break
     return notes
 
