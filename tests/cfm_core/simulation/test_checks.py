@@ -226,13 +226,13 @@ def test_the_scenes_penetration_tolerance_decides_the_verdict(tmp_path, line, ve
         assert err.value.quantity == "penetration of the rigid plate" and err.value.node == node
 
 
-@pytest.mark.parametrize("line, stops", [("", False), ("penetration_tolerance = 0.006", True)])
+@pytest.mark.parametrize("line, stops", [("", False), ("penetration_tolerance = 0.0024", True)])
 def test_the_scenes_penetration_tolerance_sets_the_bottoming_out_gap(tmp_path, line, stops):
-    """The end-of-run check reads the same tolerance: an impactor history whose lowest point stays
-    5 mm above the plate passes by default and is bottoming out with a 6 mm tolerance."""
+    """The end-of-run check reads the same tolerance: an impactor history whose lowest point comes down to
+    2 mm above the plate passes by default and is bottoming out with a 2.4 mm tolerance."""
     m = _scene_model(tmp_path, line)
     t = np.linspace(0.0, 5e-3, 51)
-    z = np.full(t.size, m.sphere.radius + m.plane.z + 0.005)
+    z = np.full(t.size, m.sphere.radius + m.plane.z + 0.002)
     res = _result(t, np.where(t < 4e-3, 1.0, 0.0), np.full(t.size, 0.1), np.zeros(t.size), z=z)
     if stops:
         with pytest.raises(NumericalError, match="reached the rigid plate"):
