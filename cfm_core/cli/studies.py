@@ -14,6 +14,7 @@ from ..errors import InputError
 from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
 from ..runs.pipeline import warnings_once
+from ..scene.plausible import check_plausible
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
 from .options import parse_params, plan_from_args
@@ -176,8 +177,11 @@ def _cmd_calibrate(args) -> int:
     if args.max_evaluations < 1:
         raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
     check_folder_target(args.out)
+    for text in check_plausible(scene.with_overrides(parameters=start)):  # the user's values, once: the fit's
+        if text.startswith("[material]"):                                  # trial values are not said
+            print(f"warning: {text}", file=sys.stderr)
     t0 = time.perf_counter()
-    with _open(args) as runner, warnings_once():
+    with _open(args) as runner, warnings_once(material=False):
         say = _progress(args)
         if say:
             say(f"fitting {', '.join(names)} to {len(curves)} curve(s) on {runner.label}")

@@ -109,20 +109,27 @@ HOURGLASS_STABLE = 0.15
 
 #: Within :func:`warnings_once`: the warnings said so far, by their text without its numbers.
 _SAID: set | None = None
+#: Within :func:`warnings_once` with ``material=False``: the material's plausibility warnings are not said.
+_QUIET_MATERIAL = False
 
 
 @contextmanager
-def warnings_once():
+def warnings_once(material: bool = True):
     """Within this block :func:`report_warnings` prints each warning once, however many runs give it:
     the runs of one study (a calibration's evaluations) differ only in their parameters, and a warning
     that differs only in its numbers (a Poisson ratio at each k1 tried) is said once. The runs'
-    summaries still hold every warning."""
-    global _SAID
+    summaries still hold every warning.
+
+    material: False leaves out the material's plausibility warnings ("[material] k1 = ... Pa is 1000x
+    above ... Was it converted from kPa to Pa twice?"): in a fit they are about the optimiser's trial
+    values, not the user's, whose start values the caller checks once before."""
+    global _SAID, _QUIET_MATERIAL
     outer, _SAID = _SAID, set()
+    quiet, _QUIET_MATERIAL = _QUIET_MATERIAL, not material
     try:
         yield
     finally:
-        _SAID = outer
+        _SAID, _QUIET_MATERIAL = outer, quiet
 
 
 def report_warnings(summary: dict, stream=None) -> None:
@@ -136,6 +143,8 @@ def report_warnings(summary: dict, stream=None) -> None:
         Where to print (default ``sys.stderr``).
     """
     for text in summary.get("warnings", []):
+        if _QUIET_MATERIAL and text.startswith("[material]"):
+            continue
         if _SAID is not None:
             key = re.sub(r"[-+]?\d[\d.,]*(e[-+]?\d+)?", "#", text)
             if key in _SAID:

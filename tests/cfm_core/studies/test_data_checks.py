@@ -265,6 +265,18 @@ def test_warnings_once_says_a_warning_that_differs_in_its_numbers_once(capsys):
     assert capsys.readouterr().err == "warning: other\n"
 
 
+def test_a_calibration_says_the_material_warnings_of_the_users_values_not_of_its_trials(capsys):
+    """cfm calibrate printed "k1 = 1.51376e+06 Pa ... Was it converted from kPa to Pa twice? Then write k1 = 1513.76"
+    about a value its optimiser tried; the user's start values are checked once before the fit."""
+    trial = "[material] k1 = 1.51376e+06 Pa is 1,147x above the typical 1320 Pa. Then write k1 = 1513.76."
+    with pipeline.warnings_once(material=False):
+        pipeline.report_warnings({"warnings": [trial, "the pulse is cut short"]})
+    assert capsys.readouterr().err == "warning: the pulse is cut short\n"
+    with pipeline.warnings_once():
+        pipeline.report_warnings({"warnings": [trial]})
+    assert "k1 = 1.51376e+06" in capsys.readouterr().err
+
+
 # ----------------------------------------------------------------------------- output folders of fits
 def test_a_fit_that_fails_keeps_the_earlier_output_in_its_folder(tmp_path, capsys):
     """A fit refused after its start (--starts 0) emptied --out first: the earlier fit was lost."""
