@@ -6,7 +6,6 @@ import sys
 
 from ..export import TARGETS, export, layout, lsdyna
 from ..material.plausible import check_material
-from ..material.prony import GAMMA_INF_MIN
 from ..material.registry import make_material
 from ..scene.plausible import DENSITY_SLIP
 from .options import parse_params
@@ -50,16 +49,10 @@ def _cmd_export(args) -> int:
         print(f"warning: --density {args.density:g} kg/m^3 is not a plausible tissue density: below "
               f"{DENSITY_SLIP:g} kg/m^3 it is almost surely in g/cm^3 ({args.density * 1e3:g} kg/m^3 meant?). The card "
               f"holds it as given.", file=sys.stderr)
-    if args.to == "lsdyna-umat":
-        exact, held = lsdyna.gamma_inf_on_card(layout.constants(material.spec, lsdyna=True, material=material))
-        if exact is not None and abs(held - exact) > lsdyna.GAMMA_INF_CHANGE_WARN * exact:
-            print(f"warning: the card's 10-character fields round the Prony coefficients g_i so that gamma_inf = 1 - "
-                  f"sum g_i is {held:.6g} on the card for {exact:.6g} (relative change {abs(held - exact) / exact:.1g}): "
-                  f"LS-DYNA's long-term or relaxed stresses differ by as much. Near gamma_inf = 0 no 10-character "
-                  f"field can do better; the exact values are in manifest.json."
-                  + (f" On the card it is below the floor the routine accepts ({GAMMA_INF_MIN:g}): every call would "
-                     f"end with error code 3 (invalid constants); raise gamma_inf (lower a g_i)."
-                     if held < GAMMA_INF_MIN - 1e-12 else ""), file=sys.stderr)
+    rounding = (lsdyna.gamma_inf_warning(layout.constants(material.spec, lsdyna=True, material=material))
+                if args.to == "lsdyna-umat" else None)
+    if rounding:
+        print(f"warning: {rounding}", file=sys.stderr)
     files = export(material, args.to, args.out, args.density)
     print(f"wrote {', '.join(str(f) for f in files)}: {material.name} for {TARGETS[args.to]['solver']}")
     return 0

@@ -13,7 +13,7 @@ import time
 from ..errors import InputError
 from ..post.staging import check_folder_target
 from ..scene.scene import builtin_scene, load_scene
-from ..runs.pipeline import warnings_once
+from ..runs.pipeline import is_material_warning, warnings_once
 from ..scene.plausible import check_plausible
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import open_runner
@@ -178,7 +178,7 @@ def _cmd_calibrate(args) -> int:
         raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
     check_folder_target(args.out)
     for text in check_plausible(scene.with_overrides(parameters=start)):  # the user's values, once: the fit's
-        if text.startswith("[material]"):                                  # trial values are not said
+        if is_material_warning(text):                                      # trial values are not said
             print(f"warning: {text}", file=sys.stderr)
     t0 = time.perf_counter()
     with _open(args) as runner, warnings_once(material=False):

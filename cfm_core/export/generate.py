@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 from ..fingerprint import code_state, package_version
 from ..material.cache import spec_fingerprint
-from ..material.prony import GAMMA_INF_MIN
 from . import abaqus, fortran, kernel, layout, lsdyna
 from .targets import TARGETS
 
@@ -75,14 +74,14 @@ def sizes(spec) -> dict:
     -------
     dict
         ``NC``, ``NK``, ``NP``, ``NPD``, ``NH``, ``NHD``, ``NS`` (number of state variables) and
-        ``DP`` (the kind declaration line), ``GMIN`` (the smallest gamma_inf the routine accepts,
-        :data:`cfm_core.material.prony.GAMMA_INF_MIN` less 1e-12, as a Fortran double literal).
+        ``DP`` (the kind declaration line), ``GMIN`` (:data:`cfm_core.export.kernel.GAMMA_INF_FLOOR`, the
+        smallest gamma_inf the routine accepts, as a Fortran double literal).
     """
     k = layout.n_prony(spec)
     nh = 6 * (k + 1) if k else 0
     return {"NC": len(spec.parameters) + 1, "NK": len(spec.energy_parameters) + 1, "NP": k, "NPD": max(k, 1),
             "NH": nh, "NHD": max(nh, 1), "NS": nh + 1, "DP": fortran.DP,
-            "GMIN": f"{GAMMA_INF_MIN - 1e-12:.15e}".replace("e", "d")}
+            "GMIN": f"{kernel.GAMMA_INF_FLOOR:.15e}".replace("e", "d")}
 
 
 def generate(material, target: str, density: float = DENSITY) -> Export:

@@ -25,6 +25,12 @@ Formulae of the numpy reference (:mod:`cfm_core.material.reference`, :mod:`~cfm_
 
 from __future__ import annotations
 
+from ..material.prony import GAMMA_INF_MIN
+
+#: The smallest gamma_inf = 1 - sum g_i the generated routines accept (error code 3 below it): cfm's own
+#: floor less 1e-12 for the round-off of the Fortran sum, so that every value cfm accepts runs.
+GAMMA_INF_FLOOR = GAMMA_INF_MIN - 1e-12
+
 CORE = """\
       subroutine {P}eig3(a, em, q)
 !     eigenvalues em and eigenvectors q (columns) of the symmetric a

@@ -30,6 +30,9 @@ from __future__ import annotations
 import math
 import re
 
+from ..material.prony import GAMMA_INF_MIN
+from .kernel import GAMMA_INF_FLOOR
+
 UMAT41 = """\
       subroutine umat{N}(cm, eps, sig, epsp, hsv, dt1, capa, etype, tt,
      &  temper, failel, crv, nnpcrv, cma, qmat, elsiz, idele, reject)
@@ -260,3 +263,18 @@ def gamma_inf_on_card(entries) -> tuple:
         return None, None
     return (math.fsum([1.0] + [-float(e.default) for e in g]),
             math.fsum([1.0] + [-float(_field(float(e.default))) for e in g]))
+
+
+def gamma_inf_warning(entries) -> str | None:
+    """The warning ``cfm export`` gives when the card's rounding moves gamma_inf by more than
+    :data:`GAMMA_INF_CHANGE_WARN` relative (:func:`gamma_inf_on_card`), saying also when the card's value
+    falls below what the routine accepts (:data:`cfm_core.export.kernel.GAMMA_INF_FLOOR`); None otherwise."""
+    exact, held = gamma_inf_on_card(entries)
+    if exact is None or not abs(held - exact) > GAMMA_INF_CHANGE_WARN * exact:
+        return None
+    below = (f" On the card it is below the floor the routine accepts ({GAMMA_INF_MIN:g}): every call would "
+             f"end with error code 3 (invalid constants); raise gamma_inf (lower a g_i)." if held < GAMMA_INF_FLOOR else "")
+    return (f"the card's 10-character fields round the Prony coefficients g_i so that gamma_inf = 1 - sum g_i is "
+            f"{held:.6g} on the card for {exact:.6g} (relative change {abs(held - exact) / exact:.1g}): LS-DYNA's "
+            f"long-term or relaxed stresses differ by as much. Near gamma_inf = 0 no 10-character field can do "
+            f"better; the exact values are in manifest.json.{below}")

@@ -19,6 +19,7 @@ import json
 import os
 import secrets
 import shutil
+import sys
 from glob import escape as glob_escape
 from pathlib import Path
 
@@ -237,8 +238,6 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     earlier = earlier_files(out)
     before, now = output_kind(p.name for p in earlier), output_kind(names)
     if before is not None and now is not None and before != now:  # a mistyped --out: say what is gone
-        import sys
-
         print(f"note: {out} held the output of a {before} ({len([p for p in earlier if p.name != MANIFEST])} files); "
               f"it is replaced by this {now}'s.", file=sys.stderr)
     for old in earlier:
@@ -247,8 +246,6 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
                     and p.name not in keep and not p.name.startswith("."))
     if earlier and others:  # cfm fields --png out/x/cut.png, cfm compare --json out/x/c.json: of the run now gone
-        import sys
-
         print(f"note: {out} keeps {', '.join(others[:6])}{' ...' if len(others) > 6 else ''}, not written by this "
               f"command: if they were made from the earlier output there, they no longer describe the folder's "
               f"files.", file=sys.stderr)

@@ -113,6 +113,11 @@ _SAID: set | None = None
 _QUIET_MATERIAL = False
 
 
+def is_material_warning(text: str) -> bool:
+    """Whether a warning is about the [material] section's values (:func:`cfm_core.material.plausible.check_material`)."""
+    return text.startswith("[material]")
+
+
 @contextmanager
 def warnings_once(material: bool = True):
     """Within this block :func:`report_warnings` prints each warning once, however many runs give it:
@@ -143,7 +148,7 @@ def report_warnings(summary: dict, stream=None) -> None:
         Where to print (default ``sys.stderr``).
     """
     for text in summary.get("warnings", []):
-        if _QUIET_MATERIAL and text.startswith("[material]"):
+        if _QUIET_MATERIAL and is_material_warning(text):
             continue
         if _SAID is not None:
             key = re.sub(r"[-+]?\d[\d.,]*(e[-+]?\d+)?", "#", text)

@@ -304,6 +304,18 @@ def refuse_unused(scene, names, flag, effect: str) -> None:
                          f"layer its value in the scene file.")
 
 
+def regions(scene) -> list[tuple[str, object]]:
+    """(label, region) of every layer and part of a scene that has its own material or parameters; the
+    label names it as a scene file does (``[[specimen.layers]] 2 (fat)``, ``[parts.skin]``)."""
+    out = []
+    specimen = scene.specimen
+    for i, layer in enumerate(getattr(specimen, "layers", ()) or ()):
+        out.append((f"[[specimen.layers]] {i + 1} ({layer.name or f'layer{i + 1}'})", layer))
+    for part in scene.parts or ():
+        out.append((f"[parts.{part.name}]", part))
+    return [(label, r) for label, r in out if r.material is not None or r.parameters]
+
+
 def bind_material(region, scene_material, default_density: float, material=None):
     """(Material, density) of a layer or part.
 

@@ -159,27 +159,16 @@ def check_plausible(scene, material=None) -> list[str]:
     return warnings + check_material(material) + _region_material_warnings(scene, material)
 
 
-def _regions(scene) -> list[tuple[str, object]]:
-    """(label, region) of every layer and part of a scene that has its own material or parameters."""
-    out = []
-    specimen = scene.specimen
-    for i, layer in enumerate(getattr(specimen, "layers", ()) or ()):
-        out.append((f"[[specimen.layers]] {i + 1} ({layer.name or f'layer{i + 1}'})", layer))
-    for part in scene.parts or ():
-        out.append((f"[parts.{part.name}]", part))
-    return [(label, r) for label, r in out if r.material is not None or r.parameters]
-
-
 def _region_material_warnings(scene, material) -> list[str]:
     """:func:`check_material` of each layer's and part's own material (a kPa slip under a layer's
     parameters ran silently while the same value in [material] was warned about), each finding
     naming its layer or part instead of [material]; moduli far above the typical values are not
     warned about there (a layer of skin or muscle is stiffer than fat)."""
-    from .layers import bind_material
+    from .layers import bind_material, regions
 
     out = []
     density = float(scene.specimen.density) if scene.specimen is not None else 1000.0
-    for label, region in _regions(scene):
+    for label, region in regions(scene):
         bound, _ = bind_material(region, scene.material, density, material)
         out += [_in_region(text, label) for text in check_material(bound, above=False)]
     return out
@@ -188,7 +177,7 @@ def _region_material_warnings(scene, material) -> list[str]:
 def _in_region(text: str, label: str) -> str:
     """A [material] warning said of a layer or part: its label for [material], and the fix written in the
     layer's or part's parameters (``--param`` sets [material]'s, not theirs)."""
-    text = re.sub(r" \(--param (\w+)=([^)]+)\)", r" in the parameters of " + label.replace("\\", "") + "", text)
+    text = re.sub(r" \(--param \w+=[^)]+\)", lambda _: f" in the parameters of {label}", text)
     return text.replace("[material]", label, 1) if text.startswith("[material]") else f"{label}: {text}"
 
 
@@ -267,12 +256,17 @@ def layers_through_thickness(specimen) -> int:
     return max(1, int(round(specimen.thickness / extent))) if extent > 0 else 1
 
 
+def _bounded_value(scene, section: str, key: str) -> float:
+    """The SI value of a :data:`BOUNDS` or :data:`LOW_BOUNDS` field (a velocity vector's speed)."""
+    obj = getattr(scene, section)
+    return float(obj.speed if key == "velocity" else getattr(obj, key))
+
+
 def _drop_test_warnings(scene) -> list[str]:
     """Unit slips of the drop-test values (:data:`BOUNDS`) and a specimen too coarse through its thickness."""
     warnings = []
     for section, key, unit, slip, unusual, what in BOUNDS:
-        obj = getattr(scene, section)
-        value = float(obj.speed if key == "velocity" else getattr(obj, key))
+        value = _bounded_value(scene, section, key)
         if slip is not None and value > slip:
             hint = unit_hint(key, value, unit, 0.0, slip)
             warnings.append(f"[{section}] {key} = {value:g} {unit} is not a plausible {what}: above {slip:g} {unit} it "
@@ -283,8 +277,7 @@ def _drop_test_warnings(scene) -> list[str]:
             warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually large for the {what.split(' (')[0]} "
                             f"(above {unusual:g} {unit}); it runs as given. {hint}".rstrip())
     for section, key, unit, low, what in LOW_BOUNDS:
-        obj = getattr(scene, section)
-        value = float(obj.speed if key == "velocity" else getattr(obj, key))
+        value = _bounded_value(scene, section, key)
         if 0.0 < value < low:
             warnings.append(f"[{section}] {key} = {value:g} {unit} is unusually small for the {what} (below {low:g} "
                             f"{unit}): was it converted twice ({value * 1e3:g} {unit} meant)? Every value is in SI "

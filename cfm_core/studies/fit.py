@@ -403,7 +403,6 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     NumericalError
         A test's simulation failed (exponential overflow, no lateral stretch).
     """
-
     spec = get_material(material)
     if not tests:
         raise InputError("no tests to fit: give at least one --test FILE:KIND:RATE.")

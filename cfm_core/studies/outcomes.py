@@ -143,14 +143,15 @@ class SweepOutcome:
             :func:`cfm_core.runs.provenance.provenance` with ``run_id_key`` (what the ids hash).
         """
         from ..errors import InputError
-        from ..material.registry import get_material, make_material
+        from ..material.registry import make_material
+        from .sweep import first_values_scene
 
-        m = self.scene.material
         try:
+            m = self.scene.material
             material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
         except InputError:  # valid only with the swept values (g2 = 0.5 in the scene, g1 swept from 0.3): the first's
-            first = {a.name: a.values[0] for a in self.axes if a.name in {p.name for p in get_material(m.name).parameters}}
-            material = make_material(m.name, {**m.parameter_dict, **first}, m.moduli, m.elastic)
+            m = first_values_scene(self.scene, self.axes).material
+            material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
         return json_ready(provenance(self.backend, self.options, material, scene_files(self.scene),
                                      run_id_key=self.key))
 

@@ -42,7 +42,7 @@ from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
 from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
 from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
-from ..scene.layers import refuse_unused
+from ..scene.layers import refuse_unused, regions
 from ..scene.scene import scene_to_dict
 from ..tables import read_table as read_history
 from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
@@ -282,19 +282,25 @@ def check_backend(scene, axes: list[Axis], backend: str) -> None:
     from ..simulation.registry import backend_for
 
     be = backend_for(backend)
-    # the scene with every swept material parameter at its first value, not the bare scene: one may be what makes
-    # it valid (a scene with g2 = 0.5 beside the default g1 = 0.45 is not, swept over g1 = 0.3, 0.35 it is)
-    materials = {a.name: a.values[0] for a in axes if a.name not in SCENE_KEYS}
-    first = scene.with_overrides(**overrides(materials)) if materials else scene
+    first = first_values_scene(scene, axes)
     checks = [(None, first)] + [((a, v), scene.with_overrides(**overrides({a.name: v})))
                                 for a in axes if a.name in SCENE_KEYS for v in a.values]
     for which, sc in checks:
         try:
             be.check_model(build_model(sc))
         except InputError as exc:
-            where = ("the scene" + (" (each swept parameter at its first value)" if materials else "") if which is None
+            where = ("the scene" + (" (each swept parameter at its first value)" if first is not scene else "") if which is None
                      else f"--vary {which[0].name}: value {which[1]:g} {which[0].unit}")
             raise InputError(f"{where} cannot run on backend '{backend}', so no run was started: {exc}") from None
+
+
+def first_values_scene(scene, axes: list[Axis]):
+    """The scene with every swept material parameter at its first value (the scene itself when none is
+    swept): what to check or record for the sweep's material rather than the bare scene, which one of
+    the swept values may be what makes valid (a scene with g2 = 0.5 beside the default g1 = 0.45 is
+    not, swept over g1 = 0.3, 0.35 it is)."""
+    materials = {a.name: a.values[0] for a in axes if a.name not in SCENE_KEYS}
+    return scene.with_overrides(**overrides(materials)) if materials else scene
 
 
 def estimate_seconds(scene, axes: list[Axis]) -> float:
@@ -347,23 +353,9 @@ def run_key(scene, backend: str, options: dict | None = None) -> dict:
         digests = scene_files(scene)
         d["specimen"] = dict(d["specimen"], mesh=next(iter(digests.values()), None))
     return {"scene": d, "material": definition_digest(get_material(scene.material.name)),
-            "materials": {n: definition_digest(get_material(n)) for n in sorted(_material_names(d))}, "backend": backend,
+            "materials": {n: definition_digest(get_material(n))
+                          for n in sorted({r.material for _, r in regions(scene) if r.material})}, "backend": backend,
             "options": resolved_options(backend, options), "code": fingerprint.source_digest()}
-
-
-def _material_names(d) -> set:
-    """Names of the materials the layers and parts of a scene dict name (``material = "name"``)."""
-    out = set()
-    if isinstance(d, dict):
-        for k, v in d.items():
-            if k == "material" and isinstance(v, str):
-                out.add(v)
-            else:
-                out |= _material_names(v)
-    elif isinstance(d, list):
-        for v in d:
-            out |= _material_names(v)
-    return out
 
 
 def run_id(key: dict, case: dict) -> str:
