@@ -31,7 +31,10 @@ def meshio_read(path: Path):
 
     meshio raises many exception types, and for a file it cannot place it prints "Error: Couldn't
     read file ..." and calls ``sys.exit(1)``; both become one paragraph naming the file and
-    meshio's reason.
+    meshio's reason. An Abaqus ``.inp`` file (any case of the suffix) is read by cfm's own reader,
+    :func:`cfm_core.scene.abaqus_inp.read_inp` (meshio's refused ``TYPE=c3d8r``, failed on
+    ``*NODE, INPUT=...`` and dropped the elements after a comment line), whose InputError names the
+    line.
 
     Parameters
     ----------
@@ -53,6 +56,10 @@ def meshio_read(path: Path):
 
     import meshio
 
+    if Path(path).suffix.lower() == ".inp":
+        from .abaqus_inp import read_inp
+
+        return read_inp(path)
     said = io.StringIO()
     try:
         with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
