@@ -3,20 +3,26 @@
 Rules (every reader of numeric tables goes through :func:`read_table`):
 
 - encoding: UTF-8, with or without a byte-order mark (Excel's "CSV UTF-8" writes one; it is
-  skipped). UTF-16/UTF-32 (Excel's "Unicode text") and other encodings (Latin-1, Windows-1252)
-  are refused with one paragraph saying how to save the file;
+  skipped). UTF-16/UTF-32 (Excel's "Unicode text"), gzip-compressed files and other encodings
+  (Latin-1, Windows-1252) are refused with one paragraph saying how to save the file. The same
+  decoding (:func:`decode`) reads the TOML scenes and the JSON files users give;
 - lines: any line ending (LF, CRLF, CR); blank lines and lines starting with ``#`` are skipped;
   the first other line is the header;
-- separator: a comma, spaces around values allowed; trailing empty cells (``t,a,,``, what a
-  spreadsheet writes for empty columns) are dropped. A header with no comma but semicolons or tabs
-  sets that separator for the whole file (Excel's CSV in locales with decimal commas, "tab
-  delimited text"); with semicolons or tabs a decimal comma is read as a decimal point (``1,5``;
-  a cell with both a comma and a point, ``1.000,5``, is refused naming it);
+- separator: a comma, spaces around values allowed; trailing empty cells beyond the header's
+  columns (``t,a,,``, what a spreadsheet writes for empty columns) are dropped. A header with no
+  comma but semicolons or tabs (outside quotes) sets that separator for the whole file (Excel's CSV
+  in locales with decimal commas, "tab delimited text"); with semicolons or tabs a decimal comma is
+  read as a decimal point (``1,5``; a cell with both a comma and a point, ``1.000,5``, is refused
+  naming it);
+- quoting: cells may be quoted by the rules of Python's :mod:`csv` module (RFC 4180: ``"t [s]"``,
+  a quote inside a quoted cell doubled), as Excel and ``pandas.to_csv(quoting=QUOTE_ALL)`` write
+  them; a quoted cell reads as the same cell unquoted. A quote left open at the end of its line
+  is refused naming the line (a cell cannot span lines);
 - header: column names, each optionally with a unit in brackets, ``t [s]`` or ``t (s)`` (the
   project's own sweep output style); a unit given must be the one the column is read in. A line
   of units under the header (``s,m/s^2``: no cell a number) is read as the columns' units;
 - values: finite decimal numbers (``1.5``, ``-2e-3``, ``1.0E+00``); a Fortran ``D`` exponent,
-  NaN, inf, or an empty cell is refused naming the line and the column;
+  NaN, inf, or an empty cell (``0.001,`` under ``t,a``) is refused naming the line and the column;
 - time: the time column must increase (strictly or not, as the caller asks), naming the line.
 
 Errors are :class:`~cfm_core.errors.InputError` naming the file, the line and the column. This
@@ -26,6 +32,7 @@ module is part of the base layer: it imports nothing of the project but :mod:`cf
 from __future__ import annotations
 
 import codecs
+import csv
 import math
 import re
 from dataclasses import dataclass
@@ -47,6 +54,7 @@ UNIT_ALIASES = {
 }
 _HEADER_CELL = re.compile(r"^\s*([^\[\]()]*?)\s*(?:[\[(]\s*([^\[\]()]*?)\s*[\])])?\s*$")
 _FORTRAN_D = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)[dD][+-]?\d+$")
+_QUOTED = re.compile(r'"(?:[^"]|"")*"')
 _SAVE_UTF8 = ("Save it as comma-separated values in UTF-8 (Excel: File > Save As > 'CSV UTF-8 (Comma "
               "delimited)'; LibreOffice: Text CSV, character set Unicode (UTF-8)).")
 
@@ -114,8 +122,19 @@ def _same_unit(given: str, expected: str) -> bool:
     return g in {f.replace(" ", "") for f in forms} or g == expected.replace(" ", "")
 
 
-def decode(path, raw: bytes) -> str:
-    """Text of a CSV file's bytes.
+#: How to save a file of each kind as UTF-8, ending the encoding messages of :func:`decode`.
+_SAVE_AS = {
+    "CSV": _SAVE_UTF8,
+    "TOML": "Save it as UTF-8 in the editor (a Latin-1 editor writes bytes that are not UTF-8 for characters like "
+            "the micro sign or the degree sign; Windows Notepad: Save As, Encoding UTF-8).",
+    "JSON": "Save it as UTF-8 in the editor (Windows Notepad: Save As, Encoding UTF-8; Python: json.dump to a "
+            "file opened with encoding='utf-8').",
+}
+
+
+def decode(path, raw: bytes, kind: str = "CSV", what: str = "") -> str:
+    """Text of a file's bytes: the one decoding of every text file users give (CSV tables, TOML
+    scenes, JSON summaries).
 
     Parameters
     ----------
@@ -123,18 +142,27 @@ def decode(path, raw: bytes) -> str:
         The file (for messages).
     raw : bytes
         Its content.
+    kind : {"CSV", "TOML", "JSON"}
+        The file's format, for the messages (how to save it as UTF-8).
+    what : str
+        What the file is, starting the messages (e.g. "scene file"); "" names the file alone.
 
     Returns
     -------
     str
-        The text, a UTF-8 byte-order mark removed.
+        The text, a UTF-8 byte-order mark removed (Excel's "CSV UTF-8" and Windows Notepad write one).
 
     Raises
     ------
     InputError
-        UTF-16 / UTF-32 (with or without BOM) or bytes that are not UTF-8 (Latin-1, Windows-1252),
-        naming the line and how to save the file.
+        UTF-16 / UTF-32 (with or without BOM), gzip-compressed bytes, or bytes that are not UTF-8
+        (Latin-1, Windows-1252), naming the line and how to save the file.
     """
+    name = f"{what} '{path}'".strip()
+    save = _SAVE_AS[kind]
+    if raw.startswith(b"\x1f\x8b"):
+        raise InputError(f"{name} is gzip-compressed; {kind} files are read as plain UTF-8 text. Decompress it first "
+                         f"(gunzip FILE.gz).")
     if raw.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
         enc = "UTF-32"
     elif raw.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
@@ -144,16 +172,59 @@ def decode(path, raw: bytes) -> str:
     else:
         enc = None
     if enc is not None:
-        raise InputError(f"'{path}' is encoded as {enc}, which this reader does not accept (Excel's 'Unicode "
-                         f"text' writes this); CSV files must be UTF-8. {_SAVE_UTF8}")
+        source = " (Excel's 'Unicode text' writes this)" if kind == "CSV" else ""
+        raise InputError(f"{name} is encoded as {enc}, which this reader does not accept{source}; {kind} files must "
+                         f"be UTF-8. {save}")
     if raw.startswith(codecs.BOM_UTF8):
         raw = raw[len(codecs.BOM_UTF8):]
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = raw[:exc.start].count(b"\n") + 1
-        raise InputError(f"'{path}', line {line}: byte 0x{raw[exc.start]:02x} is not valid UTF-8; the file is in "
-                         f"another encoding (Latin-1 or Windows-1252?). {_SAVE_UTF8}") from None
+        raise InputError(f"{name}, line {line}: byte 0x{raw[exc.start]:02x} is not UTF-8 text; the file is in another "
+                         f"encoding (Latin-1 or Windows-1252?) and {kind} files must be UTF-8. {save}") from None
+
+
+def as_float(value) -> float:
+    """A real number of a TOML or JSON file (or the API) as a float, never an OverflowError.
+
+    TOML and JSON integers are unbounded (``k1 = 1`` followed by 400 zeros); ``float()`` raises
+    OverflowError for one beyond the float range (about 1.8e308). It reads here as the float the
+    same number written ``1e400`` gives, +inf or -inf, which the value checks refuse as not finite.
+
+    Parameters
+    ----------
+    value : int or float
+        A real number (not a bool; the caller checks the type).
+
+    Returns
+    -------
+    float
+        ``float(value)``; +-inf for an integer beyond the float range.
+    """
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
+def shown(value) -> str:
+    """``repr(value)`` for a message, an integer of more than 20 digits shortened.
+
+    Parameters
+    ----------
+    value : object
+        The value given.
+
+    Returns
+    -------
+    str
+        E.g. ``"1.5"``, ``"'abc'"``; an integer of 401 digits as ``"1000...0 (an integer of 401 digits)"``.
+    """
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10 ** 20:
+        digits = str(abs(value))
+        return f"{'-' if value < 0 else ''}{digits[:4]}...{digits[-1]} (an integer of {len(digits)} digits)"
+    return repr(value)
 
 
 @dataclass(frozen=True)
@@ -190,17 +261,27 @@ def sniff(header: str) -> Dialect:
     Dialect
         Commas when the header has one; else semicolons or tabs, with decimal commas read.
     """
-    if "," in header:
+    bare = _QUOTED.sub("", header)  # a separator inside a quoted name does not count
+    if "," in bare:
         return Dialect()
     for sep in (";", "\t"):
-        if sep in header:
+        if sep in bare:
             return Dialect(sep, True)
     return Dialect()
 
 
-def _cells(line: str, dialect: Dialect = Dialect()) -> list[str]:
-    cells = [c.strip() for c in line.split(dialect.separator)]
-    while len(cells) > 1 and cells[-1] == "":
+def _cells(path, lineno: int, line: str, dialect: Dialect = Dialect(), columns: int = 1) -> list[str]:
+    """The cells of one line, unquoted by :mod:`csv` rules and stripped; trailing empty cells are
+    dropped down to ``columns`` (empty spreadsheet columns), so that an empty value of a column
+    stays a cell to be named."""
+    if line.count('"') % 2:
+        raise InputError(f"'{path}', line {lineno}: a quote (\") is opened and not closed on this line; quote whole "
+                         f"cells (\"t [s]\",\"a [m/s^2]\"), a quote inside a quoted cell doubled (\"\"); a cell "
+                         f"cannot continue on the next line.")
+    row = next(csv.reader([line], delimiter=dialect.separator, quotechar='"', skipinitialspace=True,
+                          strict=False), [""])
+    cells = [c.strip() for c in row] or [""]
+    while len(cells) > max(columns, 1) and cells[-1] == "":
         cells.pop()  # trailing empty cells: empty spreadsheet columns
     return cells
 
@@ -234,10 +315,10 @@ def parse_header(path, lineno: int, line: str, dialect: Dialect = Dialect()) -> 
     Raises
     ------
     InputError
-        A cell that is not a name with an optional bracketed unit.
+        A cell that is not a name with an optional bracketed unit, or a quote left open.
     """
     names, units = [], []
-    for cell in _cells(line, dialect):
+    for cell in _cells(path, lineno, line, dialect):
         m = _HEADER_CELL.match(cell)
         if m is None or not m.group(1):
             raise InputError(f"'{path}', line {lineno}: header cell {cell!r} is not a column name, optionally "
@@ -258,16 +339,18 @@ def _number(path, lineno: int, column: str, cell: str, unit: str, dialect: Diale
         if dialect.decimal_comma and "," in cell and "." in cell:
             hint = (" It has both a comma and a point: write numbers without thousands separators, with one "
                     "decimal comma or point.")
-        shown = cell if cell else "(empty)"
         u = f" (in {unit})" if unit not in ("", "-") else ""
-        raise InputError(f"'{path}', line {lineno}: {column} = {shown!r} is not a finite decimal number{u}.{hint}")
+        if not cell:
+            raise InputError(f"'{path}', line {lineno}: the value of {column} is empty; every row needs a finite "
+                             f"decimal number{u} in each column.")
+        raise InputError(f"'{path}', line {lineno}: {column} = {cell!r} is not a finite decimal number{u}.{hint}")
     return x
 
 
-def _units_row(line: str, dialect: Dialect, n: int) -> bool:
+def _units_row(path, lineno: int, line: str, dialect: Dialect, n: int) -> bool:
     """Whether a line is a row of units (``s,m/s^2``): as many cells as columns, none a number, each
     short and made of unit characters."""
-    cells = _cells(line, dialect)
+    cells = _cells(path, lineno, line, dialect, n)
     if len(cells) != n:
         return False
     for cell in cells:
@@ -340,8 +423,8 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
         raise InputError(f"'{p}', line {hline}: the header {kind} '{','.join(columns)}' (units optional, e.g. "
                          f"'{expected}'; values separated by commas, semicolons or tabs); got "
                          f"{header.strip()!r} (columns {names}, separated by {dialect.name}).")
-    if len(lines) > 1 and _units_row(lines[1][1], dialect, len(names)):
-        row = [c.strip("[]() ") for c in _cells(lines[1][1], dialect)]
+    if len(lines) > 1 and _units_row(p, *lines[1], dialect, len(names)):
+        row = [c.strip("[]() ") for c in _cells(p, *lines[1], dialect, len(names))]
         for j, unit in enumerate(row):
             if hunits[j] and unit and not _same_unit(unit, hunits[j]):
                 raise InputError(f"'{p}', line {lines[1][0]}: column {names[j]} has the unit {hunits[j]!r} in the "
@@ -356,7 +439,7 @@ def read_table(path, columns: Sequence[str], units: Mapping[str, str] | None = N
                              f"header as '{name} [{units[name]}]'.")
     data = np.empty((len(lines) - 1, len(names)))
     for k, (n, line) in enumerate(lines[1:]):
-        cells = _cells(line, dialect)
+        cells = _cells(p, n, line, dialect, len(names))
         if len(cells) != len(names):
             raise InputError(f"'{p}', line {n}: {len(cells)} values separated by {dialect.name} for the {len(names)} "
                              f"columns {','.join(names)} (the header's separator, {dialect.name}, applies to every "

@@ -63,6 +63,35 @@ def test_a_scene_file_parameter_that_is_not_a_number_is_named(tmp_path, capsys):
     assert "[material.parameters] c = nan is not allowed" in err and "SI unit of the parameter" not in err
 
 
+HUGE = "1" + "0" * 400   # a TOML integer beyond the float range (about 1.8e308)
+
+
+@pytest.mark.parametrize("text, expected", [
+    (f"[material.parameters]\nk1 = {HUGE}\n", "[material.parameters] k1 = 1000...0 (an integer of 401 digits) is "
+                                                "not allowed: a material parameter is a finite number in SI units"),
+    (f"[specimen]\nelement_size = {HUGE}\n", "[specimen] element_size = 1000...0 (an integer of 401 digits) m is out "
+                                              "of range; it must be a finite number"),
+    (f"[impactor]\nvelocity = [0.0, 0.0, -{HUGE}]\n", "[impactor] velocity = [0.0, 0.0, -1000...0 (an integer of "
+                                                       "401 digits)] must be a list of 3 finite numbers"),
+    (f"[run]\nbackend = \"numba\"\n[run.options]\nmax_steps = {HUGE}\n", "option max_steps = 1000...0 (an integer "
+                                                                         "of 401 digits) is not allowed"),
+], ids=["k1", "element_size", "velocity", "max_steps"])
+def test_a_scene_integer_beyond_the_float_range_is_refused_as_1e400_is(tmp_path, capsys, text, expected):
+    """k1 = 1 followed by 400 zeros gave "OverflowError: int too large to convert to float" from the
+    value checks; now the paragraph a non-finite value gets, exit 2."""
+    path = tmp_path / "huge.toml"
+    path.write_text('[scene]\ntype = "drop-test"\n\n' + text)
+    assert main(["run", "--scene", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_material_parameter_beyond_the_float_range_is_refused_naming_it():
+    with pytest.raises(InputError, match=r"k1' = 1000\.\.\.0 \(an integer of 401 digits\) Pa is outside"):
+        make_material("cfm", {"k1": 10 ** 400})
+
+
 def test_a_stress_column_out_of_any_scale_is_refused(tmp_path, capsys):
     """x 1e-300: scipy's "array must not contain infs or NaNs" traceback; x 1e300: "NaN or inf in the data"."""
     t, lam, P, _ = point.uniaxial(make_material("cfm"), 100.0, 0.6, steps=40)

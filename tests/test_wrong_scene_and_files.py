@@ -1,6 +1,7 @@
 """A scene of the wrong type, a file of the wrong kind or encoding, a reader that stops: one paragraph
 and exit 2 (or 141 for a closed pipe), never a traceback; found by trying the commands as a new user."""
 
+import gzip
 import subprocess
 import sys
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from cfm_core.cli import main
-from cfm_core.scene.scene import builtin_scene, load_scene, scene_to_toml
+from cfm_core.scene.scene import builtin_scene, load_scene, scene_to_dict, scene_to_toml
 from cfm_core.studies import measured
 
 
@@ -54,6 +55,31 @@ def test_a_scene_file_that_is_not_utf8_names_the_line(tmp_path, capsys):
         load_scene(path)
     assert main(["drop-test", "--scene", str(path), "--out", str(tmp_path / "o")]) == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_a_scene_file_with_a_byte_order_mark_reads_as_the_clean_one(tmp_path):
+    """Windows Notepad's UTF-8 writes a BOM: "not valid TOML: Invalid statement (at line 1, column 1)"."""
+    text = scene_to_toml(builtin_scene("drop-test").with_overrides(parameters={"k1": 1500.0}))
+    clean, bom = tmp_path / "clean.toml", tmp_path / "bom.toml"
+    clean.write_text(text, encoding="utf-8")
+    bom.write_text(text, encoding="utf-8-sig")
+    assert bom.read_bytes().startswith(b"\xef\xbb\xbf")
+    assert scene_to_dict(load_scene(bom)) == scene_to_dict(load_scene(clean))
+
+
+@pytest.mark.parametrize("name, encode, expected", [
+    ("utf16.toml", lambda t: t.encode("utf-16"), "is encoded as UTF-16, which this reader does not accept; TOML files "
+                                                  "must be UTF-8"),
+    ("gz.toml", lambda t: gzip.compress(t.encode()), "is gzip-compressed; TOML files are read as plain UTF-8 text"),
+    ("digits.toml", lambda t: (t + "\n[material.parameters]\nk1 = 1" + "0" * 5000 + "\n").encode(),
+     "holds an integer too long to read"),   # ValueError of Python's 4300-digit limit, a traceback before
+])
+def test_a_scene_file_of_another_encoding_exits_2_with_one_paragraph(tmp_path, capsys, name, encode, expected):
+    path = tmp_path / name
+    path.write_bytes(encode(scene_to_toml(builtin_scene("drop-test"))))
+    assert main(["run", "--scene", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"scene file '{path}'" in err and expected in err and err.count("\n") == 1 and "Traceback" not in err
 
 
 def test_point_refuses_a_png_as_its_csv_and_warns_about_a_plot_left_by_an_earlier_run(tmp_path, capsys):

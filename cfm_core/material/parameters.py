@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..errors import InputError
+from ..tables import as_float, shown
 
 
 @dataclass(frozen=True)
@@ -108,10 +109,10 @@ class Parameter:
             unit and the allowed range.
         """
         try:
-            x = float(value)
+            x = as_float(value)  # an integer beyond the float range: inf, refused below as 1e400 is
         except (TypeError, ValueError):
             raise InputError(
-                f"{context} '{self.name}' must be a number{self._in_unit()}, got {value!r}; "
+                f"{context} '{self.name}' must be a number{self._in_unit()}, got {shown(value)}; "
                 f"allowed range {self.range_text()}{self._unit_suffix()}."
             ) from None
         ok = math.isfinite(x)
@@ -120,7 +121,7 @@ class Parameter:
         ok = ok and not (self.nonzero and x == 0.0) and abs(x) >= self.min_abs
         if not ok:
             raise InputError(
-                f"{context} '{self.name}' = {value!r}{self._unit_suffix()} is outside the allowed range "
+                f"{context} '{self.name}' = {shown(value)}{self._unit_suffix()} is outside the allowed range "
                 f"{self.range_text()}{self._unit_suffix()} ({self.description or 'no description'})."
             )
         return x

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..tables import read_table
+from ..tables import as_float, decode, read_table
 from .metrics import compare_histories, unit_hint, velocity_change
 
 #: signal file -> (column compared, its unit)
@@ -94,7 +94,9 @@ def read_run(path) -> Run:
     table = read_table(d / name, ("t", column), {"t": "s", column: SIGNALS[name][1]}, strict=False,
                        what="run history")
     try:
-        summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
+        summary = json.loads(decode(d / "summary.json", (d / "summary.json").read_bytes(), "JSON"))
+    except InputError:
+        raise  # not UTF-8: the paragraph of tables.decode (a byte-order mark is skipped)
     except (ValueError, OSError) as exc:
         raise InputError(f"{d}: cannot read summary.json ({exc}).") from None
     if not isinstance(summary, dict):
@@ -102,7 +104,8 @@ def read_run(path) -> Run:
                          f"summary.json is an object ({{\"backend\": ..., \"wall_time\": ...}}): give the output "
                          f"directory of a run.")
     wall = summary.get("wall_time")
-    if not (isinstance(wall, (int, float)) and not isinstance(wall, bool) and math.isfinite(wall) and wall >= 0):
+    if not (isinstance(wall, (int, float)) and not isinstance(wall, bool) and math.isfinite(as_float(wall))
+            and wall >= 0):
         summary = {k: v for k, v in summary.items() if k != "wall_time"}  # not seconds: not compared
     if table.data.shape[0] < 2:
         raise InputError(f"{d / name}: needs at least 2 rows, got {table.data.shape[0]}.")

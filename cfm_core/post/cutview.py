@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..tables import decode
 from .fields import FIELDS
 
 #: What to do about a damaged or incomplete run folder (ends every file message).
@@ -116,7 +117,7 @@ def _rel(run_dir, path: Path) -> str:
 
 
 def _parse_json(path, data: bytes):
-    return json.loads(data.decode("utf-8"))
+    return json.loads(decode(path, data, "JSON"))  # a UTF-8 byte-order mark skipped, as in CSV files
 
 
 def _parse_xml(path, data: bytes):

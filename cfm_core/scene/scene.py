@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Mapping
 
 from ..errors import InputError, did_you_mean
+from ..tables import decode
 from .impactor_section import resolve_symmetry
 from .layers import make_parts, mesh_part_elements
 from .run_section import RunSettings
@@ -337,23 +338,23 @@ def load_scene(path) -> Scene:
     Raises
     ------
     InputError
-        The file cannot be read, is not valid TOML, or does not validate
-        (:func:`scene_from_dict`); the message starts with the file name.
+        The file cannot be read, is not UTF-8 (:func:`cfm_core.tables.decode`; a byte-order mark
+        is skipped), is not valid TOML, or does not validate (:func:`scene_from_dict`); the
+        message starts with the file name.
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        raw = p.read_bytes()
     except OSError as exc:
         raise InputError(f"scene file '{p}' cannot be read: {exc.strerror or exc}.") from None
-    except UnicodeDecodeError as exc:
-        line = p.read_bytes()[:exc.start].count(b"\n") + 1
-        raise InputError(f"scene file '{p}', line {line}: byte 0x{exc.object[exc.start]:02x} is not UTF-8 text; TOML "
-                         f"files are UTF-8. Save the file as UTF-8 (a Latin-1 editor writes such bytes for characters "
-                         f"like the micro sign or the degree sign).") from None
+    text = decode(p, raw, "TOML", what="scene file")  # a UTF-8 byte-order mark skipped, as in CSV files
     try:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"scene file '{p}' is not valid TOML: {exc}.") from None
+    except ValueError as exc:  # Python's limit on the digits of an integer (4300)
+        raise InputError(f"scene file '{p}' holds an integer too long to read ({str(exc).split(';')[0]}); a scene "
+                         f"value is a finite number in SI units, at most about 1.8e308 in magnitude.") from None
     try:
         return scene_from_dict(d, base_dir=p.resolve().parent)
     except InputError as exc:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Mapping
 
 from ..errors import InputError
+from ..tables import as_float, shown
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,7 @@ class OptionSpec:
         if value is None and self.none:
             return None
         unit = "" if self.unit in ("", "-") else f" {self.unit}"
-        bad = InputError(f"{owner}: option {name} = {value!r}{unit} is not allowed; expected {self.allowed()} "
+        bad = InputError(f"{owner}: option {name} = {shown(value)}{unit} is not allowed; expected {self.allowed()} "
                          f"({self.doc}).")
         if self.kind == "bool":
             if not isinstance(value, bool):
@@ -76,9 +77,10 @@ class OptionSpec:
                 return value
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise bad
-            if self.kind == "int" and not float(value).is_integer():
+            x = as_float(value)  # an integer beyond the float range: inf, as 1e400 is
+            if self.kind == "int" and not x.is_integer():
                 raise bad
-            x = int(value) if self.kind == "int" else float(value)
+            x = int(value) if self.kind == "int" else x
             if math.isnan(x) or (math.isinf(x) and not math.isinf(self.high if x > 0 else self.low)):
                 raise bad
             ok = (x > self.low if self.low_open else x >= self.low) and (x < self.high if self.high_open else x <= self.high)

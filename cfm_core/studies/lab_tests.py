@@ -42,7 +42,7 @@ from ..errors import InputError, NumericalError
 from ..material import prony
 from ..material import reference as ref
 from ..simulation.point import nominal_uniaxial
-from ..tables import read_table
+from ..tables import as_float, read_table, shown
 
 #: kind -> (deformation column, what it is)
 KINDS = {
@@ -142,11 +142,11 @@ def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str |
     p = Path(path)
     if kind not in KINDS:
         raise InputError(f"test '{path}': kind {kind!r} is not known; allowed: {', '.join(KINDS)}.")
-    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
-        raise InputError(f"test '{path}': rate = {rate!r} 1/s is not allowed; give the loading's engineering "
+    if not (isinstance(rate, (int, float)) and math.isfinite(as_float(rate)) and rate > 0):
+        raise InputError(f"test '{path}': rate = {shown(rate)} 1/s is not allowed; give the loading's engineering "
                          f"strain (or shear) rate, a positive number in 1/s.")
-    if not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight > 0):
-        raise InputError(f"test '{path}': weight = {weight!r} is not allowed; give a positive number (-).")
+    if not (isinstance(weight, (int, float)) and math.isfinite(as_float(weight)) and weight > 0):
+        raise InputError(f"test '{path}': weight = {shown(weight)} is not allowed; give a positive number (-).")
     deformation = KINDS[kind][0]
     table = read_table(p, ["t", deformation], {**UNITS, "nominal_stress": "Pa"}, what="test file")
     # the fit compares nominal stress: a column named so wins over a plain "stress" (lab exports often carry

@@ -68,6 +68,18 @@ def test_malformed_missing_or_foreign_fields_json(copy, tmp_path, capsys):
     assert not png.exists()
 
 
+def test_fields_json_with_a_byte_order_mark_is_read_and_utf16_is_refused(copy, tmp_path, capsys):
+    """Saved again by Windows Notepad: "Unexpected UTF-8 BOM" refused the folder; UTF-16 gave the codec's text."""
+    t, _, _ = _frame(copy)
+    text = (copy / "fields.json").read_text(encoding="utf-8")
+    (copy / "fields.json").write_text(text, encoding="utf-8-sig")
+    assert main(["fields", str(copy), "--at", str(t), "--png", str(tmp_path / "bom.png")]) == 0
+    assert (tmp_path / "bom.png").is_file()
+    (copy / "fields.json").write_text(text, encoding="utf-16")
+    _fails(capsys, [copy, "--at", t, "--png", tmp_path / "u.png"], "fields.json", "is encoded as UTF-16",
+           "JSON files must be UTF-8")
+
+
 @pytest.mark.parametrize("text, words", [
     ("garbage\n", ("specimen.pvd", "cannot be read as a ParaView collection")),
     ("", ("specimen.pvd", "is empty")),

@@ -34,6 +34,11 @@ def test_defaults_and_overrides():
     ("safety", math.nan, ["nan"]), ("dt", -1.0, ["dt = -1.0 s", "None (automatic)"]),
     ("threads", 1.5, ["an integer"]), ("threads", True, ["threads = True"]),
     ("solver", "lu", ["'auto', 'direct', 'cg'"]), ("warm_up", 1, ["True or False"]),
+    # integers beyond the float range (TOML, JSON): OverflowError tracebacks before
+    pytest.param("safety", 10 ** 400, ["safety = 1000...0 (an integer of 401 digits)", "(0, 1]"], id="safety-huge"),
+    pytest.param("threads", 10 ** 400, ["threads = 1000...0 (an integer of 401 digits)", "an integer"],
+                 id="threads-huge"),
+    pytest.param("dt", -10 ** 400, ["dt = -1000...0 (an integer of 401 digits) s"], id="dt-huge"),
 ])
 def test_bad_values_name_field_value_and_what_is_allowed(name, value, words):
     with pytest.raises(InputError) as err:

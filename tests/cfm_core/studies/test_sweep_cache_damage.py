@@ -121,6 +121,20 @@ def test_complete_entries_are_reused_without_a_note(reference, scene_file, tmp_p
     assert _numbers(out / "sweep.csv") == _numbers(ref / "sweep.csv")
 
 
+def test_an_entry_whose_summary_has_a_byte_order_mark_is_complete(reference, tmp_path):
+    """summary.json saved again with a UTF-8 BOM ("Unexpected UTF-8 BOM") was damage and run again; a
+    number beyond the float range in it gave an OverflowError traceback."""
+    ref, ids = reference
+    entry = shutil.copytree(ref / "runs" / ids[0], tmp_path / "entry")
+    text = (entry / "summary.json").read_text(encoding="utf-8")
+    (entry / "summary.json").write_text(text, encoding="utf-8-sig")
+    summary, why = sweep.cached_summary(entry, ids[0], {"thickness": 0.005})
+    assert why is None and summary == json.loads(text)
+    (entry / "summary.json").write_text(json.dumps({**json.loads(text), "peak_g": 10 ** 400}))
+    summary, why = sweep.cached_summary(entry, ids[0], {"thickness": 0.005})
+    assert summary is None and "lacks finite numbers for peak_g" in why
+
+
 def test_missing_entries_are_not_damage(tmp_path):
     assert sweep.cached_summary(tmp_path / "none", "abc", {"k2": 1.0}) == (None, None)
     (tmp_path / "failed").mkdir()
@@ -172,8 +186,8 @@ def test_legitimate_lists_are_taken_as_written(scene, vary, values):
 @pytest.mark.parametrize("vary, message", [
     ("k1=1,x", "value 'x' is not a number"),
     ("k2=1,1", "a value is repeated"),
-    ("thickness=0.005,-1", "value -1 m is not allowed"),
-    ("friction=0.0,5", "value 5 - is not allowed"),
+    ("thickness=0.005,-1", "value -1.0 m is not allowed"),
+    ("friction=0.0,5", "value 5.0 is not allowed"),
     ("velocity=1,inf", "is not a finite number"),
 ])
 def test_every_error_about_a_comma_list_mentions_the_decimal_comma(scene, vary, message):
