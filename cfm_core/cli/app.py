@@ -59,6 +59,15 @@ class Terminated(KeyboardInterrupt):
     so that a staged output is removed, and ends the command with exit 143 (128 + SIGTERM)."""
 
 
+def _after_signal(exc: BaseException) -> str:
+    """What a signal left: nothing, or an output published whole just before it arrived (the
+    signal is held back while files are moved: ``cfm_core.post.staging.deferred_signals``)."""
+    published = getattr(exc, "published", None)
+    if published is not None:
+        return f"the signal came while the output was being moved into place, which was finished first: {published} is complete."
+    return "no result written."
+
+
 def main(argv=None) -> int:
     """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
     error, 3 numerical failure, 130 interrupted, 141 its output's reader stopped, 143 terminated)."""
@@ -76,11 +85,11 @@ def main(argv=None) -> int:
     except NumericalError as exc:
         print(f"cfm {args.command}: numerical failure: {exc}", file=sys.stderr)
         return 3
-    except Terminated:
-        print(f"cfm {args.command}: terminated (SIGTERM); no result written.", file=sys.stderr)
+    except Terminated as exc:
+        print(f"cfm {args.command}: terminated (SIGTERM); {_after_signal(exc)}", file=sys.stderr)
         return 143
-    except KeyboardInterrupt:
-        print(f"cfm {args.command}: interrupted; no result written.", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        print(f"cfm {args.command}: interrupted; {_after_signal(exc)}", file=sys.stderr)
         return 130
     except BrokenPipeError:  # `cfm materials | head`: the reader stopped reading; no traceback
         with contextlib.suppress(OSError, ValueError):  # Python's flush of stdout at exit would raise again

@@ -27,7 +27,7 @@ def add_parser(sub) -> None:
 def cmd_compare(args) -> int:
     for flag, suffix in (("plot", ".png"), ("json", ".json")):  # before the runs are read: a directory, another
         if getattr(args, flag):                                     # kind of file, a run's file, an unwritable place
-            check_file_target(getattr(args, flag), f"--{flag}", suffix=suffix)
+            check_file_target(getattr(args, flag), f"--{flag}", suffix=suffix, inputs=[args.reference, *args.runs])
     ref = read_run(args.reference)
     runs = [read_run(p) for p in args.runs]
     rows = compare_runs(ref, runs)

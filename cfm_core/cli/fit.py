@@ -15,7 +15,7 @@ from ..material.registry import make_material
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
 from ..studies.lab_tests import KINDS
-from ..post.staging import check_folder_target
+from ..post.staging import check_folder_target, published_files
 from .options import add_material_options, parse_params
 
 
@@ -72,7 +72,7 @@ def _cmd_fit(args) -> int:
     for w in result.warnings:
         print(f"WARNING: {w}")
     print(f"{result.evaluations} evaluations, {result.wall:.1f} s; {result.status}")
-    print(f"wrote {args.out}: fit.json, fit_<test>.png, fitted-scene.toml")
+    print(f"wrote {args.out}: {', '.join(published_files(args.out))}")
     return 0
 
 

@@ -58,7 +58,8 @@ def _cmd_point(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
         print(f"warning: {text}", file=sys.stderr)
-    check_file_target(args.out, "--out", suffix=".csv")  # before the work: a directory, a file as parent, unwritable
+    check_file_target(args.out, "--out", suffix=".csv",  # before the work: a directory, a file as parent, unwritable,
+                      inputs=[args.history] if args.history else [])  # the input itself
     if args.uniaxial:
         if args.history:
             raise InputError("--uniaxial and --history exclude each other: give one of them.")

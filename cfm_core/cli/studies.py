@@ -11,7 +11,7 @@ import sys
 import time
 
 from ..errors import InputError
-from ..post.staging import check_folder_target
+from ..post.staging import check_folder_target, published_files
 from ..scene.scene import builtin_scene, load_scene
 from ..runs.pipeline import is_material_warning, warnings_once
 from ..scene.plausible import check_plausible
@@ -205,7 +205,7 @@ def _cmd_calibrate(args) -> int:
         print(f"{c.name}: rel. L2 {100 * e:.2f} % ({1e3 * c.thickness:g} mm)")
     print(f"{result.problem.runs} drop tests, {len(result.problem.history)} evaluations, "
           f"{time.perf_counter() - t0:.1f} s; {result.status}")
-    print(f"wrote {args.out}: fit.json, fit_<curve>.png, objective.png, fitted-scene.toml")
+    print(f"wrote {args.out}: {', '.join(published_files(args.out))}")
     return 0
 
 

@@ -28,11 +28,14 @@ from ..errors import InputError
 #: File in a published folder listing the files cfm wrote there (JSON: {"files": [...]})
 MANIFEST = ".cfm-output.json"
 
-#: Names cfm wrote before manifests existed (version 0.2.0 and older): treated as cfm's own.
+#: Names cfm writes (and wrote before manifests existed, version 0.2.0 and older): treated as cfm's
+#: own in a folder without a manifest, or whose manifest was lost, so that a new output there never
+#: sits beside an earlier one's files.
 LEGACY_NAMES = ("summary.json", "scene.toml", "acceleration.csv", "acceleration.png", "reaction.csv",
-                "reaction.png", "specimen.pvd", "sweep.csv", "sweep.parquet", "sweep.json", "peaks.png",
-                "fit.json", "fit.png", "objective.png", "fitted_scene.toml", "report.json", "report.md")
-LEGACY_PATTERNS = ("specimen_*.vtu",)
+                "reaction.png", "specimen.pvd", "fields.json", "sweep.csv", "sweep.parquet", "sweep.json",
+                "peaks.png", "fit.json", "fit.png", "objective.png", "fitted-scene.toml", "fitted_scene.toml",
+                "report.json", "report.md")
+LEGACY_PATTERNS = ("specimen_*.vtu", "impactor_*.vtu")
 
 #: Files whose presence means an output is complete: published last.
 MARKERS = ("summary.json", "fit.json", "sweep.json", "report.json")
@@ -107,7 +110,15 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
     return out
 
 
-def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: str | None = None) -> Path:
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: str | None = None,
+                      inputs=()) -> Path:
     """Check that ``path`` can be written as a file, before any work is done.
 
     Parameters
@@ -121,6 +132,10 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     suffix : str, optional
         The file's kind (``".png"``, ``".json"``): another suffix is refused, so that a slip of
         the argument (``--plot run/acceleration.csv``) cannot write a picture over a data file.
+    inputs : iterable of path-like
+        The files the command reads (a folder stands for the files a run folder's readers take:
+        summary.json, acceleration.csv, reaction.csv): ``path`` may not be one of them, under any
+        spelling or link (``cfm point --history F.csv --out ./F.csv``).
 
     Returns
     -------
@@ -132,7 +147,8 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     InputError
         ``path`` is an existing directory, has another suffix than ``suffix``, is one of the files
         of a cfm output folder (listed in its manifest: a run's acceleration.csv, specimen.pvd,
-        ...), a parent is a file, the folder cannot be written or the disk is too full.
+        ...), is one of ``inputs``, a parent is a file, the folder cannot be written or the disk is
+        too full.
     """
     path = Path(path)
     if path.is_dir():
@@ -141,6 +157,12 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     if suffix is not None and path.suffix.lower() != suffix:
         raise InputError(f"{what} {path}: a {suffix[1:].upper()} file is written there, but the name ends in "
                          f"{path.suffix or 'no suffix'}; name a {suffix} file.")
+    for given in map(Path, inputs):
+        read = [given / n for n in ("summary.json", "acceleration.csv", "reaction.csv")] if given.is_dir() else [given]
+        hit = next((f for f in read if _same_file(path, f)), None)
+        if hit is not None:
+            raise InputError(f"{what} {path} is {hit}, a file this command reads; writing there would destroy its "
+                             f"input. Name another file.")
     owner = path.parent
     if (path.exists() and (owner / MANIFEST).is_file()
             and path.absolute() in {p.absolute() for p in earlier_files(owner)}):
@@ -212,8 +234,33 @@ def remove_entry(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
+def replaced_note(out: Path, earlier: list[Path], now: str | None) -> None:
+    """Say on stderr that ``out``'s earlier output of another kind is being replaced (a mistyped
+    ``--out``: a sweep written into a run's folder), naming that kind and how many files go."""
+    before = output_kind(p.name for p in earlier)
+    if before is not None and now is not None and before != now:
+        print(f"note: {out} held the output of a {before} ({len([p for p in earlier if p.name != MANIFEST])} files); "
+              f"it is replaced by this {now}'s.", file=sys.stderr)
+
+
+class PublishError(OSError):
+    """The stage could not be moved into ``--out``; ``touched`` says whether the earlier output
+    there was already (partly) removed when it failed."""
+
+    def __init__(self, cause: OSError, touched: bool):
+        super().__init__(cause.errno, cause.strerror or str(cause))
+        self.touched = touched
+
+
 def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     """Move a finished stage's files into ``out``, replacing an earlier cfm output there.
+
+    The order keeps every intermediate state honest: the earlier output's completion markers
+    (:data:`MARKERS`) go first, so a folder interrupted mid-way never looks complete, and a marker
+    that cannot be removed (a file of another user, ``chattr +i``) stops the publication before
+    anything else changed; the manifest then lists the earlier and the new files until the end,
+    so that a later run still finds and removes them; the new markers come last. Call it with
+    SIGINT and SIGTERM deferred (:func:`deferred_signals`, as :func:`staged_folder` does).
 
     Parameters
     ----------
@@ -229,35 +276,98 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     -------
     list of str
         The names published (also written to the manifest).
+
+    Raises
+    ------
+    PublishError
+        A file could not be removed or moved; ``touched`` False: ``out`` is as it was.
     """
     names = sorted(p.name for p in stage.iterdir())
     if not out.exists():
-        _write_manifest(stage, names)
-        os.replace(stage, out)
+        try:
+            _write_manifest(stage, names)
+            os.replace(stage, out)
+        except OSError as exc:
+            raise PublishError(exc, touched=False) from None
         return names
     earlier = earlier_files(out)
-    before, now = output_kind(p.name for p in earlier), output_kind(names)
-    if before is not None and now is not None and before != now:  # a mistyped --out: say what is gone
-        print(f"note: {out} held the output of a {before} ({len([p for p in earlier if p.name != MANIFEST])} files); "
-              f"it is replaced by this {now}'s.", file=sys.stderr)
-    for old in earlier:
-        if old.name not in keep or old.name in names:
-            remove_entry(old)
+    replaced_note(out, earlier, output_kind(names))
+    going = [old for old in earlier if (old.name not in keep or old.name in names) and old.name != MANIFEST]
     others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
                     and p.name not in keep and not p.name.startswith("."))
     if earlier and others:  # cfm fields --png out/x/cut.png, cfm compare --json out/x/c.json: of the run now gone
         print(f"note: {out} keeps {', '.join(others[:6])}{' ...' if len(others) > 6 else ''}, not written by this "
               f"command: if they were made from the earlier output there, they no longer describe the folder's "
               f"files.", file=sys.stderr)
-    for name in sorted(names, key=lambda n: (n in MARKERS, n)):  # the completion marker last
-        target = out / name
-        if target.exists() or target.is_symlink():
-            remove_entry(target)  # a foreign file of a name cfm writes: replaced by the new output
-        os.replace(stage / name, target)
-    kept = [k for k in keep if (out / k).exists() and k not in names]
-    _write_manifest(out, sorted({*names, *kept}))
+    touched = False
+    try:
+        for old in sorted(going, key=lambda p: p.name not in MARKERS):  # the earlier completion markers first
+            remove_entry(old)
+            touched = True
+        kept = [k for k in keep if (out / k).exists() and k not in names]
+        _write_manifest(out, sorted({*names, *kept, *(p.name for p in going)}))
+        touched = True
+        for name in sorted(names, key=lambda n: (n in MARKERS, n)):  # the new completion marker last
+            target = out / name
+            if target.exists() or target.is_symlink():
+                remove_entry(target)  # a foreign file of a name cfm writes: replaced by the new output
+            os.replace(stage / name, target)
+        _write_manifest(out, sorted({*names, *kept}))
+    except OSError as exc:
+        raise PublishError(exc, touched) from None
     shutil.rmtree(stage, ignore_errors=True)
     return names
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """Hold SIGINT and SIGTERM back for the duration of the block (a few milliseconds of file
+    moves), then deliver them: a Ctrl-C cannot cut a publication in half. The caught signals are
+    yielded as a list; the block's caller re-raises them (:func:`redeliver`). Outside the main
+    thread (where Python cannot set handlers) the block runs as it is."""
+    import signal
+    import threading
+
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield caught
+        return
+    saved = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        saved[sig] = signal.signal(sig, lambda signum, frame: caught.append(signum))
+    try:
+        yield caught
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+        caught[:] = [(sig, saved[sig]) for sig in caught]
+
+
+def redeliver(caught: list, published: Path | None) -> None:
+    """Act on the signals :func:`deferred_signals` held back, as their handlers would have: the
+    exception a handler raises (KeyboardInterrupt, the console script's Terminated) gets the
+    attribute ``published`` (the folder written whole before the signal, or None)."""
+    import signal
+
+    for sig, handler in caught[:1]:
+        if callable(handler):
+            try:
+                handler(sig, None)
+            except BaseException as exc:
+                exc.published = published
+                raise
+        elif handler == signal.SIG_DFL:
+            os.kill(os.getpid(), sig)
+
+
+def published_files(out) -> list[str]:
+    """The names of the files the last cfm output published in ``out`` (its manifest; [] if none),
+    for a command's "wrote ..." line."""
+    try:
+        names = json.loads((Path(out) / MANIFEST).read_text(encoding="utf-8")).get("files", [])
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [n for n in names if isinstance(n, str)]
 
 
 def _write_manifest(folder: Path, names: list[str]) -> None:
@@ -321,13 +431,18 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
         shutil.rmtree(stage, ignore_errors=True)
         _remove_empty(made)
         raise
-    try:
-        publish(stage, out, keep)
-    except OSError as exc:
-        shutil.rmtree(stage, ignore_errors=True)
-        _remove_empty(made)
-        raise InputError(f"{what} {out}: the finished output could not be moved into place ({exc.strerror or exc}); "
-                         f"nothing was published.") from None
+    with deferred_signals() as caught:
+        try:
+            publish(stage, out, keep)
+        except PublishError as exc:
+            shutil.rmtree(stage, ignore_errors=True)
+            _remove_empty(made)
+            state = (f"the earlier output there was partly removed and the folder now holds no complete output "
+                     f"(no completion marker such as summary.json); run the command again into a folder you can "
+                     f"write" if exc.touched else "nothing was published and the folder is as it was")
+            raise InputError(f"{what} {out}: the finished output could not be moved into place ({exc.strerror}); "
+                             f"{state}.") from None
+    redeliver(caught, out)
 
 
 #: Infix of a stage folder's name: ``.<out name>.cfm-stage-<pid>-<random>``.

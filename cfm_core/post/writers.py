@@ -49,7 +49,8 @@ def atomic_write(path, write: Callable[[str], None]) -> Path:
     Raises
     ------
     InputError
-        The folder of ``path`` cannot be created (a file of that name exists, no permission).
+        The folder of ``path`` cannot be created (a file of that name exists, no permission), or
+        ``path`` cannot be replaced (another user's file, immutable, a read-only mount).
     """
     path = Path(path)
     try:  # --out dir/file.csv: the folder is made too
@@ -62,7 +63,11 @@ def atomic_write(path, write: Callable[[str], None]) -> Path:
         write(tmp)
         with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:  # a file of another user in a shared folder, chattr +i, a read-only mount
+            raise InputError(f"{path} cannot be replaced: {exc.strerror or exc}; it is left as it was. Choose "
+                             f"another output path, or make that file writable.") from None
     except BaseException:
         if os.path.exists(tmp):
             os.remove(tmp)

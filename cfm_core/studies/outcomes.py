@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..post.staging import check_file_target, check_folder_target, earlier_files, remove_entry, staged_folder
+from ..post.staging import (MARKERS, check_file_target, check_folder_target, earlier_files, remove_entry,
+                            replaced_note, staged_folder)
 from ..post.writers import write_drop_test, write_json
 from ..post.plots import subtitled
 from ..runs.provenance import describe_run, json_ready, material_record, provenance, scene_files
@@ -52,9 +53,11 @@ def clear_earlier_output(out, keep: tuple = ()) -> Path:
     """
     out = check_folder_target(out)
     if out.is_dir():
-        for path in earlier_files(out):
-            if path.name not in keep:
-                remove_entry(path)
+        earlier = earlier_files(out)
+        replaced_note(out, earlier, "sweep")
+        going = [p for p in earlier if p.name not in keep]
+        for path in sorted(going, key=lambda p: p.name not in MARKERS):  # a completion marker first
+            remove_entry(path)
     return out
 
 

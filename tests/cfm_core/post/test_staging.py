@@ -93,3 +93,107 @@ def test_immutable_folder_is_refused_before_the_work(tmp_path):
             check_file_target(locked / "p.csv")
     finally:
         subprocess.run(["chattr", "-i", str(locked)])
+
+
+def _earlier_run(out):
+    with staged_folder(out) as stage:
+        _write(stage, **{"summary.json": "old", "acceleration.csv": "old", "specimen_0001.vtu": "old"})
+
+
+def test_an_earlier_marker_that_cannot_be_removed_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    from cfm_core.post import staging
+
+    out = tmp_path / "run"
+    _earlier_run(out)
+    before = {p.name: p.read_text() for p in out.iterdir()}
+    real = staging.remove_entry
+
+    def locked(path):  # a summary.json owned by another user, or chattr +i
+        if path.name == "summary.json":
+            raise PermissionError(1, "Operation not permitted")
+        real(path)
+
+    monkeypatch.setattr(staging, "remove_entry", locked)
+    with pytest.raises(InputError, match="nothing was published and the folder is as it was"):
+        with staged_folder(out) as stage:
+            _write(stage, **{"summary.json": "new", "acceleration.csv": "new"})
+    assert {p.name: p.read_text() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_a_publication_failing_midway_never_leaves_a_folder_that_looks_complete(tmp_path, monkeypatch):
+    from cfm_core.post import staging
+
+    out = tmp_path / "run"
+    _earlier_run(out)
+    real = os.replace
+
+    def full_disk(src, dst):
+        if str(dst).endswith("acceleration.csv"):
+            raise OSError(28, "No space left on device")
+        real(src, dst)
+
+    monkeypatch.setattr(staging.os, "replace", full_disk)
+    with pytest.raises(InputError, match="partly removed.*no complete output"):
+        with staged_folder(out) as stage:
+            _write(stage, **{"summary.json": "new", "acceleration.csv": "new", "specimen_0001.vtu": "new"})
+    assert not (out / "summary.json").exists()  # neither the earlier run's nor the new one's
+    listed = set(json.loads((out / MANIFEST).read_text())["files"])
+    assert {p.name for p in out.iterdir()} - {MANIFEST} <= listed  # a later run still removes what is left
+
+
+def test_a_signal_during_publication_is_delivered_after_it_with_the_folder_complete(tmp_path, monkeypatch):
+    import signal
+
+    from cfm_core.post import staging
+
+    out = tmp_path / "run"
+    _earlier_run(out)
+    real = staging.remove_entry
+
+    def interrupted(path):  # Ctrl-C the moment the earlier files start to go
+        os.kill(os.getpid(), signal.SIGINT)
+        real(path)
+
+    monkeypatch.setattr(staging, "remove_entry", interrupted)
+    with pytest.raises(KeyboardInterrupt) as caught:
+        with staged_folder(out) as stage:
+            _write(stage, **{"summary.json": "new", "acceleration.csv": "new"})
+    assert caught.value.published == out
+    assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "summary.json", "acceleration.csv"])
+    assert (out / "summary.json").read_text() == "new"
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_the_command_line_says_an_interrupted_output_was_finished(tmp_path, monkeypatch, capsys):
+    from cfm_core.cli import app, material
+
+    def command(args):
+        exc = KeyboardInterrupt()
+        exc.published = tmp_path / "run"
+        raise exc
+
+    monkeypatch.setitem(material.COMMANDS, "materials", command)
+    assert app.main(["materials"]) == 130
+    assert f"{tmp_path / 'run'} is complete" in capsys.readouterr().err
+
+
+def test_frames_and_fields_of_a_folder_without_manifest_are_cfm_files(tmp_path):
+    out = tmp_path / "copied"  # `cp run/* copied/` leaves the manifest (a dot file) behind
+    out.mkdir()
+    _write(out, **{"summary.json": "old", "fields.json": "old", "specimen_0020.vtu": "old",
+                   "impactor_0020.vtu": "old", "fitted-scene.toml": "old", "mine.vtk": "x"})
+    with staged_folder(out) as stage:
+        _write(stage, **{"summary.json": "new", "specimen_0000.vtu": "new", "impactor_0000.vtu": "new"})
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [MANIFEST, "summary.json", "specimen_0000.vtu", "impactor_0000.vtu", "mine.vtk"])
+
+
+def test_a_sweep_clearing_a_runs_folder_says_what_it_replaces(tmp_path, capsys):
+    from cfm_core.studies.outcomes import clear_earlier_output
+
+    out = tmp_path / "dt"
+    _earlier_run(out)
+    clear_earlier_output(out, keep=("runs",))
+    assert "held the output of a run (3 files); it is replaced by this sweep's" in capsys.readouterr().err
+    assert list(out.iterdir()) == []

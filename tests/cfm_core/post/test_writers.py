@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cfm_core.post import writers
-from cfm_core.errors import NumericalError
+from cfm_core.errors import InputError, NumericalError
 from cfm_core.post.writers import write_csv, write_drop_test, write_json, write_vtu_series
 
 
@@ -47,9 +47,9 @@ def test_failed_write_leaves_no_file_and_keeps_old(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(writers.os, "replace", broken_replace)
-    with pytest.raises(OSError):
+    with pytest.raises(InputError, match="disk full"):
         write_json(tmp_path / "new.json", {"a": 1})
-    with pytest.raises(OSError):
+    with pytest.raises(InputError, match="disk full"):
         write_json(old, {"new": 2})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.json"]  # no temp files left
     assert json.loads(old.read_text()) == {"old": 1}
@@ -84,7 +84,7 @@ def test_drop_test_removes_stale_summary_before_writing(tmp_path, monkeypatch):
     out = tmp_path / "run"
     write_drop_test(out, np.zeros(2), np.zeros(2), np.zeros(2), {"run": 1})
     monkeypatch.setattr(writers.os, "replace", lambda s, d: (_ for _ in ()).throw(OSError("no space")))
-    with pytest.raises(OSError):
+    with pytest.raises(InputError, match="no space"):
         write_drop_test(out, np.zeros(2), np.zeros(2), np.zeros(2), {"run": 2})
     assert not (out / "summary.json").exists()  # the old summary no longer vouches for the folder
     assert sorted(p.name for p in out.iterdir()) == ["acceleration.csv"]
@@ -139,3 +139,27 @@ def test_output_folder_refuses_a_file_creates_the_folder_and_removes_a_stale_mar
     (out / "keep.csv").write_text("t\n")
     writers.output_folder(out, marker="summary.json")
     assert not (out / "summary.json").exists() and (out / "keep.csv").exists()
+
+
+def test_a_file_that_cannot_be_replaced_is_an_input_error_and_stays(tmp_path, monkeypatch):
+    target = tmp_path / "cut.png"
+    target.write_text("earlier")
+
+    def immutable(src, dst):  # chattr +i, or another user's file in a sticky shared folder
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(writers.os, "replace", immutable)
+    with pytest.raises(InputError, match=r"cut.png cannot be replaced: Operation not permitted; it is left as it was"):
+        writers.write_text(target, "new")
+    assert target.read_text() == "earlier"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.png"]  # no temporary file left
+
+
+def test_point_refuses_to_write_over_its_own_history(tmp_path, monkeypatch):
+    from cfm_core.cli.app import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "F.csv").write_text("t,F11,F12,F13,F21,F22,F23,F31,F32,F33\\n0,1,0,0,0,1,0,0,0,1\\n0.001,0.9,0,0,0,1,0,0,0,1\\n")
+    before = (tmp_path / "F.csv").read_bytes()
+    assert main(["point", "--history", "F.csv", "--out", "./F.csv"]) == 2
+    assert (tmp_path / "F.csv").read_bytes() == before
