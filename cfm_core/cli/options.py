@@ -51,10 +51,13 @@ def out_dir(args) -> Path:
 VTU_FRAME_INTERVAL = 2e-4
 
 
-def _option_value(text: str, kind: str):
-    """A ``--option`` value in the type its declaration wants (number, integer, True/False, text, None)."""
+def _option_value(text: str, spec):
+    """A ``--option`` value in the type its declaration (``spec``, an OptionSpec) wants (number,
+    integer, True/False, text, None). "none" is the text choice where the declaration lists it
+    (``renumber=none``), else None."""
+    kind = spec.kind
     if text.strip().lower() == "none":
-        return None
+        return "none" if "none" in spec.choices else None
     if kind in ("bool", "any"):  # "any": True / False where the declaration lists them among its choices
         if text.strip().lower() in ("true", "false"):
             return text.strip().lower() == "true"
@@ -84,7 +87,7 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
         if name not in specs:
             raise InputError(f"--option {name}: backend '{backend}' has no option of that name; its options are "
                              f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
-        options[name] = _option_value(value, specs[name].kind)
+        options[name] = _option_value(value, specs[name])
         given_as[name] = f"--option {name}={value.strip()}"
     if getattr(args, "vtu", False) and "frame_interval" not in options:  # --option frame_interval=... wins
         options["frame_interval"] = VTU_FRAME_INTERVAL

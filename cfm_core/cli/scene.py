@@ -82,8 +82,9 @@ def _apply_overrides(scene, args, keys=()):
         over["parameters"] = params
     if not over:
         return scene
-    refuse_unused(scene, [*(["density"] if "density" in over else []), *params],
-                  lambda name: "--density" if name == "density" else f"--param {name}", "the value would not be applied")
+    keys_given = [k for k in ("density", "material", "moduli", "elastic") if k in over]
+    refuse_unused(scene, [*keys_given, *params],
+                  lambda name: f"--{name}" if name in keys_given else f"--param {name}", "the value would not be applied")
     new = scene.with_overrides(**over)
     if getattr(args, "scene", None) and Path(args.scene).exists():
         for text in _override_notes(scene, new, over, Path(args.scene).name):

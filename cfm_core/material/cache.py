@@ -153,10 +153,50 @@ def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
         Absolute paths, sorted; None when ``func`` itself has no source file (defined
         interactively).
     """
+    reached = _reach(func, packages)
+    return None if reached is None else reached[0]
+
+
+def global_values(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
+    """The plain values (numbers, strings, containers and arrays of them; other objects by type)
+    that the functions :func:`dependency_files` follows read from their globals, as stable text
+    ``module.function:name=digest``. A value imported by name from another file (``from consts
+    import SCALE``) is not in the file that uses it: its edit changes the energy, so it must change
+    the fingerprint too (it left the code caches returning the old code's results).
+
+    Parameters
+    ----------
+    func : function
+        An energy function (``Term.energy``).
+    packages : tuple of str
+        Top-level packages followed besides ``func``'s own.
+
+    Returns
+    -------
+    list of str or None
+        Sorted; None when ``func`` has no source file.
+    """
+    reached = _reach(func, packages)
+    return None if reached is None else reached[1]
+
+
+def _value_text(value) -> str:
+    """A global's value as stable text: by content where it is data, else by type (and the file
+    defining the type, when it is the user's own: its edits count through the file)."""
+    try:
+        return fingerprint.digest(value)
+    except (TypeError, ValueError):
+        kind = type(value)
+        path = _user_module_file(kind)
+        return f"<{kind.__module__}.{kind.__qualname__}{' ' + fingerprint.file_digest(path, 16) if path else ''}>"
+
+
+def _reach(func, packages):
+    """(files, values) of :func:`dependency_files` and :func:`global_values`, one walk."""
     if _source_file(func) is None:
         return None
     follow = {_top(func), *packages}
-    files, seen, todo = set(), set(), [func]
+    files, values, seen, todo = set(), set(), set(), [func]
     while todo:
         obj = todo.pop()
         if id(obj) in seen:
@@ -176,13 +216,18 @@ def dependency_files(func, packages=FOLLOWED_PACKAGES) -> list[str] | None:
         if path:
             files.add(path)
         names = _code_names(obj.__code__)
-        reached = [obj.__globals__[n] for n in names if n in obj.__globals__]
-        reached += [c.cell_contents for c in (obj.__closure__ or ()) if _cell_set(c)]
-        for value in reached:
+        for n in sorted(names):
+            if n not in obj.__globals__:
+                continue
+            value = obj.__globals__[n]
             todo.append(value)
             if isinstance(value, types.ModuleType) and (_top(value) in follow or _user_module_file(value)):
-                todo += [getattr(value, n) for n in names if isinstance(getattr(value, n, None), types.FunctionType)]
-    return sorted(files)
+                todo += [getattr(value, m) for m in names if isinstance(getattr(value, m, None), types.FunctionType)]
+            elif not (isinstance(value, (types.FunctionType, types.ModuleType, types.BuiltinFunctionType, type))
+                      or hasattr(value, "energy") or callable(value)):
+                values.add(f"{obj.__module__}.{obj.__qualname__}:{n}={_value_text(value)}")
+        todo += [c.cell_contents for c in (obj.__closure__ or ()) if _cell_set(c)]
+    return sorted(files), sorted(values)
 
 
 def _cell_set(cell) -> bool:
@@ -210,7 +255,8 @@ def spec_fingerprint(spec) -> str | None:
     ----------
     spec : MaterialSpec
         The spec; :func:`generator_digest`, and for each term its kind, name, parameters, energy
-        qualname, closure values and the text of every file its energy depends on
+        qualname, closure values, the plain values its functions read from their globals
+        (:func:`global_values`) and the text of every file its energy depends on
         (:func:`dependency_files`) enter the hash.
 
     Returns
@@ -224,11 +270,12 @@ def spec_fingerprint(spec) -> str | None:
     h.update(generator_digest().encode())
     terms = spec.isochoric + ((spec.volumetric,) if spec.volumetric else ())
     for term in terms:
-        files = dependency_files(term.energy)
-        if files is None:
+        reached = _reach(term.energy, FOLLOWED_PACKAGES)
+        if reached is None:
             return None
+        files, values = reached
         closure = [_closure_value(c.cell_contents) for c in (term.energy.__closure__ or ()) if _cell_set(c)]
-        h.update(repr((term.kind, term.name, term.parameters, term.energy.__qualname__, closure)).encode())
+        h.update(repr((term.kind, term.name, term.parameters, term.energy.__qualname__, closure, values)).encode())
         for text in sorted(fingerprint.digest_bytes(Path(f).read_bytes()) for f in files):
             h.update(text.encode())
     return h.hexdigest()[:24]

@@ -248,6 +248,29 @@ def provenance(backend: str | None = None, options: dict | None = None, material
     return json_ready(record)  # strict JSON: an option such as dt_max = inf is written as "inf"
 
 
+def material_digests(scene) -> dict:
+    """``material name -> definition digest`` of every material a scene runs (its own and those
+    its layers or parts name; :func:`cfm_core.material.cache.definition_digest`), leaving out those
+    defined interactively (no digest).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    dict
+        Sorted by name.
+    """
+    from ..material.registry import get_material
+    from ..scene.layers import regions
+
+    names = {scene.material.name, *(r.material for _, r in regions(scene) if getattr(r, "material", None))}
+    digests = {n: definition_digest(get_material(n)) for n in sorted(names)}
+    return {n: d for n, d in digests.items() if d is not None}
+
+
 def describe_differences(records: dict) -> list[str]:
     """What differs between runs, one short phrase per difference, for titles and comparisons.
 
@@ -271,8 +294,10 @@ def describe_differences(records: dict) -> list[str]:
         b, m = r.get("backend") or {}, r.get("material") or {}
         out = {"backend": b.get("name"), "dtype": b.get("dtype"), "device": b.get("device")}
         for prefix, pm in _materials(r, m):
+            digest = pm.get("definition_digest")
             out.update({f"{prefix}material": pm.get("name"), f"{prefix}moduli": pm.get("moduli"),
-                        f"{prefix}elastic": pm.get("elastic")})
+                        f"{prefix}elastic": pm.get("elastic"),  # its code, helpers' values, Prony defaults:
+                        f"{prefix}material definition": digest[:8] if isinstance(digest, str) else digest})
         out.update({f"option {k}": v for k, v in (b.get("options") or {}).items() if k not in ("dtype", "device")})
         for prefix, pm in _materials(r, m):
             out.update({f"{prefix}{k}": v for k, v in (pm.get("parameters") or {}).items()})

@@ -18,7 +18,7 @@ from ..errors import InputError
 from ..scene.run_section import RunSettings
 from ..scene.scene import Scene
 from ..simulation.registry import backend_for
-from .provenance import backend_record, scene_files
+from .provenance import backend_record, material_digests, scene_files
 
 #: Values of dtype and device that a backend without that choice runs with.
 FIXED = {"dtype": "float64", "device": "cpu"}
@@ -108,6 +108,9 @@ def plan_run(scene: Scene, backend: str | None = None, options: dict | None = No
                      f"(its options are not used)")
     for key, value in list(from_file.items()):
         if key in specs:
+            spec = specs[key]
+            if value == NONE_TEXT and spec.none and NONE_TEXT not in spec.choices:
+                from_file[key] = None  # None written as text (TOML has no null): run_record
             continue
         if FIXED.get(key) == value:  # float64 on cpu: what a backend without the choice runs anyway
             del from_file[key]
@@ -125,9 +128,11 @@ def plan_run(scene: Scene, backend: str | None = None, options: dict | None = No
 
 
 def changed_inputs(scene: Scene, where: str = "the scene's [run]") -> list[str]:
-    """Warnings for input files of the scene whose content differs from the digest in ``[run]``.
+    """Warnings for input files of the scene whose content differs from the digest in ``[run]``, and
+    for materials whose definition differs from the digest in ``[run.materials]``.
 
-    Only files the scene still reads are checked (a mesh replaced by an override is not).
+    Only files the scene still reads are checked (a mesh replaced by an override is not), and only
+    materials it still runs.
 
     Parameters
     ----------
@@ -139,15 +144,22 @@ def changed_inputs(scene: Scene, where: str = "the scene's [run]") -> list[str]:
     Returns
     -------
     list of str
-        One warning per changed file, naming it and both digests.
+        One warning per changed file or material definition, naming it and both digests.
     """
-    if scene.run is None or not scene.run.input_files:
+    if scene.run is None:
         return []
-    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
-    if not mesh or not Path(mesh).is_file():
-        return []
-    here = Path(mesh).resolve()
     out = []
+    if scene.run.materials:
+        now = material_digests(scene)
+        for name, recorded in scene.run.materials:
+            if name in now and now[name] != recorded:
+                out.append(f"material '{name}' is defined differently from the run that wrote this scene ({where} "
+                           f"materials: {recorded}; now: {now[name]}: its code, a value the code imports or its "
+                           f"Prony defaults changed), so this is not a repeat of that run")
+    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
+    if not scene.run.input_files or not mesh or not Path(mesh).is_file():
+        return out
+    here = Path(mesh).resolve()
     for path, recorded in scene.run.input_files:
         if Path(path).resolve() != here:
             continue
@@ -158,10 +170,16 @@ def changed_inputs(scene: Scene, where: str = "the scene's [run]") -> list[str]:
     return out
 
 
+#: How ``[run.options]`` writes None where the option's default is not None (TOML has no null).
+NONE_TEXT = "none"
+
+
 def run_record(scene: Scene, backend: str, options: dict | None = None) -> RunSettings:
     """The ``[run]`` section of a finished run: backend, dtype, device, every option as resolved
-    (defaults included; options whose value is None, an automatic choice, are left out) and the
-    content digests of the files the scene read.
+    (defaults included; options whose value is None, an automatic choice, are left out, unless
+    the default is not None: then None is written as the text ``"none"``, which
+    :func:`run_settings` reads back as None), the content digests of the files the scene read and
+    the definition digests of its materials.
 
     Parameters
     ----------
@@ -178,5 +196,15 @@ def run_record(scene: Scene, backend: str, options: dict | None = None) -> RunSe
         The section.
     """
     rec = backend_record(backend, options)
-    opts = {k: v for k, v in rec["options"].items() if k not in FIXED and v is not None}
-    return RunSettings(backend, rec["dtype"], rec["device"], opts, scene_files(scene))
+    declared = getattr(backend_for(backend), "options_class", None)
+    specs = getattr(declared, "specs", dict)()
+    opts = {}
+    for k, v in rec["options"].items():
+        if k in FIXED:
+            continue
+        if v is not None:
+            opts[k] = v
+        elif k in specs and getattr(declared, k, None) is not None:
+            opts[k] = NONE_TEXT  # None chosen where the default is not None (error_tol = None, not 'auto')
+    return RunSettings(backend, rec["dtype"], rec["device"], opts, scene_files(scene), materials=material_digests(scene))
+    return RunSettings(backend, rec["dtype"], rec["device"], opts, scene_files(scene), materials=material_digests(scene))

@@ -260,7 +260,7 @@ def unused_by_layers(scene, names) -> dict:
     scene : Scene
         A drop-test scene.
     names : iterable of str
-        Parameter names and scene keys.
+        Parameter names and the scene keys ``"density"``, ``"material"``, ``"moduli"``, ``"elastic"``.
 
     Returns
     -------
@@ -276,6 +276,14 @@ def unused_by_layers(scene, names) -> dict:
         if name == "density":
             if all(lay.density is not None for lay in layers):
                 out[name] = "every layer gives its own density"
+        elif name == "material":
+            if len(own) == len(layers):
+                out[name] = "every layer names its own material: " + ", ".join(own)
+        elif name in ("moduli", "elastic"):
+            if not any(lay.material is None and getattr(lay, name) is None for lay in layers):
+                out[name] = (f"every layer names its own material or gives its own {name}: " +
+                             ", ".join(f"{lay.name or f'layer{i + 1}'} ({lay.material or getattr(lay, name)})"
+                                       for i, lay in enumerate(layers)))
         elif not any(lay.material is None and name not in lay.parameter_dict for lay in layers):
             out[name] = ("every layer names its own material: " + ", ".join(own) if len(own) == len(layers) else
                          f"no layer takes {name} from [material] (each gives its own {name} or names its own material)")
@@ -290,7 +298,7 @@ def refuse_unused(scene, names, flag, effect: str) -> None:
     scene : Scene
         A drop-test scene.
     names : iterable of str
-        Parameter names and ``"density"``.
+        Parameter names and the scene keys of :func:`unused_by_layers`.
     flag : callable
         name -> how the command line names it (``"--vary k1"``, ``"--density"``).
     effect : str
@@ -299,7 +307,7 @@ def refuse_unused(scene, names, flag, effect: str) -> None:
     unused = unused_by_layers(scene, names)
     if unused:
         name, why = next(iter(unused.items()))
-        where = "[specimen] density" if name == "density" else f"[material] {name}"
+        where = {"density": "[specimen] density", "material": "[material] name"}.get(name, f"[material] {name}")
         raise InputError(f"{flag(name)}: no layer of the specimen uses {where} ({why}), so {effect}. Give the "
                          f"layer its value in the scene file.")
 

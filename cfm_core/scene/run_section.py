@@ -24,12 +24,15 @@ Example::
 
     [run.input_files]          # content digests of the files the scene reads
     "/data/specimen.vtu" = "sha256:8f1c..."
+
+    [run.materials]            # definition digests of the materials it ran
+    cfm = "3fbebec43ae559a257dc8c62"
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Mapping
 
@@ -74,6 +77,15 @@ def _digest(section: str):
     return check
 
 
+def _definition(section: str):
+    def check(name, v):
+        if not (isinstance(v, str) and len(v) == 24 and all(c in "0123456789abcdef" for c in v)):
+            raise InputError(f"[{section}] {name} = {v!r} must be a material definition digest (24 hexadecimal "
+                             f"characters, as cfm writes it).")
+        return v
+    return check
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """``[run]``: how a scene is run (all optional; None: the default).
@@ -97,6 +109,10 @@ class RunSettings:
         :data:`cfm_core.post.fields.FIELDS`), so that its repeat writes the same frames.
     full : bool, optional
         Whether a ``--vtu`` run mirrored a quarter or half model into the whole specimen (``--full``).
+    materials : mapping or tuple of pairs
+        ``material name -> definition digest`` of every material the run used
+        (:func:`cfm_core.material.cache.definition_digest`: its code, the values its code imports,
+        its Prony defaults), so that a repeat says when a definition changed since.
 
     Raises
     ------
@@ -112,6 +128,7 @@ class RunSettings:
     input_files: tuple = ()
     fields: str | None = None
     full: bool | None = None
+    materials: tuple = ()
 
     def __post_init__(self):
         if self.fields is not None and (not isinstance(self.fields, str) or not self.fields.strip()):
@@ -127,6 +144,7 @@ class RunSettings:
             raise InputError(f"[run] dtype = {self.dtype!r} is not allowed; use 'float64' or 'float32'.")
         object.__setattr__(self, "options", _pairs("run.options", self.options, _plain("run.options")))
         object.__setattr__(self, "input_files", _pairs("run.input_files", self.input_files, _digest("run.input_files")))
+        object.__setattr__(self, "materials", _pairs("run.materials", self.materials, _definition("run.materials")))
 
     @classmethod
     def from_table(cls, table, base_dir=None) -> "RunSettings":
@@ -152,7 +170,7 @@ class RunSettings:
         """
         if not isinstance(table, Mapping):
             raise InputError(f"[run] must be a table (section), got {table!r}.")
-        allowed = ("backend", "dtype", "device", "options", "input_files", "fields", "full")
+        allowed = ("backend", "dtype", "device", "options", "input_files", "fields", "full", "materials")
         for k in table:
             if k not in allowed:
                 hint = did_you_mean(k, allowed)
@@ -187,7 +205,7 @@ class RunSettings:
         """
         files = {(p if Path(p).expanduser().is_absolute() else str(Path(base_dir) / Path(p).expanduser())): d
                  for p, d in self.input_files}
-        return RunSettings(self.backend, self.dtype, self.device, self.options, files, self.fields, self.full)
+        return replace(self, input_files=files)
 
     def as_dict(self) -> dict:
         """The section as TOML-ready nested dict (None entries and empty tables left out).
@@ -195,8 +213,8 @@ class RunSettings:
         Returns
         -------
         dict
-            ``backend``, ``dtype``, ``device``, ``fields``, ``full`` (when set), ``options`` and ``input_files``
-            (sub-tables, when not empty).
+            ``backend``, ``dtype``, ``device``, ``fields``, ``full`` (when set), ``options``, ``input_files``
+            and ``materials`` (sub-tables, when not empty).
         """
         out = {k: getattr(self, k) for k in ("backend", "dtype", "device", "fields", "full")
                if getattr(self, k) is not None}
@@ -204,6 +222,8 @@ class RunSettings:
             out["options"] = dict(self.options)
         if self.input_files:
             out["input_files"] = dict(self.input_files)
+        if self.materials:
+            out["materials"] = dict(self.materials)
         return out
 
 
@@ -227,7 +247,7 @@ def _key(k: str) -> str:
 
 
 def run_toml(run: RunSettings) -> list[str]:
-    """The TOML lines of a ``[run]`` section (with its ``options`` and ``input_files`` tables).
+    """The TOML lines of a ``[run]`` section (with its ``options``, ``input_files`` and ``materials`` tables).
 
     Parameters
     ----------
@@ -253,4 +273,7 @@ def run_toml(run: RunSettings) -> list[str]:
     if "input_files" in d:
         lines += ["", "[run.input_files]  # content digests of the files the run read"]
         lines += [f"{_key(k)} = {_value(v)}" for k, v in d["input_files"].items()]
+    if "materials" in d:
+        lines += ["", "[run.materials]  # definition digests of the materials it ran (code, imported values, Prony defaults)"]
+        lines += [f"{_key(k)} = {_value(v)}" for k, v in d["materials"].items()]
     return lines

@@ -148,6 +148,30 @@ def test_a_helper_module_beside_a_single_file_plugin_is_followed(tmp_path, monke
             del sys.modules[key]
 
 
+@pytest.mark.parametrize("value, edited", [("1.0", "3.0"), ("{'s': 1.0}", "{'s': 3.0}")])
+def test_a_value_imported_by_name_from_a_helper_module_counts(tmp_path, monkeypatch, value, edited):
+    """``from consts import SCALE``: the value lives in the plugin's namespace, its file is the
+    helper's. Editing SCALE kept the key, and the code caches returned the old energy's stresses
+    (uniaxial -11829.3 Pa for -35226.4) and the sweep reused the old runs."""
+    name = f"cacheconst_{uuid.uuid4().hex[:8]}"
+    use = "SCALE" if value[0] != "{" else "SCALE['s']"
+    (tmp_path / f"{name}_consts.py").write_text(f"SCALE = {value}\n")
+    (tmp_path / f"{name}.py").write_text(TERM.replace("from . import helpers", f"from {name}_consts import SCALE")
+                                         .replace("helpers.shape(l1) + helpers.shape(l2) + helpers.shape(l3) - 3",
+                                                  f"{use} * (l1**2 + l2**2 + l3**2 - 3)"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        spec = __import__(name).SPEC
+        first, defined = cache.spec_fingerprint(spec), cache.definition_digest(spec)
+        assert cache.spec_fingerprint(spec) == first  # stable
+        sys.modules[name].SCALE = eval(edited)  # what a new process reading the edited helper sees
+        assert cache.spec_fingerprint(spec) != first
+        assert cache.definition_digest(spec) != defined  # provenance and the sweep's run key see it too
+    finally:
+        for key in [k for k in sys.modules if k.startswith(name)]:
+            del sys.modules[key]
+
+
 def test_installed_libraries_are_not_followed():
     """numpy, sympy and the standard library are not the user's code: their files stay out of the key."""
     import numpy

@@ -52,3 +52,15 @@ def test_record_is_strict_json_and_differences_are_named():
     assert "backend: numba | torch" in phrases and "dtype: float64 | float32" in phrases
     assert any(p.startswith("k2: 1.66 | 3") for p in phrases)
     assert prov.describe_differences({"a": a, "a2": prov.provenance("numba", {}, material)}) == []
+
+
+def test_a_changed_material_definition_is_named_among_the_differences():
+    """The same material name, its code (or a helper's value, or a Prony default) changed between
+    the runs: cfm compare said "none recorded (same ... material ...)"."""
+    material = make_material("cfm")
+    a = prov.provenance("numba", {}, material)
+    b = json.loads(json.dumps(a))
+    b["material"]["definition_digest"] = "5772" + a["material"]["definition_digest"][4:]
+    phrases = prov.describe_differences({"a": a, "b": b})
+    assert phrases == [f"material definition: {a['material']['definition_digest'][:8]} | "
+                       f"{b['material']['definition_digest'][:8]}"]

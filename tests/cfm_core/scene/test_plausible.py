@@ -103,3 +103,23 @@ def test_a_flat_impactor_without_edge_radius_is_checked_with_its_default_rim():
     small = [w for w in check_plausible(base.with_overrides(radius=0.01)) if "edge_radius" in w]
     assert len(small) == 1 and "edge_radius = 0.001 m" in small[0]         # the default min(1 mm, radius / 2)
     assert not [w for w in check_plausible(base.with_overrides(radius=0.05)) if "edge_radius" in w]  # rim outside
+
+
+@pytest.mark.parametrize("flag, key, own", [(["--moduli", "long-term"], "moduli", 'moduli = "instantaneous"\n'),
+                                            (["--elastic"], "elastic", "elastic = false\n")])
+def test_moduli_and_elastic_no_layer_uses_are_refused(tmp_path, capsys, flag, key, own):
+    """The only layer taking [material] gives its own moduli (or elastic): --moduli long-term ran
+    byte for byte as without it, and summary.json said "long-term" for a layer that ran instantaneous."""
+    from cfm_core.cli import main
+
+    path = tmp_path / "own.toml"
+    path.write_text(LAYERED.format(kappa=666100.0).replace('name = "fat"\n', f'name = "fat"\n{own}'))
+    assert main(["drop-test", "--scene", str(path), *flag, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{flag[0]}: no layer of the specimen uses [material] {key}" in err and "fat" in err
+    assert not (tmp_path / "o").exists()
+    # a layer taking [material] whole: the flag applies, nothing refused
+    from cfm_core.scene.layers import unused_by_layers
+
+    assert unused_by_layers(load_scene(_write(tmp_path, LAYERED)), ["moduli", "elastic", "material"]) == {}
+    assert unused_by_layers(load_scene(path), ["material"]) == {}  # the fat layer still takes [material]'s name
