@@ -426,6 +426,9 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
         conf["warnings"].append(miss)
         for n in names:
             conf["parameters"][n].update(ci=None, std=None, withheld="the fitted model misses the data")
+    if any(getattr(c, "late", "") for c in curves):  # a record cut after contact: tight intervals around a biased fit
+        for n in names:
+            conf["parameters"][n].update(ci=None, std=None, withheld="a measured record starts after contact")
     if res.status == 0:  # stopped by max_nfev: the intervals are those of a point that is not the minimum
         conf["warnings"].append(
             f"the fit stopped at the limit of {max_evaluations} evaluations (max_evaluations) before converging: "

@@ -229,9 +229,66 @@ def local_cluster(workers: int, worker_timeout: float = WORKER_LOST) -> DaskRunn
                       worker_timeout=worker_timeout)
 
 
+#: Seconds a tcp:// address has to send the first bytes of a Dask handshake (a scheduler sends its
+#: own as soon as it accepts a connection).
+HANDSHAKE_WAIT = 10.0
+#: Largest first message (bytes) a scheduler's handshake can announce: its 8-byte length prefix.
+HANDSHAKE_BYTES = 2**26
+
+
+def check_speaks_dask(address: str, timeout: float = HANDSHAKE_WAIT) -> None:
+    """Check that whatever listens at a tcp:// ``address`` answers as a Dask scheduler does.
+
+    A Dask scheduler writes its handshake, a message whose first 8 bytes are its length, as soon
+    as it accepts a connection. Another server at that port (the scheduler's dashboard, 8787 by
+    default, or any HTTP server) sends nothing and waits for a request: Dask's client then waited
+    for ever, and garbage read as a length asked numpy for 3 EiB. Other schemes (tls://, inproc://)
+    and unreachable addresses are left to Dask's own connection, which names them.
+
+    Raises
+    ------
+    InputError
+        Something accepts connections at ``address`` but sends no handshake within ``timeout``
+        seconds, or a first message no Dask handshake has.
+    """
+    import socket
+    import struct
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp" or not parts.hostname or parts.port is None:
+        return
+    try:
+        sock = socket.create_connection((parts.hostname, parts.port), timeout=timeout)
+    except OSError:
+        return  # refused or unreachable: Dask's connection says so
+    hint = ("If it is the scheduler's dashboard (port 8787 by default), give the scheduler's own port, 8786 by "
+            "default: its log says 'Scheduler at: tcp://...'.")
+    with sock:
+        sock.settimeout(timeout)
+        head = b""
+        try:
+            while len(head) < 8:
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+        except OSError:
+            pass
+    if len(head) < 8:
+        raise InputError(f"--scheduler {address}: a server accepts connections there but did not answer as a "
+                         f"Dask scheduler within {timeout:g} s (a scheduler greets every new connection). {hint}")
+    (length,) = struct.unpack("<Q", head)
+    if not 0 < length <= HANDSHAKE_BYTES:
+        raise InputError(f"--scheduler {address}: the server there answered, but not as a Dask scheduler (its "
+                         f"first message announces {length} bytes). {hint}")
+
+
 def connect(address: str, timeout: float = 30.0, worker_timeout: float = WORKER_LOST) -> DaskRunner:
-    """A :class:`DaskRunner` on the Dask scheduler at ``address`` (e.g. tcp://host:8786)."""
+    """A :class:`DaskRunner` on the Dask scheduler at ``address`` (e.g. tcp://host:8786); a server
+    there that does not speak Dask's protocol is an InputError (:func:`check_speaks_dask`)."""
     distributed = _import_distributed()
+    check_speaks_dask(address)
     try:
         client = distributed.Client(address, timeout=f"{timeout}s")
     except (OSError, TimeoutError, ValueError) as exc:

@@ -44,7 +44,7 @@ from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
 from ..scene.layers import refuse_unused, regions
 from ..scene.scene import scene_to_dict
-from ..tables import read_table as read_history
+from ..tables import as_float, decode, read_table as read_history, shown
 from .cases import _case_result, batches, map_cases, overrides, run_all, run_case, run_cases  # noqa: F401
 from .dask_runner import SerialRunner, error_text
 from .sweep_output import (SUMMARY_COLUMNS, TEXT_COLUMNS, columns, plot_peaks, read_table,  # noqa: F401
@@ -246,7 +246,8 @@ def check_cases(scene, axes: list[Axis]) -> None:
             try:
                 case_scene(scene, {axis.name: v})
             except (InputError, ValueError) as exc:
-                raise InputError(f"--vary {axis.name}: value {v:g} {axis.unit} is not allowed, so no run was "
+                unit = "" if axis.unit in ("", "-") else f" {axis.unit}"  # every digit: 0.470999 hid 0.4709990000000001
+                raise InputError(f"--vary {axis.name}: value {shown(v)}{unit} is not allowed, so no run was "
                                  f"started: {exc}{_comma_hint(axis.text)}") from None
     if len(axes) > 1:
         for case in cases(axes):
@@ -374,7 +375,7 @@ CACHE_PULSE = ("peak_g", "t_peak", "duration", "pulse_width", "loading_time", "u
 
 
 def _finite_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(as_float(v))
 
 
 def cached_summary(entry: Path, rid: str, case: dict) -> tuple[dict | None, str | None]:
@@ -413,8 +414,8 @@ def cached_summary(entry: Path, rid: str, case: dict) -> tuple[dict | None, str 
     if not done.exists() and not done.is_symlink():
         return None, None
     try:
-        summary = json.loads(done.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
+        summary = json.loads(decode(done, done.read_bytes(), "JSON"))  # a byte-order mark skipped
+    except (OSError, InputError) as exc:  # InputError: not UTF-8 (tables.decode)
         return None, f"summary.json cannot be read ({getattr(exc, 'strerror', None) or exc})"
     except ValueError as exc:
         return None, f"summary.json is not valid JSON ({exc})"
@@ -467,7 +468,7 @@ def _row(rid: str, case: dict, summary: dict | None, error: str | None) -> dict:
 
 
 def _describe(case: dict, axes) -> str:
-    return " ".join(f"{a.name}={case[a.name]:g}" for a in axes)
+    return " ".join(f"{a.name}={shown(case[a.name])}" for a in axes)
 
 
 def execute(scene, axes: list[Axis], backend: str = "numba", options: dict | None = None, runner=None,

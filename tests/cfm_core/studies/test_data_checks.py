@@ -99,6 +99,27 @@ def test_a_file_with_nominal_and_true_stress_is_read_by_its_nominal_column(tmp_p
     assert np.array_equal(test.P, P)
 
 
+def test_a_lab_test_with_quoted_cells_reads_as_the_plain_file(tmp_path):
+    """Header "t","stretch","stress" (Excel, pandas QUOTE_ALL) was refused: the header must name
+    the columns t,stretch; with every cell quoted the rows read as the unquoted ones."""
+    m = make_material("cfm")
+    t, lam, P, _ = point.uniaxial(m, 100.0, 0.7, steps=60)
+    plain = lab_tests.read_lab_test(_csv(tmp_path / "plain.csv", t, lam, P), "uniaxial", 100.0)
+    lines = (tmp_path / "plain.csv").read_text().splitlines()
+    for name, quote in (("header.csv", lambda k, c: f'"{c}"' if k == 0 else c), ("all.csv", lambda k, c: f'"{c}"')):
+        (tmp_path / name).write_text("".join(",".join(quote(k, c) for c in line.split(",")) + "\n"
+                                             for k, line in enumerate(lines)))
+        test = lab_tests.read_lab_test(tmp_path / name, "uniaxial", 100.0)
+        assert np.array_equal(test.t, plain.t) and np.array_equal(test.x, plain.x) and np.array_equal(test.P, plain.P)
+
+
+def test_a_lab_test_rate_beyond_the_float_range_is_refused_naming_it(tmp_path):
+    """rate = 10**400 (an unbounded Python or JSON integer) gave OverflowError from math.isfinite."""
+    path = _csv(tmp_path / "u.csv", [0.0, 0.1], [1.0, 0.9], [0.0, -10.0])
+    with pytest.raises(InputError, match=r"rate = 1000\.\.\.0 \(an integer of 401 digits\) 1/s is not allowed"):
+        lab_tests.read_lab_test(path, "uniaxial", 10 ** 400)
+
+
 @pytest.mark.parametrize("sign, stress, expected", [
     (-1.0, None, "Flip the sign of the stress column"),   # compression written positive
     (1.0, 0.0, "the stress column is 0 on every line"),   # was a ZeroDivisionError traceback in the fit
@@ -178,6 +199,23 @@ def test_a_curve_recorded_from_before_contact_is_warned():
     t = np.arange(0.0, 0.014, 2e-5)
     notes = check_plausible("late.csv", t, _pulse(t, start=0.002), 1.0, 0.02)
     assert len(notes) == 1 and "stays below 1 % of its peak until t = 0.00204 s" in notes[0]
+
+
+@pytest.mark.parametrize("cut, start, offset, said", [(0.0, 0.0, 0.0, False), (2e-4, 0.0, 0.0, True),
+                                                      (4e-4, 0.0, 0.0, True), (0.0, 1e-3, 0.03, False)])
+def test_a_record_that_starts_in_contact_is_said_and_a_level_offset_is_not(tmp_path, cut, start, offset, said):
+    """A drop test recorded from 0.2 ms after contact (under 2 % of the peak missing): k1 +21 % and k2
+    +26 % with intervals excluding the truth, no warning. A constant offset before contact is level."""
+    from cfm_core.studies.measured import read_curve, starts_in_contact
+
+    t = np.arange(0.0, 0.014, 2e-5)
+    a = _pulse(t + cut, start=start) + offset * 235.6
+    assert bool(starts_in_contact("m.csv", t, a)) == said
+    path = tmp_path / "m.csv"
+    path.write_text("t,a\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t, a)))
+    curve = read_curve(f"{path}:0.008", None)
+    assert bool(curve.late) == said
+    assert ("starts in contact" in " ".join(curve.notes)) == said
 
 
 def test_a_lost_cluster_during_a_calibration_says_it_starts_over():

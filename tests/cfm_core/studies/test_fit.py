@@ -90,7 +90,7 @@ def test_equibiaxial_matches_root_finding_on_the_reference_stress():
 
 
 # ----------------------------------------------------------------------------- twin experiments
-def test_cli_twin_recovers_elastic_parameters_within_1_percent(tmp_path):
+def test_cli_twin_recovers_elastic_parameters_within_1_percent(tmp_path, capsys):
     """cfm fit end to end: three curves of known parameters, start 30 % off, recovered within 1 %."""
     true = {"c": 10.0, "k1": 1320.0, "k2": 1.66}
     m = make_material("cfm", true, elastic=True)
@@ -101,6 +101,8 @@ def test_cli_twin_recovers_elastic_parameters_within_1_percent(tmp_path):
                "--param", "k2=2.158", "--test", f"{files[0]}:uniaxial:1", f"{files[1]}:shear:1",
                f"{files[2]}:uniaxial:1:2", "--quiet", "--out", str(out)])
     assert rc == 0
+    assert (f"wrote {out}: fit.json, fit_comp.png, fit_shear.png, fit_tens.png, fitted-scene.toml"
+            in capsys.readouterr().out)  # the files as written, not a pattern
     fit = json.loads((out / "fit.json").read_text())
     for name, value in true.items():
         assert fit["parameters"][name]["fitted"] == pytest.approx(value, rel=1e-2)
@@ -159,6 +161,49 @@ def test_correlated_parameters_are_flagged_and_their_intervals_withheld():
     result = fit_lab("mooney-rivlin", [test], ["c10", "c01"], start={"c10": 250.0, "c01": 100.0})
     assert any("c10" in w and "c01" in w for w in result.warnings)
     assert result.confidence["parameters"]["c10"]["ci"] is None
+
+
+def test_a_start_whose_trial_point_breaks_the_model_is_lost_not_the_fit(monkeypatch):
+    """A later start's trial point (k2 = 1644, an exponential overflow) ended the whole fit with exit 3
+    after minutes of finished starts; now that start counts as failed and the best other is reported."""
+    from cfm_core.errors import NumericalError
+    from cfm_core.studies import fit as fit_module
+
+    m = make_material("mooney-rivlin", elastic=True)
+    test = uniaxial(m, 1.0, 0.7, steps=40)
+    real = fit_module.simulate
+
+    def overflowing(material, t, memory):  # the model breaks below c10 = 50 Pa (one start begins at 24 Pa)
+        if material.values["c10"] < 50.0:
+            raise NumericalError("stress not finite (exponential overflow?)")
+        return real(material, t, memory)
+
+    monkeypatch.setattr(fit_module, "simulate", overflowing)
+    result = fit_lab("mooney-rivlin", [test], ["c10"], start={"c10": 150.0}, starts=4)
+    lost = [t for t in result.tried if "failed" in t]
+    assert 1 <= len(lost) < 4 and "exponential overflow" in lost[0]["failed"]
+    assert any(f"{len(lost)} of 4 start(s) ended where the model could not be evaluated" in w for w in result.warnings)
+    assert result.fitted["c10"] == pytest.approx(m.values["c10"], rel=1e-6)
+    monkeypatch.setattr(fit_module, "simulate", lambda *a: (_ for _ in ()).throw(NumericalError("always")))
+    with pytest.raises(NumericalError, match="always"):
+        fit_lab("mooney-rivlin", [test], ["c10"], start={"c10": 150.0}, starts=2)
+
+
+@pytest.mark.parametrize("offset, warned", [(0.0, False), (-0.01 * 1.5, True)])
+def test_a_stress_offset_at_the_undeformed_state_is_said_and_the_intervals_withheld(offset, warned):
+    """A load cell not zeroed (1 % of the peak): k1 7.5 % and k2 9 % off with tight intervals that
+    excluded the truth, and no warning."""
+    import dataclasses
+
+    m = make_material("mooney-rivlin", elastic=True)
+    test = uniaxial(m, 1.0, 0.7, steps=40)
+    test = dataclasses.replace(test, P=test.P + offset * test.scale)
+    result = fit_lab("mooney-rivlin", [test], ["c10", "c01"], start={"c10": 250.0, "c01": 120.0}, starts=1)
+    said = [w for w in result.warnings if "load-cell offset" in w]
+    assert bool(said) == warned
+    if warned:
+        assert "at the undeformed state (stretch = 1" in said[0]
+        assert all(result.confidence["parameters"][n]["ci"] is None for n in ("c10", "c01"))
 
 
 # ----------------------------------------------------------------------------- bad input

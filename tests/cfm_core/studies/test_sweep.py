@@ -3,6 +3,7 @@
 import json
 import logging
 import shutil
+import time
 
 import numpy as np
 import pandas as pd
@@ -160,3 +161,34 @@ def test_a_value_the_backend_refuses_stops_the_sweep_before_any_run(tmp_path, ca
     err = capsys.readouterr().err
     assert "--vary friction: value 0.1" in err and "friction = 0.1 is not supported" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("greeting", [None, b"HTTP/1.0 400 Bad request\r\n\r\n"])
+def test_a_server_that_is_not_a_dask_scheduler_is_named_in_bounded_time(greeting):
+    """--scheduler at the dashboard's port (or any HTTP server): the sweep waited silently until
+    killed; a server sending other bytes made numpy allocate 3 EiB (a raw traceback)."""
+    import socket
+    import threading
+
+    from cfm_core.studies import dask_runner
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    held = []
+
+    def accept():
+        conn, _ = server.accept()
+        held.append(conn)  # kept open, as a server waiting for a request does
+        if greeting:
+            conn.sendall(greeting)
+
+    threading.Thread(target=accept, daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    t0 = time.perf_counter()
+    with pytest.raises(InputError, match=f"--scheduler {address}: .*not .*as a Dask scheduler.*8786"):
+        dask_runner.check_speaks_dask(address, timeout=1.0)
+    assert time.perf_counter() - t0 < 5.0
+    server.close()
+    for conn in held:
+        conn.close()
