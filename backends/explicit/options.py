@@ -72,3 +72,29 @@ def document_run(backend_class, options_class) -> None:
     run = backend_class.run
     run.__doc__ = (run.__doc__ or "").rstrip() + "\n\n        Options (name, default, unit, meaning; allowed)::\n\n" + table + "\n"
     backend_class.options_class = options_class
+
+
+def step_cap(o: ExplicitOptions, models) -> float:
+    """The largest time step a run may take (s): the option ``dt_max`` and, for a prescribed-motion
+    model, its output interval (``1 / [scene] output_rate``), so that its reaction history, written
+    a row per step, is recorded at least that often, as the scenes promise. Without it a model whose
+    stable step exceeded its load time (a 1 m single element: size given in mm) ran in one step,
+    past its end time, and wrote two rows. A drop test's history is resampled onto the output grid
+    from the impulse (:func:`cfm_core.post.resample_acceleration`), so its step stays the stable one.
+
+    Parameters
+    ----------
+    o : ExplicitOptions
+        The run's options.
+    models : Model or sequence of Model
+        The model, or the models of a batch (the smallest interval caps them all).
+
+    Returns
+    -------
+    float
+        min(dt_max, output intervals > 0) (s).
+    """
+    models = models if isinstance(models, (list, tuple)) else (models,)
+    intervals = [float(m.output_interval) for m in models
+                 if getattr(m, "prescribed", None) is not None and float(m.output_interval) > 0.0]
+    return min([float(o.dt_max), *intervals])

@@ -37,7 +37,7 @@ import numpy as np
 
 from cfm_backends.explicit import errors, geometry, history, renumber
 from cfm_backends.explicit.checks import check_model
-from cfm_backends.explicit.options import initial_velocity
+from cfm_backends.explicit.options import initial_velocity, step_cap
 from cfm_backends import numba_target
 from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError
@@ -114,7 +114,7 @@ def prepare(model, o: NumbaOptions) -> Prepared:
     par[K.P_RHO] = float(plist[0].density)
     par[K.P_HG] = o.hourglass
     par[K.P_SAFETY] = o.safety
-    par[K.P_DTMAX] = o.dt_max
+    par[K.P_DTMAX] = step_cap(o, model)  # dt_max, and the output interval: histories at least that often
     par[K.P_COLLAPSE] = o.collapse
     par[K.P_MU] = float(model.friction)
     par[K.P_GRAV] = abs(float(model.gravity))

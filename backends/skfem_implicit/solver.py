@@ -33,6 +33,31 @@ from .stepper import State, StepFailure, Stepper, lateral_force
 from .system import System
 
 
+class _ContactMonitor(Monitor):
+    """The shared physics checks, whose penetration failures also name this backend's contact
+    stiffness: a penalty of penalty_factor x kappa0 x h follows the bulk modulus, so a soft kappa0
+    (666.1 Pa: kPa meant) makes soft rigid surfaces, and the nodes went through them while the
+    message blamed the load and the mesh (explicit backends, with kinematic contact, ran it)."""
+
+    def __init__(self, model, penalty: float, o: dict, kappa0: float, h: float):
+        super().__init__(model)
+        given = o["penalty"] is not None
+        self.hint = (f" skfem's contact is a penalty of {penalty:.4g} N/m per node"
+                     + ("" if given else f" (penalty_factor {o['penalty_factor']:g} x kappa0 {kappa0:.4g} Pa x "
+                                         f"h {h:.4g} m)")
+                     + ": if the material is meant to be this soft, a stiffer contact (--option penalty=..., N/m) "
+                       "keeps the nodes out.")
+
+    def inspect(self, t, x, impactor_z=None):
+        try:
+            super().inspect(t, x, impactor_z)
+        except NumericalError as exc:
+            if not str(exc.quantity or "").startswith("penetration"):
+                raise
+            err = NumericalError(str(exc) + self.hint, time=exc.time, element=exc.element, quantity=exc.quantity)
+            err.node = getattr(exc, "node", None)
+            raise err from None
+
 def _quasi_static(model, o) -> bool:
     if o["quasi_static"] is not None:
         return bool(o["quasi_static"])
@@ -141,7 +166,7 @@ def _run(model, progress, o) -> Result:
     seen, separated_for, separated = False, 0.0, False
     next_progress = end / 100.0
     steps = 0
-    monitor = Monitor(model)  # physics checks (cfm_core.simulation.checks), every ~1 % of the end time
+    monitor = _ContactMonitor(model, sys_.penalty, o, sys_.kappa0, h)  # physics checks, every ~1 % of the end time
     nodes = np.asarray(model.nodes, dtype=np.float64)
     impactor_z = lambda s: sys_.impactor_point(s.q)  # noqa: E731  - the whole reference point (m)
     recent = deque(maxlen=STALL_STEPS)  # times of the last accepted steps

@@ -41,6 +41,7 @@ import time
 import numpy as np
 
 from cfm_backends.explicit import errors, history, renumber
+from cfm_backends.explicit.options import step_cap
 from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
@@ -112,6 +113,7 @@ class _Batch:
 
         t0 = time.perf_counter()
         self.models, self.o, self.device, self.dtype, self.progress = models, o, device, dtype, progress
+        self.step_cap = step_cap(o, list(models))  # the largest step (s): dt_max and the output intervals
         self.sync_free, self.cuda_graph, self.graph_used = sync_free, graph, False
         B = self.B = len(models)
         # parts: the models renumbered as the single run is (each part one contiguous element range, the

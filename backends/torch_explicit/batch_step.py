@@ -111,7 +111,7 @@ def step(bt, s) -> None:
     dmin, emin = resp.dte.view(B, N).min(1)
     dtc = o.safety * dmin.double()
     DT0 = torch.where((DT0 == 0.0) & torch.isfinite(dtc), dtc, DT0)
-    dt = torch.clamp(dtc, max=o.dt_max)
+    dt = torch.clamp(dtc, max=bt.step_cap)  # dt_max and the output intervals (explicit.options.step_cap)
     coll = alive & (~((dt > 0.0) & torch.isfinite(dt)) | (dtc < o.collapse * DT0))
     flag(code, err, coll, COLLAPSE, emin, t, dtc, kin.m[:, :B], DT0)
     alive = alive & ~coll

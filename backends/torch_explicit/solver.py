@@ -39,6 +39,7 @@ import numpy as np
 from cfm_backends.explicit import errors, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.history import BASE_COLUMNS, COLUMNS
+from cfm_backends.explicit.options import step_cap
 from cfm_backends.threads import num_threads
 from cfm_core.errors import InputError, NumericalError
 from cfm_core.simulation.checks import Monitor
@@ -187,6 +188,7 @@ class _Run:
         self.syncs = 0
         # physics checks (cfm_core.simulation.checks), every ~1 % of the end time, in the user's numbering
         monitor = Monitor(self.user)
+        cap = step_cap(o, self.user)  # dt_max, and the output interval: histories at least that often
         nodes0 = np.asarray(self.user.nodes, dtype=np.float64)
         positions = lambda: nodes0 + to_user(u.T.to("cpu", torch.float64).numpy())  # noqa: E731
         gen = self.general
@@ -210,7 +212,7 @@ class _Run:
             dtc = o.safety * dmin
             if DT0 == 0.0 and math.isfinite(dtc):
                 DT0 = dtc
-            dt = min(dtc, o.dt_max)
+            dt = min(dtc, cap)
             if not (dt > 0.0 and math.isfinite(dt)) or dtc < o.collapse * DT0:
                 raise self._collapse_error(t, int(emin), dtc, DT0)
             dtn = 0.5 * (dtp + dt)

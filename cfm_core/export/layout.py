@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..material import reference
+from ..material.plausible import small_strain_moduli
 from ..material.kinematics import VOIGT
 
 COMPONENTS = tuple(f"{a + 1}{b + 1}" for a, b in VOIGT)  # 11, 22, 33, 12, 23, 13
@@ -145,20 +145,3 @@ def props(material, lsdyna: bool = False) -> np.ndarray:
         float64 values in SI units, in the order of :func:`constants`.
     """
     return np.array([e.default for e in constants(material.spec, lsdyna, material)], dtype=np.float64)
-
-
-def small_strain_moduli(material) -> tuple[float, float]:
-    """Bulk and instantaneous shear modulus at F = I from the reference tangent (Pa).
-
-    Parameters
-    ----------
-    material : Material
-        A bound material.
-
-    Returns
-    -------
-    bulk, shear : float
-        (CC_1111 + 2 CC_1122) / 3 and CC_1212 of the instantaneous tangent at the reference (Pa).
-    """
-    CC = reference.tangent(material, np.eye(3))[0]
-    return float((CC[0, 0, 0, 0] + 2.0 * CC[0, 0, 1, 1]) / 3.0), float(CC[0, 1, 0, 1])

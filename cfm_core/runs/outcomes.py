@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..post import G0, compare_histories
+from ..tables import as_float
 from ..post.plots import plot_acceleration, plot_reaction, subtitled
 from ..post.staging import staged_folder
 from ..post.fields import parse_fields
@@ -363,7 +364,7 @@ def output_bytes(scene, options: dict | None = None, plot: bool = True, vtu: boo
     rows = scene.end_time * float(scene.settings.output_rate) + 2
     total = int(rows * 4 * _CSV_BYTES) + (PNG_BYTES if plot else 0) + 20_000
     interval = (options or {}).get("frame_interval")
-    if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval > 0):
+    if not (isinstance(interval, (int, float)) and math.isfinite(as_float(interval)) and interval > 0):
         interval = None  # not given, or not a valid interval (the backend's option check says so)
     if vtu and interval and scene.type == "drop-test":
         frames = int(scene.end_time / float(interval)) + 2

@@ -18,6 +18,7 @@ import numpy as np
 from .. import post
 from ..errors import InputError, NumericalError
 from ..post.filters import MIN_RATE_OVER_CFC
+from ..post.metrics import filter_warning
 from ..scene.builder import build_model
 from ..scene.model import too_big
 from ..scene.plausible import check_plausible
@@ -298,6 +299,9 @@ def drop_test_outcome(scene: Scene, model, result, notes=(), options: dict | Non
     scene = resolved(scene, model, result.backend, options)
     rate = float(scene.settings.output_rate)
     t, a_raw, a_cfc = post.acceleration_histories(result, model.mass_full, rate=rate)
+    cut = filter_warning(t, a_raw, a_cfc, 600.0)
+    if cut:
+        result.info.setdefault("warnings", []).append(cut)
     info = {
         "scene_name": scene.settings.name or "",
         "impactor_mass": model.mass_full, "impactor_radius": scene.impactor.radius, "sample_rate": rate,

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..tables import as_float, shown
 from .model import IMPACTOR_SHAPES
 from .values import _choice, _num, _set
 
@@ -34,9 +35,10 @@ ZERO_COMPONENT = 1e-12
 def _vector(section, key, value, n, unit):
     """``value`` as a tuple of ``n`` finite floats, else InputError."""
     ok = isinstance(value, (list, tuple)) and len(value) == n and all(
-        isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(float(v)) for v in value)
+        isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(as_float(v)) for v in value)
     if not ok:
-        raise InputError(f"[{section}] {key} = {value!r} must be a list of {n} finite numbers ({unit}).")
+        shown_list = f"[{', '.join(map(shown, value))}]" if isinstance(value, (list, tuple)) else shown(value)
+        raise InputError(f"[{section}] {key} = {shown_list} must be a list of {n} finite numbers ({unit}).")
     return tuple(float(v) for v in value)
 
 
@@ -94,7 +96,7 @@ class Impactor:
                 raise InputError(f"[impactor] velocity = {list(v)!r} m/s has vz = {vec[2]!r} m/s; the vector form "
                                  f"needs vz < 0 (the impactor moves down onto the specimen). Give e.g. "
                                  f"[0.0, 0.0, -1.0] or a speed (a positive number).")
-            speed = math.sqrt(sum(c * c for c in vec))
+            speed = math.hypot(*vec)  # no overflow or underflow of the squares (1e300 is not inf, 1e-300 not 0)
             _num(s, "velocity (magnitude)", speed, "m/s", 0, 1e3, lo_open=True)
             for key in ("angle", "azimuth"):
                 if getattr(self, key) is not None:
@@ -133,7 +135,7 @@ class Impactor:
     @property
     def speed(self) -> float:
         """Impact speed |v| (m/s)."""
-        return float(self.velocity) if not isinstance(self.velocity, tuple) else float(np.linalg.norm(self.vector))
+        return float(self.velocity) if not isinstance(self.velocity, tuple) else math.hypot(*self.velocity)
 
     @property
     def normal_speed(self) -> float:

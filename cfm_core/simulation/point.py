@@ -48,17 +48,26 @@ def read_history(path) -> tuple[np.ndarray, np.ndarray]:
     ------
     InputError
         Naming the file and line: encoding, header, non-finite or non-numeric values, times out
-        of order, det F <= 0.
+        of order, det F <= 0, det F or F^T F beyond the float64 range.
     """
     table = read_table(path, HISTORY_HEADER, {"t": "s", **{c: "-" for c in HISTORY_HEADER[1:]}}, exact=True,
                        strict=False, what="history file")
     t, F = table.data[:, 0], table.data[:, 1:].reshape(-1, 3, 3)
-    J = np.linalg.det(F)
+    with np.errstate(over="ignore", invalid="ignore"):
+        J = np.linalg.det(F)
+        C = np.einsum("nki,nkj->nij", F, F)
     bad = np.flatnonzero(~(J > 0))
     if bad.size:
         k = int(bad[0])
         raise InputError(f"{path}, line {table.lines[k]}: det F = {J[k]:g} <= 0 (inverted or degenerate "
                          f"deformation); det F must be positive.")
+    huge = np.flatnonzero(~(np.isfinite(J) & np.isfinite(C).all(axis=(1, 2))))
+    if huge.size:  # det F = inf read as "inverted" by two backends and as zero stress by the others
+        k = int(huge[0])
+        what = "det F = inf" if not np.isfinite(J[k]) else f"C = F^T F overflows (det F = {J[k]:g})"
+        raise InputError(f"{path}, line {table.lines[k]}: {what}: beyond the float64 range (largest |F| entry "
+                         f"{np.abs(F[k]).max():g}); no material point follows such a deformation. Give "
+                         f"stretches (F entries) whose squares and det F are finite numbers.")
     return t, F
 
 

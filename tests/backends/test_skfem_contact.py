@@ -91,3 +91,25 @@ def test_peak_does_not_depend_on_the_contact_stiffness():
         if k[0] == "augmented":
             assert r.info["penetration_ratio"] < 0.01
             assert r.info["newton_iterations"] / r.steps < 3.0
+
+
+def test_a_penetration_names_the_penalty_stiffness_and_the_option():
+    """kappa = 666.1 Pa (kPa meant): the default penalty (100 x kappa0 x h, 2e-4 N/m at kappa = 1e-3)
+    let the nodes through the plate and the message blamed the load and the mesh only."""
+    import numpy as np
+
+    import cfm_core as cfm
+    from cfm_backends.skfem_implicit.solver import _ContactMonitor
+    from cfm_core.errors import NumericalError
+
+    model = cfm.build_model(cfm.builtin_scene("drop-test").with_overrides(element_size=0.004, width=0.02))
+    options = {"penalty": None, "penalty_factor": 100.0}
+    monitor = _ContactMonitor(model, 0.1332, options, 666.1, 0.002)
+    x = np.asarray(model.nodes, dtype=np.float64).copy()
+    x[0, 2] -= 0.001  # a bottom node 1 mm behind the plate
+    with pytest.raises(NumericalError, match=r"behind the rigid plate.*penalty of 0.1332 N/m per node \(penalty_factor "
+                                             r"100 x kappa0 666.1 Pa x h 0.002 m\).*--option penalty="):
+        monitor.inspect(0.001, x, model.sphere.center[2] + 0.01)
+    monitor = _ContactMonitor(model, 1000.0, {"penalty": 1000.0, "penalty_factor": 100.0}, 666.1, 0.002)
+    with pytest.raises(NumericalError, match=r"penalty of 1000 N/m per node: if"):
+        monitor.inspect(0.001, x, model.sphere.center[2] + 0.01)

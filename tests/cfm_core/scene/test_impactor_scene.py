@@ -176,3 +176,14 @@ def test_requested_symmetry_that_holds_and_none():
 def test_impactor_errors(impactor, match):
     with pytest.raises(InputError, match=match):
         small(**impactor)
+
+
+def test_the_magnitude_of_a_velocity_vector_neither_overflows_nor_underflows():
+    """[1e300, 0, -1] was refused as "inf m/s" and [0, 0, -1e-300] as "0.0 m/s": the squares overflowed
+    and underflowed; the magnitude itself is named."""
+    from cfm_core.errors import InputError
+    from cfm_core.scene.scene import builtin_scene
+
+    with pytest.raises(InputError, match=r"velocity \(magnitude\) = 1e\+300 m/s"):
+        builtin_scene("drop-test").with_overrides(velocity=[1e300, 0.0, -1.0])
+    assert builtin_scene("drop-test").with_overrides(velocity=[0.0, 0.0, -1e-300]).impactor.speed == 1e-300
