@@ -92,7 +92,7 @@ def step_cap(o: ExplicitOptions, models) -> float:
     Returns
     -------
     float
-        min(dt_max, output intervals > 0) (s).
+        min(dt_max, the output intervals of the prescribed-motion models) (s).
     """
     models = models if isinstance(models, (list, tuple)) else (models,)
     intervals = [float(m.output_interval) for m in models

@@ -36,6 +36,13 @@ def _last_crossing(t: np.ndarray, a: np.ndarray, level: float) -> float:
     return float(t[j] + (a[j] - level) * (t[j + 1] - t[j]) / (a[j] - a[j + 1]))
 
 
+def _contact_time(t: np.ndarray, a_raw: np.ndarray) -> float | None:
+    """t[k1] - t[k0] (s), k0 and k1 the first and last samples with a_raw > CONTACT_FRACTION_RAW
+    max(a_raw); None when a_raw is never positive."""
+    on = np.flatnonzero(a_raw > CONTACT_FRACTION_RAW * float(np.max(a_raw)))
+    return float(t[on[-1]] - t[on[0]]) if on.size else None
+
+
 def drop_test_metrics(t, a_filtered, a_raw=None) -> dict:
     """Pulse metrics of a filtered impactor acceleration history (m/s^2, positive decelerating).
 
@@ -67,10 +74,9 @@ def drop_test_metrics(t, a_filtered, a_raw=None) -> dict:
         r = _finite("a_raw", a_raw)
         if r.shape != t.shape:
             raise InputError(f"a_raw has shape {r.shape}, t {t.shape}; they must match.")
-        on = np.flatnonzero(r > CONTACT_FRACTION_RAW * float(np.max(r)))
-        if on.size == 0:
+        duration = _contact_time(t, r)
+        if duration is None:
             raise InputError("a_raw is never positive: no contact to time (max a_raw <= 0 m/s^2).")
-        duration = float(t[on[-1]] - t[on[0]])
     else:
         c = CONTACT_FRACTION_FILTERED * peak
         duration = _last_crossing(t, a, c) - _first_crossing(t, a, c)
@@ -117,8 +123,7 @@ def filter_warning(t, a_raw, a_filtered, cfc: float) -> str | None:
         return None
     if float(np.asarray(a_raw)[-1]) > CONTACT_FRACTION_RAW * raw:
         return None  # a record ending in contact: cut short, which the run checks say, not a short pulse
-    on = np.flatnonzero(np.asarray(a_raw) > CONTACT_FRACTION_RAW * raw)
-    width = float(t[on[-1]] - t[on[0]]) if on.size else float("nan")
+    width = _contact_time(np.asarray(t), np.asarray(a_raw))
     return (f"the CFC {cfc:g} filter keeps {100 * filtered / raw:.0f} % of the raw peak ({filtered / G0:.4g} g of "
             f"{raw / G0:.4g} g): the pulse ({1e3 * width:.3g} ms of contact) is too short for this channel class, "
             f"so peak_g (filtered, as SAE J211 reports it) understates the impact; read the a_raw column (or "

@@ -194,11 +194,7 @@ def earlier_files(out: Path) -> list[Path]:
     found: set[Path] = set()
     manifest = out / MANIFEST
     if manifest.is_file():
-        try:
-            names = json.loads(manifest.read_text(encoding="utf-8")).get("files", [])
-        except (OSError, ValueError, AttributeError):
-            names = []
-        found.update(out / n for n in names if isinstance(n, str) and "/" not in n and n not in ("", ".", ".."))
+        found.update(out / n for n in _manifest_names(out) if "/" not in n and n not in ("", ".", ".."))
         found.add(manifest)
     found.update(out / n for n in LEGACY_NAMES)
     for pattern in LEGACY_PATTERNS:
@@ -328,19 +324,18 @@ def deferred_signals():
     import signal
     import threading
 
-    caught: list[int] = []
+    caught: list[tuple] = []  # (signal, the handler it would have met)
     if threading.current_thread() is not threading.main_thread():
         yield caught
         return
-    saved = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        saved[sig] = signal.signal(sig, lambda signum, frame: caught.append(signum))
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in saved:
+        signal.signal(sig, lambda signum, frame: caught.append((signum, saved[signum])))
     try:
         yield caught
     finally:
         for sig, handler in saved.items():
             signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
-        caught[:] = [(sig, saved[sig]) for sig in caught]
 
 
 def redeliver(caught: list, published: Path | None) -> None:
@@ -363,11 +358,16 @@ def redeliver(caught: list, published: Path | None) -> None:
 def published_files(out) -> list[str]:
     """The names of the files the last cfm output published in ``out`` (its manifest; [] if none),
     for a command's "wrote ..." line."""
+    return _manifest_names(Path(out))
+
+
+def _manifest_names(out: Path) -> list[str]:
+    """The file names ``out``'s manifest lists ([] when it is missing or unreadable)."""
     try:
-        names = json.loads((Path(out) / MANIFEST).read_text(encoding="utf-8")).get("files", [])
+        names = json.loads((out / MANIFEST).read_text(encoding="utf-8")).get("files", [])
     except (OSError, ValueError, AttributeError):
         return []
-    return [n for n in names if isinstance(n, str)]
+    return [n for n in names if isinstance(n, str)] if isinstance(names, list) else []
 
 
 def _write_manifest(folder: Path, names: list[str]) -> None:

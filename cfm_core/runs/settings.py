@@ -196,15 +196,13 @@ def run_record(scene: Scene, backend: str, options: dict | None = None) -> RunSe
         The section.
     """
     rec = backend_record(backend, options)
-    declared = getattr(backend_for(backend), "options_class", None)
-    specs = getattr(declared, "specs", dict)()
+    declared = getattr(backend_for(backend), "options_class", None)  # its class attributes: the defaults
     opts = {}
     for k, v in rec["options"].items():
         if k in FIXED:
             continue
         if v is not None:
             opts[k] = v
-        elif k in specs and getattr(declared, k, None) is not None:
+        elif getattr(declared, k, None) is not None:
             opts[k] = NONE_TEXT  # None chosen where the default is not None (error_tol = None, not 'auto')
-    return RunSettings(backend, rec["dtype"], rec["device"], opts, scene_files(scene), materials=material_digests(scene))
     return RunSettings(backend, rec["dtype"], rec["device"], opts, scene_files(scene), materials=material_digests(scene))

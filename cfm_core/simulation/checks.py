@@ -200,6 +200,9 @@ class Monitor:
         gives a node's position for the messages), for a backend with a compiled one (the numba
         backend's parallel scan of its own numbering, ``cfm_backends.numba_explicit.scan``);
         default: the numpy :class:`~cfm_core.simulation.scan.Scan`.
+    contact_hint : str, optional
+        Appended to a penetration failure (a node behind the plate or inside the impactor): what
+        the backend's contact adds to the cause (skfem: a penalty stiffness that follows kappa0).
 
     Raises
     ------
@@ -208,8 +211,9 @@ class Monitor:
         quantity ("penetration", "symmetry", "bottoming out", "corner Jacobian").
     """
 
-    def __init__(self, model, checks: int = CHECKS_PER_RUN, scan=None):
+    def __init__(self, model, checks: int = CHECKS_PER_RUN, scan=None, contact_hint: str = ""):
         self.model = model
+        self.contact_hint = contact_hint
         self.limits = Limits.of(model)
         self.tol = tolerance(model, self.limits)
         self.planes = symmetry_planes(model)
@@ -364,7 +368,8 @@ class Monitor:
         err = NumericalError(
             f"{what} at t = {t:.6g} s in model '{self.model.name}' (tolerance {_mm(self.tol)}): the run "
             f"cannot be trusted. The load is too large for this specimen (check the units: impactor mass in "
-            f"kg, velocity in m/s, moduli in Pa), or the mesh too coarse.", time=t, quantity=quantity)
+            f"kg, velocity in m/s, moduli in Pa), or the mesh too coarse."
+            + (self.contact_hint if quantity.startswith("penetration") else ""), time=t, quantity=quantity)
         err.node = node
         return err
 

@@ -37,7 +37,7 @@ from ..material.registry import get_material
 from ..scene.scene import builtin_scene
 from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
 from .identifiability import at_bounds, bound_warning, misfit_warning, poor_warning
-from .lab_tests import KINDS, LabTest, read_lab_test, simulate
+from .lab_tests import KINDS, LabTest, read_lab_test, simulate, undeformed
 
 #: |correlation| at or above which two parameters are reported as not separately identifiable.
 CORRELATION_LIMIT = 0.99
@@ -207,7 +207,7 @@ def offset_warnings(tests) -> list[str]:
     """
     out = []
     for test in tests:
-        base = 0.0 if test.kind == "shear" else 1.0
+        base = undeformed(test.kind)
         rest = np.flatnonzero(np.abs(np.asarray(test.x) - base) <= 1e-12)
         if rest.size == 0 or not test.scale > 0.0:
             continue

@@ -53,6 +53,11 @@ KINDS = {
     "confined": ("stretch", "confined compression: stretch along 1, lateral stretches held at 1"),
 }
 UNITS = {"t": "s", "stretch": "-", "shear": "-", "stress": "Pa"}
+
+
+def undeformed(kind: str) -> float:
+    """The deformation column's value at the undeformed state of a test of ``kind`` (stretch 1, shear 0)."""
+    return 0.0 if kind == "shear" else 1.0
 #: Newton on the lateral stretch has converged when no step moves it by more than this fraction (a few
 #: units of the last bit), whatever the lateral stress left.
 ROUNDOFF_STEP = 8 * np.finfo(float).eps
@@ -169,7 +174,7 @@ def read_lab_test(path, kind: str, rate: float, weight: float = 1.0, name: str |
 
 
 def _check_deformation(p, kind, x, lineno):
-    base = 0.0 if kind == "shear" else 1.0
+    base = undeformed(kind)
     if kind == "shear":
         bad = np.flatnonzero(np.abs(x) > 5.0)
         allowed = "|shear| <= 5"
@@ -222,7 +227,7 @@ def _check_stress(p, kind, x, P, lineno):
     if not lo <= peak <= hi:
         raise InputError(f"test file '{p}': the largest |stress| is {peak:.3g} Pa, outside {lo:g} - {hi:g} Pa, which no "
                          f"material test records (soft tissue: kPa to MPa); give the nominal stress in Pa.")
-    d = x - (0.0 if kind == "shear" else 1.0)
+    d = x - undeformed(kind)
     k = int(np.argmax(np.abs(d)))
     if P[k] * d[k] < 0.0 and abs(P[k]) > NOISE * peak:
         what = "shear" if kind == "shear" else ("tension" if d[k] > 0 else "compression")
@@ -236,7 +241,7 @@ def _check_stress(p, kind, x, P, lineno):
 def _check_rate(p, kind, rate, t, x):
     """The stated rate against the file's: the mean rate between the first rows at 10 % and 90 % of the
     largest deformation (robust to noise and to a hold)."""
-    d = np.abs(x - (0.0 if kind == "shear" else 1.0))
+    d = np.abs(x - undeformed(kind))
     i10 = int(np.argmax(d >= 0.1 * d.max()))
     i90 = int(np.argmax(d >= 0.9 * d.max()))
     if i90 <= i10 or t[i90] <= t[i10]:
