@@ -289,8 +289,9 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     earlier = earlier_files(out)
     replaced_note(out, earlier, output_kind(names))
     going = [old for old in earlier if (old.name not in keep or old.name in names) and old.name != MANIFEST]
+    gone = {p.name for p in going}  # removed below: not "kept"
     others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
-                    and p.name not in keep and not p.name.startswith("."))
+                    and p.name not in keep and p.name not in gone and not p.name.startswith("."))
     if earlier and others:  # cfm fields --png out/x/cut.png, cfm compare --json out/x/c.json: of the run now gone
         print(f"note: {out} keeps {', '.join(others[:6])}{' ...' if len(others) > 6 else ''}, not written by this "
               f"command: if they were made from the earlier output there, they no longer describe the folder's "
@@ -437,9 +438,9 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
         except PublishError as exc:
             shutil.rmtree(stage, ignore_errors=True)
             _remove_empty(made)
-            state = (f"the earlier output there was partly removed and the folder now holds no complete output "
-                     f"(no completion marker such as summary.json); run the command again into a folder you can "
-                     f"write" if exc.touched else "nothing was published and the folder is as it was")
+            state = ("the earlier output there was partly removed and the folder now holds no complete output "
+                     "(no completion marker such as summary.json); run the command again into a folder you can "
+                     "write" if exc.touched else "nothing was published and the folder is as it was")
             raise InputError(f"{what} {out}: the finished output could not be moved into place ({exc.strerror}); "
                              f"{state}.") from None
     redeliver(caught, out)

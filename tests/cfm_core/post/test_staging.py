@@ -197,3 +197,18 @@ def test_a_sweep_clearing_a_runs_folder_says_what_it_replaces(tmp_path, capsys):
     clear_earlier_output(out, keep=("runs",))
     assert "held the output of a run (3 files); it is replaced by this sweep's" in capsys.readouterr().err
     assert list(out.iterdir()) == []
+
+
+def test_the_keeps_note_never_names_files_the_publication_removes(tmp_path, capsys):
+    """A fit written into a run's folder said "keeps reaction.csv, reaction.png, summary.json" and removed them."""
+    out = tmp_path / "se"
+    with staged_folder(out) as stage:
+        _write(stage, **{"summary.json": "run", "reaction.csv": "run", "reaction.png": "run"})
+    (out / "cut.png").write_text("mine")
+    capsys.readouterr()
+    with staged_folder(out) as stage:
+        _write(stage, **{"fit.json": "fit", "fitted-scene.toml": "fit"})
+    err = capsys.readouterr().err
+    assert "held the output of a run (3 files); it is replaced by this fit's" in err
+    assert "keeps cut.png, not written" in err and "reaction.csv" not in err.split("keeps", 1)[1]
+    assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "cut.png", "fit.json", "fitted-scene.toml"])
