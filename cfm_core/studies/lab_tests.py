@@ -56,7 +56,18 @@ UNITS = {"t": "s", "stretch": "-", "shear": "-", "stress": "Pa"}
 
 
 def undeformed(kind: str) -> float:
-    """The deformation column's value at the undeformed state of a test of ``kind`` (stretch 1, shear 0)."""
+    """The deformation column's value at the undeformed state of a test.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+
+    Returns
+    -------
+    float
+        0 for shear (the shear gamma), 1 for the others (a stretch) (-).
+    """
     return 0.0 if kind == "shear" else 1.0
 #: Newton on the lateral stretch has converged when no step moves it by more than this fraction (a few
 #: units of the last bit), whatever the lateral stress left.
