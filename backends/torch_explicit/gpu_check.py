@@ -1,19 +1,26 @@
 """GPU check of the torch backend, sized for a short lease of one large GPU (< 8 minutes).
 
-    python -m cfm_backends.torch_explicit.gpu_check --out DIR [--sizes 64 1024] [--budget 420]
+    python -m cfm_backends.torch_explicit.gpu_check --out DIR [--sizes 64 256] [--budget 420]
 
 On CUDA: the paper's 8 mm drop test (1 mm hexahedra, quarter model) alone and in batches of 64
-and 1024 (half of each batch with the paper's k2 = 1.66, half with k2 = 2.5, so that runs mixed
-up would show; every step free of host synchronisation, ``sync_free``), in float64 and float32; each run is checked against the CPU float64 result of
-the same model (relative L2 of the CFC 600 filtered acceleration; limits 1e-10 in float64, 1e-4
-in float32), and the script prints per-run solver time, ns per element-cycle, host syncs per step
-and device memory per run. Each configuration runs twice: its step captured as a CUDA graph and
-replayed (``cuda_graph=True``), then the same step eagerly (``cuda_graph=False``); the eager row
-says how many times faster the graph was (the graph's time includes its three warm-up steps and
-the capture). Results go to DIR/gpu_check.json and DIR/gpu_check.txt. A
-configuration that would start after ``--budget`` seconds is skipped (and said so). Without a
-usable CUDA device it exits with status 2 and says why; ``--device cpu`` (with ``--sizes 3
---element-size 0.002``) is a dry run of the script on the CPU (about a minute: the sync-free step is slow on the CPU).
+and 256 (half of each batch with the paper's k2 = 1.66, half with k2 = 2.5, so that runs mixed
+up would show; every step free of host synchronisation, ``sync_free``), in float64 and float32;
+each run is checked against the CPU float64 result of the same model (relative L2 of the CFC 600
+filtered acceleration; limits 1e-10 in float64, 1e-4 in float32), and the script prints per-run
+solver time, ns per element-cycle, host syncs per step and device memory per run. Each
+configuration runs twice: its step captured as a CUDA graph and replayed (``cuda_graph=True``),
+then the same step eagerly (``cuda_graph=False``); the eager row says how many times faster the
+graph was (the graph's time includes its three warm-up steps and the capture). Results go to
+DIR/gpu_check.json and DIR/gpu_check.txt. A configuration whose estimated time (the cost per
+element-cycle measured so far in the same mode, times its size) would end it after ``--budget``
+seconds is skipped, and said so. Without a usable CUDA device it exits with status 2 and says
+why; ``--device cpu`` (with ``--sizes 3 --element-size 0.002``) is a dry run of the script on the
+CPU (about a minute: the sync-free step is slow on the CPU).
+
+Measured on an NVIDIA H200 (torch 2.11, 2026-12-04): the CPU references 31 s, then per run
+B = 1 graph 7.9 s (eager 53 s), B = 64 graph 0.30 s (eager 1.13 s) in float64; float32 about
+12 % faster; that first run, with batches of 64 and 1024, spent 336 s before reaching 1024,
+whence the default sizes 64 and 256 and the estimate-based skipping.
 """
 
 from __future__ import annotations
@@ -82,9 +89,10 @@ def _check(be, models, refs, b: int, dtype: str, graph: bool, device: str, ne: i
            "passed": bool(not errs and worst < LIMITS[dtype] and bool(info.get("cuda_graph", False)) == graph)}
     mib = rec["peak_device_MiB_per_run"]
     other = [r for r in records if r.get("batch") == b and r.get("dtype") == dtype and "per_run_s" in r]
-    speed = f", graph {other[0]['per_run_s'] / rec['per_run_s']:.2f}x faster" if other and not graph else ""
-    if other and not graph:
+    speed = ""
+    if other and not graph:                 # the graph ran first: eager time / graph time
         other[0]["speedup_over_eager"] = rec["per_run_s"] / other[0]["per_run_s"]
+        speed = f", the graph was {other[0]['speedup_over_eager']:.2f}x faster"
     say(f"  {label}: {rec['per_run_s']:.3f} s per run, {rec['ns_per_element_cycle']:.2f} ns per "
         f"element-cycle, {'n/a' if mib is None else f'{mib:.1f}'} MiB per run (device peak), "
         f"{rec['host_syncs_per_step']:.3f} host syncs per step, worst rel. L2 vs CPU {worst:.1e} "
@@ -93,12 +101,26 @@ def _check(be, models, refs, b: int, dtype: str, graph: bool, device: str, ne: i
     return rec
 
 
+def _estimate(records, b: int, dtype: str, graph: bool, cycles_per_run: int) -> float:
+    """Seconds a configuration of ``b`` runs will take (0 when nothing measured says): the cost
+    per element-cycle of the largest batch measured so far in the same mode (graph or eager;
+    smaller batches cost more per element-cycle, so the estimate errs long), float32 taken at
+    the float64 cost when it has no measurement of its own."""
+    done = [r for r in records if "ns_per_element_cycle" in r and r["cuda_graph"] == graph and r["batch"] <= b]
+    same = [r for r in done if r["dtype"] == dtype] or done
+    if not same:
+        return 0.0
+    best = max(same, key=lambda r: r["batch"])
+    return best["ns_per_element_cycle"] * 1e-9 * cycles_per_run * b
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, help="folder for gpu_check.json and gpu_check.txt")
-    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 1024], help="batch sizes (default 64 1024)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 256], help="batch sizes (default 64 256)")
     ap.add_argument("--budget", type=float, default=420.0,
-                    help="seconds after which no new configuration starts (default 420)")
+                    help="seconds, s: no configuration starts that would, by the cost measured so far, end "
+                         "after this (default 420)")
     ap.add_argument("--device", default="cuda", help="CUDA device (default 'cuda'; 'cpu' for a dry run of the "
                     "script itself)")
     ap.add_argument("--element-size", type=float, default=0.001, help="hexahedron edge, m (default 0.001)")
@@ -130,19 +152,25 @@ def main(argv=None) -> int:
     say(f"gpu_check: {name}, torch {torch.__version__}; 8 mm drop test, "
         f"{ne} hexahedra (quarter model)")
     refs = []
+    steps = 0
     for m in models:
         r = be.run(m, device="cpu", dtype="float64")
+        steps = max(steps, r.steps)
         refs.append(_filtered(r, m))
         say(f"  CPU float64 reference (k2 = {m.material.values['k2']:g}): {r.steps} steps, {r.wall_time:.1f} s")
     records = []
-    configs = [(1, dt) for dt in ("float64", "float32")] + [(b, dt) for b in args.sizes for dt in ("float64", "float32")]
+    # the single run in float64 first, the batches next, the single float32 run (the least news) last
+    configs = ([(1, "float64")] + [(b, dt) for b in args.sizes for dt in ("float64", "float32")]
+               + [(1, "float32")])
     modes = (True, False) if cuda else (False,)      # the captured CUDA graph, then the eager sync-free step
     for b, dtype in configs:
         for graph in modes:
             elapsed = time.perf_counter() - start
             label = f"B = {b:4d} {dtype} {'graph' if graph else 'eager'}"
-            if elapsed > args.budget:
-                say(f"  {label}: skipped ({elapsed:.0f} s elapsed > budget {args.budget:g} s)")
+            guess = _estimate(records, b, dtype, graph, steps * ne)
+            if elapsed + guess > args.budget:
+                say(f"  {label}: skipped ({elapsed:.0f} s elapsed + about {guess:.0f} s estimated > budget "
+                    f"{args.budget:g} s)")
                 records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True})
                 continue
             records.append(_check(be, models, refs, b, dtype, graph, args.device, ne, say, records))
