@@ -57,6 +57,40 @@ def state(model, t: float) -> NumericalError:
                           time=t, quantity="state")
 
 
+#: Steps after which a run whose pace (steps per simulated second) cannot reach its end time within
+#: max_steps stops with the projection (:func:`projected_steps`).
+PROJECT_AFTER = 4096
+
+
+def pace(model, steps: int, t: float, limit: int) -> NumericalError | None:
+    """The runaway guard of an explicit run, after ``steps`` steps at time t (s): the error to raise, or None.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model being run (name, end_time in s).
+    steps : int
+        Steps taken so far.
+    t : float
+        Simulated time reached (s).
+    limit : int
+        The option max_steps.
+
+    Returns
+    -------
+    NumericalError or None
+        :func:`max_steps` once ``steps`` reaches ``limit``; :func:`projected_steps` once, after
+        :data:`PROJECT_AFTER` steps, the pace so far projects more than ``limit`` steps to the end
+        time (mu = 1e306 Pa: a stable step of 1e-155 s, which ran on for hours without a word);
+        None while the run can still finish.
+    """
+    if steps >= limit:
+        return max_steps(model, steps, t)
+    if steps >= PROJECT_AFTER and steps * float(model.end_time) > limit * t:
+        return projected_steps(model, steps, t, limit)
+    return None
+
+
 def projected_steps(model, steps: int, t: float, limit: int) -> NumericalError:
     """At the pace so far (``steps`` steps to time t, s), the run would need more than ``limit`` steps
     (option max_steps) to reach its end time: said at once instead of after hours (safety = 1e-300)."""

@@ -303,11 +303,6 @@ def warm_up(mod, material) -> float:
     return time.perf_counter() - start
 
 
-#: Steps after which a run whose pace (steps per simulated second) cannot reach its end time within
-#: max_steps stops with the projection (errors.projected_steps).
-PROJECT_AFTER = 4096
-
-
 def run_model(model, progress=None, **options) -> Result:
     """Run ``model``; see :class:`cfm_backends.numba_explicit.NumbaExplicitBackend`."""
     o = NumbaOptions.from_mapping(options)
@@ -376,10 +371,9 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
             stop = "separated"
             break
         steps = int(prep.sc[K.S_STEPS])
-        if steps >= o.max_steps:
-            raise errors.max_steps(model, steps, t)
-        if steps >= PROJECT_AFTER and steps * end > o.max_steps * t:  # would run for hours: say so now
-            raise errors.projected_steps(model, steps, t, o.max_steps)
+        runaway = errors.pace(model, steps, t, o.max_steps)   # max_steps, or a pace that cannot reach the end
+        if runaway is not None:
+            raise runaway
     wall = time.perf_counter() - start
     monitor.final(t, prep.st[0], z())
     h = np.concatenate(chunks)

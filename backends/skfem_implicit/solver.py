@@ -159,6 +159,7 @@ def _run(model, progress, o) -> Result:
     nodes = np.asarray(model.nodes, dtype=np.float64)
     impactor_z = lambda s: sys_.impactor_point(s.q)  # noqa: E731  - the whole reference point (m)
     recent = deque(maxlen=STALL_STEPS)  # times of the last accepted steps
+    overflows = Overflows()  # steps rejected for a non-finite material term: named when the run stops
     while state.t < end * (1.0 - 1e-12):
         if steps >= o["max_steps"]:
             raise NumericalError(f"skfem backend: more than max_steps = {o['max_steps']} steps before "
@@ -172,11 +173,12 @@ def _run(model, progress, o) -> Result:
                 stats["rejected_steps"] += 1
                 if len(failures) < 50:
                     failures.append([state.t + dt_try, dt_try, fail.quantity, str(fail)])
+                overflows.add(fail, state.t + dt_try, dt_try)
                 if dt_try <= dt_min * (1.0 + 1e-12):
                     # the physical cause first: a last accepted state that already fails the run checks
                     # (penetration, folded corner, bottoming out) is reported as such, not its symptom
                     monitor.inspect(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
-                    raise _final_error(model, fail, state.t + dt_try, dt_try) from None
+                    raise _final_error(model, fail, state.t + dt_try, dt_try, overflows.since(recent)) from None
                 dt_try = max(dt_try * o["cut"], dt_min)
                 dt = dt_try
                 continue
@@ -187,7 +189,7 @@ def _run(model, progress, o) -> Result:
                     # accepting it would march on at dt_min with the error uncontrolled (kappa = 100 Pa:
                     # minutes of 5e-10 s steps without a word): the step collapsed; its cause first
                     monitor.inspect(state.t, nodes + sys_.displacement(state.q), impactor_z(state))
-                    raise _collapse_error(model, state.t, dt_try, info.error, tol)
+                    raise _collapse_error(model, state.t, dt_try, info.error, tol, overflows.since(recent))
                 # too large a local error: retry smaller (the step's work is counted above)
                 stats["error_rejections"] += 1
                 dt_try = max(dt_try * max(0.2, 0.9 * (tol / info.error) ** (1.0 / 3.0)), dt_min)
@@ -200,7 +202,7 @@ def _run(model, progress, o) -> Result:
             # the step collapsed (Newton needing ever smaller steps): stop, its cause first, instead of
             # grinding on for hours at 1e-8 s steps
             monitor.inspect(new.t, nodes + sys_.displacement(new.q), impactor_z(new))
-            raise _stall_error(model, new.t, new.t - recent[0], dt_try, info.iterations, end)
+            raise _stall_error(model, new.t, new.t - recent[0], dt_try, info.iterations, end, overflows.since(recent))
         if o["record_newton"]:
             newton_log.append([new.t, dt_try, info.residuals])
         q_prev, t_prev_seg = (state.q, state.t), sched.segment(state.t + 0.5 * dt_try)
@@ -306,28 +308,89 @@ STALL_STEPS = 200
 STALL_FRACTION = 1e-4
 
 
-def _stall_error(model, t: float, advanced: float, dt: float, iterations: int, end: float) -> NumericalError:
-    """The error of a run whose steps collapsed (:data:`STALL_STEPS`, :data:`STALL_FRACTION`)."""
+class Overflows:
+    """The steps rejected because a material term was not finite (the fibre exponential beyond exp(709),
+    the volumetric term at J -> 0, a modulus near the float64 limit): the cause to name when the run
+    stops, where the symptom is a collapsed step or a Newton iteration that does not converge (k2 = 1e9
+    on the drop test: 14 such rejections among 240, and the run said only "the time step collapsed")."""
+
+    def __init__(self):
+        self.times = deque(maxlen=100_000)   # times (s) the rejected steps aimed at
+        self.last = None                     # (t (s), dt (s), StepFailure) of the latest
+
+    @staticmethod
+    def overflowed(fail: StepFailure) -> bool:
+        """Whether a rejected step failed on a non-finite material term (compiled.py, constitutive.py)."""
+        return str(fail.quantity).startswith("non-finite")
+
+    def add(self, fail: StepFailure, t: float, dt: float) -> None:
+        """Record a rejected step aimed at time t (s) with step dt (s), if it overflowed."""
+        if self.overflowed(fail):
+            self.times.append(t)
+            self.last = (t, dt, fail)
+
+    def since(self, recent) -> tuple | None:
+        """(count, t (s), dt (s), StepFailure) of the overflows since the oldest step in ``recent`` (the
+        accepted steps of the stall window; all of them while it is not full), or None."""
+        start = recent[0] if len(recent) == recent.maxlen else -math.inf
+        n = sum(1 for t in self.times if t >= start)
+        return (n, *self.last) if n and self.last is not None else None
+
+
+def _overflow_cause(overflow) -> str:
+    """The sentence naming the term that overflowed (the numba backend's wording, through
+    :func:`cfm_core.material.diagnose.describe_nonfinite` in the failure's message)."""
+    n, t, dt, fail = overflow
+    return (f"the material's energy overflows: {n} step(s) were rejected because a term is not finite, the "
+            f"latest the step of {dt:.3g} s to t = {t:.6g} s: {str(fail).rstrip('.')}")
+
+
+def _stall_error(model, t: float, advanced: float, dt: float, iterations: int, end: float,
+                 overflow=None) -> NumericalError:
+    """The error of a run whose steps collapsed (:data:`STALL_STEPS`, :data:`STALL_FRACTION`); ``overflow``
+    (:meth:`Overflows.since`) names the material term that overflowed as the cause."""
+    cause = ("an element folding, contact chattering, or a material far out of its range" if overflow is None
+             else _overflow_cause(overflow))
     return NumericalError(
         f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': the last "
         f"{STALL_STEPS} steps advanced {advanced:.3g} s in all (less than {STALL_FRACTION:g} of the end time "
         f"{end:g} s; last step {dt:.3g} s, {iterations} Newton iterations), so the run would take hours and "
-        f"no step follows the response (an element folding, contact chattering, or a material far out of its "
-        f"range); the run cannot be trusted beyond this time.", time=t, quantity="time step")
+        f"no step follows the response ({cause}); the run cannot be trusted beyond this time.",
+        time=t, **_overflow_where(overflow, "time step"))
 
 
-def _collapse_error(model, t: float, dt: float, error: float, tol: float) -> NumericalError:
-    """The error of a run whose local error stays above the tolerance at the smallest step."""
+def _collapse_error(model, t: float, dt: float, error: float, tol: float, overflow=None) -> NumericalError:
+    """The error of a run whose local error stays above the tolerance at the smallest step; ``overflow``
+    as for :func:`_stall_error`."""
+    cause = ("an element folding, contact chattering, or a material far out of its range" if overflow is None
+             else _overflow_cause(overflow))
     return NumericalError(
         f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': at the smallest "
         f"step dt_min = {dt:.3g} s the local error is {error:.3g}, above 3 x error_tol = {3.0 * tol:.3g}, so "
-        f"no step can follow the response (an element folding, contact chattering, or a material far out of "
-        f"its range); the run cannot be trusted beyond this time.", time=t, quantity="time step")
+        f"no step can follow the response ({cause}); the run cannot be trusted beyond this time.",
+        time=t, **_overflow_where(overflow, "time step"))
 
 
-def _final_error(model, fail: StepFailure, t: float, dt: float) -> NumericalError:
+def _overflow_where(overflow, quantity: str) -> dict:
+    """element and quantity of the error: the overflowed term's (as the numba backend reports an overflow),
+    else ``quantity`` alone."""
+    if overflow is None:
+        return {"quantity": quantity}
+    fail = overflow[3]
+    return {"element": fail.element, "quantity": fail.quantity}
+
+
+def _final_error(model, fail: StepFailure, t: float, dt: float, overflow=None) -> NumericalError:
+    """The error of a step that failed at the smallest step dt (s); a failure that is not itself an
+    overflow names the overflow among the rejected steps before (``overflow``, :meth:`Overflows.since`)."""
     where = f" in element {fail.element}" if fail.element is not None else ""
+    cause = ""
+    if overflow is not None and not Overflows.overflowed(fail):
+        cause = f" The cause: {_overflow_cause(overflow)}."
+        element, quantity = overflow[3].element, overflow[3].quantity
+    else:
+        element, quantity = fail.element, fail.quantity
     return NumericalError(
         f"skfem backend: the step to t = {t:.6g} s failed at the smallest step dt = {dt:.3g} s{where} "
-        f"({fail.quantity}): {fail}. Model '{model.name}': lower the load, refine the mesh, or lower "
-        f"dt_min / raise max_iterations.", time=t, element=fail.element, quantity=fail.quantity)
+        f"({fail.quantity}): {fail}.{cause} Model '{model.name}': lower the load, refine the mesh, or lower "
+        f"dt_min / raise max_iterations.", time=t, element=element, quantity=quantity)

@@ -131,6 +131,24 @@ class Stepper:
         self.alpha_m, self.alpha_f, self.beta, self.gamma = generalized_alpha(o["rho_inf"])
         self.times = system.times  # s per phase, shared with the system and the linear solver
 
+    def _nonfinite_residual(self, R: np.ndarray, f_int: np.ndarray) -> StepFailure:
+        """The rejection of an iterate whose residual norm is not finite, with its cause: forces whose
+        squares overflow float64 (finite entries above ~1e154 N: a modulus near the float64 limit,
+        mu = 1e306 Pa gave only "non-finite residual"), or a non-finite force entry (a diverging
+        iterate), naming the element that holds it."""
+        with np.errstate(invalid="ignore"):
+            big = np.abs(np.where(np.isfinite(R), R, np.inf))
+        e = self._worst_element(big)
+        where = "at the impactor" if e is None else f"in element {e}"
+        if np.isfinite(R).all():
+            peak = float(np.abs(f_int).max()) if f_int.size else 0.0
+            return StepFailure(f"non-finite residual: the forces overflow float64 (the largest residual {big.max():.3g} N "
+                               f"{where}, internal forces up to {peak:.3g} N: their squares exceed 1.8e308); the "
+                               f"material's stiffness here is beyond what a float64 solve can carry (a modulus or "
+                               f"a stiffening exponent far too large: check the parameters and their units)",
+                               "residual overflow", element=e, value=float(big.max()))
+        return StepFailure(f"non-finite residual {where} (the Newton iterate diverged)", "residual", element=e)
+
     def _worst_element(self, R: np.ndarray) -> int | None:
         """An element holding the node with the largest residual (None: the impactor dof)."""
         k = int(np.argmax(np.abs(R)))
@@ -189,7 +207,7 @@ class Stepper:
             tol = self.rtol * scale + self.atol + floor
             info.residuals.append(rn)
             if not np.isfinite(rn):
-                raise StepFailure("non-finite residual", "residual")
+                raise self._nonfinite_residual(Rf, ev.f_int)
             # stagnation at the round-off floor: accepted as such (the driver reports it)
             stalled = (rn > tol and len(info.residuals) >= 2 and rn > STALL_RATIO * info.residuals[-2]
                        and rn <= STALL_BAND * self.roundoff and r0 is not None)

@@ -279,6 +279,8 @@ class _Batch:
                 if not bool(s.alive.any()):
                     break
                 self._monitor(s.alive, s.t, self.uv[0:3], s.C if gen else s.Z)
+                if total >= errors.PROJECT_AFTER:
+                    self._pace(s)
                 tmin = float(torch.where(s.alive, s.t, math.inf).min())
                 if self.progress is not None and tmin >= next_progress:
                     self.progress(min(tmin, tick * 100.0))
@@ -304,6 +306,22 @@ class _Batch:
         out = (s.rows[:count].to("cpu", torch.float64, copy=True), s.masks[:count].to("cpu", copy=True))
         s.pos.zero_()
         return out
+
+    def _pace(self, s) -> None:
+        """Stop the runs whose pace cannot reach their end time within max_steps, with the single
+        runs' error (:func:`cfm_backends.explicit.errors.pace`; mu = 1e306 Pa: a stable step of
+        1e-155 s); the others go on. One read of the runs' steps and times."""
+        import torch
+
+        self.syncs += 1
+        steps, t = s.steps.to("cpu").numpy(), s.t.to("cpu", torch.float64).numpy()
+        alive = s.alive.to("cpu").numpy()
+        for b, model in enumerate(self.models):
+            if alive[b] and b not in self.check_errors:
+                runaway = errors.pace(model, int(steps[b]), float(t[b]), self.o.max_steps)
+                if runaway is not None:
+                    self.check_errors[b] = runaway
+                    s.alive[b] = False
 
     def _monitor(self, alive, t, u, Z, final: bool = False, ok=None) -> None:
         """Run the physics checks of the runs that are due (``final``: every run that finished

@@ -215,10 +215,6 @@ class _Run:
             dt = min(dtc, cap)
             if not (dt > 0.0 and math.isfinite(dt)) or dtc < o.collapse * DT0:
                 raise self._collapse_error(t, int(emin), dtc, DT0)
-            tn = t + dt
-            last = pr is not None and t < end < tn
-            if last:        # prescribed motion: the last step lands on the end time (its final state)
-                dt, tn = end - t, end
             dtn = 0.5 * (dtp + dt)
             # 3. central differences
             nodal = scatter(resp.fe, a.idx, a.n)
@@ -229,7 +225,7 @@ class _Run:
             reaction = zero
             if pr is not None:
                 d = int(pr.dof)
-                target = arr.interp(tn, ptimes, pvals)
+                target = arr.interp(t + dt, ptimes, pvals)
                 old = u[d].index_select(0, a.pnodes)
                 v[d].index_copy_(0, a.pnodes, (target - old) / dt)
                 u[d].index_fill_(0, a.pnodes, target)
@@ -311,11 +307,10 @@ class _Run:
             WEXT += ax + bx
             IMP += force * dtn
             Z, V = Zs, Vs
-            t_n, t = t, tn
+            t_n, t = t, t + dt
             dtp = dt
             steps += 1
-            dtmin = dtmin if last else min(dtmin, dt)       # a shortened last step is no stability figure
-            dtmax, maxpen = max(dtmax, dt), max(maxpen, pen_)
+            dtmin, dtmax, maxpen = min(dtmin, dt), max(dtmax, dt), max(maxpen, pen_)
             self.state = resp.state
             if not math.isfinite(ke + pz + Zs):
                 raise errors.state(model, t_n)
@@ -343,8 +338,9 @@ class _Run:
                 monitor.check(t, positions(), self._ref(Z, C3 if gen else None))
             if done:
                 break
-            if steps >= o.max_steps:
-                raise errors.max_steps(model, steps, t)
+            runaway = errors.pace(model, steps, t, o.max_steps)   # max_steps, or a pace that cannot reach the end
+            if runaway is not None:
+                raise runaway
         wall = time.perf_counter() - start
         monitor.final(t, positions(), self._ref(Z, C3 if gen else None))
         h = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS) if gen else BASE_COLUMNS)

@@ -50,8 +50,9 @@ def term_inputs(m) -> dict:
     """
     m = np.asarray(m, dtype=np.float64).reshape(3)
     with np.errstate(all="ignore"):
-        J = float(np.sqrt(m[0]) * np.sqrt(m[1]) * np.sqrt(m[2]))
-        lam = np.sqrt(m) * J ** (-1.0 / 3.0)
+        J = np.sqrt(m[0]) * np.sqrt(m[1]) * np.sqrt(m[2])
+        lam = np.sqrt(m) * J ** (-1.0 / 3.0)  # numpy power: J = 0 gives inf, not a ZeroDivisionError
+        J = float(J)
     return {"J": J, "stretches": tuple(float(v) for v in lam)}
 
 
@@ -70,13 +71,16 @@ def nonfinite_term(material, m):
     tuple or None
         (term, inputs, what): the failing :class:`~cfm_core.material.spec.Term`, a dict of its
         kinematic inputs and parameter values (SI), and which quantity is not finite ("energy"
-        or "derivative"); None when every term is finite there (then the failure lies in the
-        kinematics, e.g. J = 0, or in the sum of finite terms).
+        or "derivative"); None when J is not a positive finite number (the failure lies in the
+        kinematics, e.g. J = 0) or every term is finite there (then it lies in the sum of finite
+        terms).
     """
     spec = getattr(material, "spec", None)
     if spec is None or not hasattr(material, "values"):
         return None  # not a Material made of declared terms (e.g. a test stand-in with its own code)
     inp = term_inputs(m)
+    if not (0.0 < inp["J"] < np.inf):
+        return None  # J = 0 (or inf, NaN): the kinematics failed before any term (describe_nonfinite says so)
     terms = list(spec.isochoric) + ([spec.volumetric] if spec.volumetric is not None else [])
     for term in terms:
         value, gradient = _term_functions(term)
@@ -117,6 +121,10 @@ def describe_nonfinite(material, m) -> str:
     found = nonfinite_term(material, m)
     inp = term_inputs(m)
     ev = ", ".join(f"{v:.4g}" for v in np.asarray(m, dtype=np.float64).reshape(3))
+    if found is None and not (0.0 < inp["J"] < np.inf):
+        return (f"the eigenvalues of C = ({ev}) of material '{material.name}' give J = {inp['J']:.4g}: the point is "
+                f"crushed to no volume (or C = F^T F lost its positive definiteness to underflow or round-off), so no "
+                f"energy term can be evaluated; lower the load or check the deformation")
     if found is None:
         if getattr(material, "spec", None) is None:
             return (f"the energy derivatives of material '{material.name}' overflow (inf or NaN) at the "

@@ -40,26 +40,40 @@ NU_MARGIN = 0.05
 def small_strain_moduli(material) -> tuple[float, float]:
     """Instantaneous small-strain bulk and shear moduli (K, G) of a material, from its tangent at F = I.
 
+    The isochoric and the volumetric parts of the tangent are formed separately. K comes from the
+    volumetric part alone: the isochoric part is deviatoric (CC_1111 + 2 CC_1122 = 4G/3 - 4G/3 = 0
+    in exact arithmetic), so adding it contributes only round-off of order 1e-16 G, which swamped
+    K when G >> K (mu = 1e306 Pa with kappa = 666.1 kPa gave K = 0). G is CC_1212 of the whole
+    tangent, :func:`cfm_core.material.reference.tangent` (the volumetric part adds -U'(1) = 0 for a
+    stress-free reference: no cancellation).
+
     Parameters
     ----------
     material : Material
-        A bound (isotropic) material.
+        A bound (isotropic, decoupled isochoric + volumetric) material.
 
     Returns
     -------
     K : float
-        Bulk modulus (Pa): (CC_1111 + 2 CC_1122) / 3.
+        Bulk modulus (Pa): (CC_1111 + 2 CC_1122) / 3 of the volumetric part, U''(1).
     G : float
         Shear modulus (Pa): CC_1212, the instantaneous one (long-term moduli times 1 / gamma_inf).
     """
-    from .reference import tangent  # deferred: imports the generated kernels
+    from . import kinematics as kin
+    from .reference import principal_response  # deferred: imports the generated kernels
 
-    C = tangent(material, np.eye(3))[0]
-    return float(C[0, 0, 0, 0] + 2.0 * C[0, 0, 1, 1]) / 3.0, float(C[0, 1, 0, 1])
+    m, Q, _ = kin.principal(np.eye(3))
+    g, h = principal_response(material, m, "psi_grad", "psi_hess")
+    vol = kin.tangent_from_principal(m, Q, g[:, 3:], h[:, 6:])[0]
+    full = kin.tangent_from_principal(m, Q, g[:, :3] + g[:, 3:], h[:, :6] + h[:, 6:])[0]  # reference.tangent's sum
+    return float(vol[0, 0, 0, 0] + 2.0 * vol[0, 0, 1, 1]) / 3.0, float(full[0, 1, 0, 1])
 
 
 def poisson_ratio(K: float, G: float) -> float:
     """Small-strain Poisson ratio nu = (3K - 2G) / (2 (3K + G)) (-).
+
+    Evaluated with K and G divided by the larger of |K|, |G| (the same ratio), so that 3K or 3K + G
+    cannot overflow (K = 1e308 Pa gave inf / inf = nan).
 
     Parameters
     ----------
@@ -69,10 +83,15 @@ def poisson_ratio(K: float, G: float) -> float:
     Returns
     -------
     float
-        nu (-); 0.5 for an incompressible material, nan when 3K + G = 0.
+        nu (-); 0.5 for an incompressible material, -1 where G >> K, nan when 3K + G = 0 or a
+        modulus is not finite.
     """
-    den = 2.0 * (3.0 * K + G)
-    return (3.0 * K - 2.0 * G) / den if den else math.nan
+    scale = max(abs(K), abs(G))
+    if not (math.isfinite(scale) and scale > 0.0):
+        return math.nan
+    k, g = K / scale, G / scale
+    den = 2.0 * (3.0 * k + g)
+    return (3.0 * k - 2.0 * g) / den if den else math.nan
 
 
 def check_material(material, above: bool = True) -> list[str]:

@@ -17,6 +17,13 @@ Two parts, both numpy only and backend-neutral:
   * an element is folded: the Jacobian det(dx/dxi) at one of its 8 corners is <= 0 (the
     explicit backends integrate at the centre only, whose J stays positive while a corner folds).
 
+  In the homogeneous scenes (single-element, relaxation: :data:`HOMOGENEOUS_SCENES`) it also
+  follows each element's volume ratio J at its centre (:class:`VolumeWatch`) and records where
+  the material's volumetric energy is not convex there (the point driver's check,
+  :func:`cfm_core.simulation.point.volumetric_convex_at`); :func:`check_result` warns about it.
+  During the prescribed ramp these scenes are checked at least 100 times over the ramp (a
+  relaxation's 1 ms ramp before a 30 s hold).
+
   ``tol`` defaults to 5 % of the smallest reference edge length (m); the scene's
   ``[scene] penetration_tolerance`` (m) sets it.
 
@@ -38,6 +45,10 @@ Two parts, both numpy only and backend-neutral:
   * the run ending at its end time while still in contact: it stops when the end time was
     automatic (a generous bound, so still being in contact means the impactor never came back:
     bottoming out), and warns when the user chose the end time (the pulse is cut short);
+  * a homogeneous scene (single-element, relaxation) whose element reached a J where the
+    volumetric energy is not convex (the Ogden term: J > 1.29, e.g. stiff fibres pulled far)
+    warns, naming the element, the time and J (the monitor's record in ``info["checks"]``), as
+    the point driver's uniaxial path does: the state there is not a physical one;
   * the backend's own accuracy warnings, ``result.info["solver_warnings"]`` (text; e.g. skfem's
     Newton stopped by round-off, with the force balance it attained), are passed on first.
 
@@ -60,6 +71,8 @@ TOLERANCE_FRACTION = 0.05  # (-) default penetration tolerance as a fraction of 
 CHECKS_PER_RUN = 100    # monitor calls over the end time at least (plus the final state)
 OUTPUTS_PER_CHECK = 25  # and at least one every 25 output intervals (0.5 ms at 50 kHz)
 INERTIA_WARN = 1e-3     # (-) kinetic / internal energy above which a single-element run is not quasi-static
+#: Scene types with homogeneous deformation whose elements' J the monitor follows (volumetric convexity).
+HOMOGENEOUS_SCENES = ("single-element", "relaxation")
 RINGING_WARN = 0.01     # (-) RMS of a single element's reaction force about its trend, over its peak, above which
                         # it rings (kappa = 1e12 Pa: +-1.8 N about -1.1 N, the final value 71 % off, unwarned;
                         # kappa = 1e8 Pa: 1.2 %, final value 2.4 % off; Table 1: 0.12 %)
@@ -222,9 +235,27 @@ class Monitor:
         self.interval = float(model.end_time) / max(int(checks), 1)
         if float(model.output_interval) > 0.0:
             self.interval = min(self.interval, OUTPUTS_PER_CHECK * float(model.output_interval))
-        self.next = self.interval
+        self.volumes = None
+        self.ramp_end, self.ramp_interval = 0.0, math.inf
+        if (getattr(model, "meta", None) or {}).get("scene_type") in HOMOGENEOUS_SCENES and model.material is not None:
+            self.volumes = VolumeWatch(model)
+            pres = model.prescribed
+            if pres is not None and len(pres.times) > 1:
+                moving = np.flatnonzero(np.diff(np.asarray(pres.values, dtype=np.float64)) != 0.0)
+                if moving.size:
+                    self.ramp_end = float(pres.times[moving[-1] + 1])
+                    self.ramp_interval = self.ramp_end / max(int(checks), 1)
+        self.next = self._next_after(0.0)
         self.calls = 0
         self.worst = {"plate": 0.0, "sphere": 0.0, "symmetry": 0.0, "corner_jacobian_ratio": 1.0}
+
+    def _next_after(self, t: float) -> float:
+        """The next check time (s) after t: on the grid of ``interval``, and during the prescribed
+        ramp of a homogeneous scene also on the grid of ``ramp_interval``."""
+        nxt = (math.floor(t / self.interval) + 1) * self.interval if self.interval > 0 else math.inf
+        if t < self.ramp_end and self.ramp_interval > 0:
+            nxt = min(nxt, (math.floor(t / self.ramp_interval) + 1) * self.ramp_interval)
+        return nxt
 
     def due(self, t: float) -> bool:
         """Whether a check is due.
@@ -261,7 +292,7 @@ class Monitor:
             docstring), naming node or element, time and quantity.
         """
         self.calls += 1
-        self.next = (math.floor(t / self.interval) + 1) * self.interval if self.interval > 0 else math.inf
+        self.next = self._next_after(t)
         self.inspect(t, x, impactor_z)
 
     def inspect(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
@@ -321,6 +352,8 @@ class Monitor:
                     f"solvers cannot see this; the mesh cannot follow the deformation: lower the load, refine the "
                     f"mesh or check the impactor mass and the material's stiffness (units).",
                     time=t, element=e, quantity="corner Jacobian")
+        if self.volumes is not None:
+            self.volumes.see(t, x, self.scan.position)
 
     def final(self, t: float, x: np.ndarray, impactor_z: float | None = None) -> None:
         """The check of the last state (always run).
@@ -344,10 +377,14 @@ class Monitor:
         -------
         dict
             monitor_calls (-), tolerance (m), worst_plate / worst_sphere / worst_symmetry (largest
-            depths seen, m) and worst_corner_jacobian_ratio (smallest ratio to the reference, -).
+            depths seen, m) and worst_corner_jacobian_ratio (smallest ratio to the reference, -);
+            in a homogeneous scene also ``volume_ratio`` (:meth:`VolumeWatch.report`).
         """
-        return {"monitor_calls": self.calls, "tolerance": self.tol,
-                **{f"worst_{k}": v for k, v in self.worst.items()}}
+        out = {"monitor_calls": self.calls, "tolerance": self.tol,
+               **{f"worst_{k}": v for k, v in self.worst.items()}}
+        if self.volumes is not None:
+            out["volume_ratio"] = self.volumes.report()
+        return out
 
     def _bottoming(self, t: float, z: float, x=None) -> None:
         m = self.model
@@ -372,6 +409,114 @@ class Monitor:
             + (self.contact_hint if quantity.startswith("penetration") else ""), time=t, quantity=quantity)
         err.node = node
         return err
+
+
+class VolumeWatch:
+    """The volume ratio J at each element's centre over a run, and where the volumetric energy of the
+    element's material is not convex there (the point driver's check,
+    :func:`cfm_core.simulation.point.volumetric_convex_at`). For the small homogeneous models: it
+    reads every node's position at each check.
+
+    Parameters
+    ----------
+    model : cfm_core.scene.Model
+        The model (reference nodes (n, 3) in m, hexes (e, 8), parts with their materials).
+    """
+
+    def __init__(self, model):
+        from ..scene.mesh import HEX_REFERENCE
+
+        self.hexes = np.asarray(model.hexes, dtype=np.int64)
+        self.signs = HEX_REFERENCE                       # (8, 3) natural coordinates of the corners
+        self.ref = self._centre_det(np.asarray(model.nodes, dtype=np.float64)[self.hexes])
+        self.parts = [(p.material, np.asarray(p.elements, dtype=np.int64)) for p in model.part_list()]
+        self.n = int(model.nodes.shape[0])
+        self.first = None        # (t_before, t, element, J, material): the first check that found U'' < 0
+        self.extreme = None      # (t, element, J): the J farthest from 1 (in |ln J|) seen where U'' < 0
+        self.last_t = 0.0        # time of the previous check (s)
+        self.range = [1.0, 1.0]  # smallest and largest J seen (-)
+
+    def _centre_det(self, X):
+        """8 det(dx/dxi) at the centre of each element, X (e, 8, 3) its corner positions (m^3)."""
+        return np.linalg.det(np.einsum("eai,aj->eij", X, self.signs))
+
+    def see(self, t: float, x, position) -> None:
+        """Record the J of every element in the state x at time t (s).
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s).
+        x : ndarray, shape (n, 3)
+            Positions (m) as the backend passes them.
+        position : callable
+            position(x, node) -> (3,) position (m) of the user's node (the scan's: a backend may
+            pass its own numbering).
+        """
+        from .point import volumetric_convex_at  # deferred: only the homogeneous scenes need it
+
+        xu = np.array([position(x, i) for i in range(self.n)], dtype=np.float64)
+        J = self._centre_det(xu[self.hexes]) / self.ref
+        if np.isfinite(J).all():
+            self.range = [min(self.range[0], float(J.min())), max(self.range[1], float(J.max()))]
+        for material, elements in self.parts:
+            if not elements.size:
+                continue
+            try:
+                convex = volumetric_convex_at(material, J[elements])
+            except NumericalError:   # the volumetric term itself is not finite there: the backend stops on it
+                continue
+            for k in np.flatnonzero(~convex):
+                e, Je = int(elements[k]), float(J[elements[k]])
+                if self.first is None:
+                    self.first = (self.last_t, float(t), e, Je, material)
+                if self.extreme is None or abs(math.log(Je)) > abs(math.log(self.extreme[2])):
+                    self.extreme = (float(t), e, Je)
+        self.last_t = float(t)
+
+    def report(self) -> dict:
+        """What was seen, JSON-able.
+
+        Returns
+        -------
+        dict
+            ``min`` and ``max``: the smallest and largest J seen (-); ``nonconvex``: None, or where
+            U'' < 0 was first found: ``t`` (s, the check that found it), ``t_before`` (s, the check
+            before), ``element``, ``J`` (-), ``material`` (name), ``text`` (the warning,
+            :func:`nonconvex_warning`).
+        """
+        out = {"min": self.range[0], "max": self.range[1], "nonconvex": None}
+        if self.first is not None:
+            t0, t1, e, Je, material = self.first
+            out["nonconvex"] = {"t_before": t0, "t": t1, "element": e, "J": Je, "material": material.name,
+                                "text": nonconvex_warning(self.first, self.extreme)}
+        return out
+
+
+def nonconvex_warning(first, extreme) -> str:
+    """The warning of a homogeneous scene whose element reached a J where U''(J) < 0.
+
+    Parameters
+    ----------
+    first : tuple
+        (time of the check before (s), time of the check that found it (s), element, J (-), material).
+    extreme : tuple
+        (time (s), element, J (-)) of the J farthest from 1 seen where U''(J) < 0.
+
+    Returns
+    -------
+    str
+        Names the element, the time, J, and the farthest J with its time.
+    """
+    from .point import nonconvex_volumetric
+
+    t0, t1, e, Je, material = first
+    when = f"t = {t1:.4g} s" + (f" (the check before, at t = {t0:.4g} s, found none)" if 0.0 < t0 < t1 else "")
+    tx, ex, Jx = extreme
+    return (f"element {e} reached J = {Je:.4g} by {when}, where {nonconvex_volumetric(material)}: the bulk modulus "
+            f"cannot hold the volume, and the stresses and reaction force from there on are not those of a physical "
+            f"state (J reaches {Jx:.4g} in element {ex} at t = {tx:.4g} s); lower the stretch or the fibre stiffness "
+            f"(k1, k2), or raise kappa.")
 
 
 def impactor_position(sph, z) -> np.ndarray:
@@ -404,8 +549,9 @@ def check_result(model, result) -> list[str]:
     Returns
     -------
     list of str
-        Warnings (the backend's ``info["solver_warnings"]``, hourglass energy, energy balance, end
-        in contact with a user end time).
+        Warnings (the backend's ``info["solver_warnings"]``, hourglass energy, energy balance, a
+        J where the volumetric energy is not convex in a homogeneous scene, inertia and ringing of a
+        single element, end in contact with a user end time).
 
     Raises
     ------
@@ -448,6 +594,9 @@ def check_result(model, result) -> list[str]:
         if math.isfinite(err) and err > ENERGY_WARN:
             warnings.append(f"energy-balance error is {100 * err:.3g} % (above {100 * ENERGY_WARN:g} %): energy is "
                             f"created or lost by the integration; lower the time step or check the contact.")
+    volume = ((result.info or {}).get("checks") or {}).get("volume_ratio") or {}
+    if volume.get("nonconvex"):
+        warnings.append(volume["nonconvex"]["text"])
     if model.meta.get("scene_type") == "single-element" and result.energies and t.size:
         ke = float(np.max(np.abs(result.energies["kinetic"])))
         ie = float(np.max(np.abs(result.energies["internal"])))

@@ -25,6 +25,9 @@ UNIAXIAL_HEADER = ["t", "stretch", "nominal_stress", "lateral_stretch"]
 #: Units of the output columns (headers ``name [unit]``: :func:`cfm_core.tables.unit_header`).
 STRESS_UNITS = {"t": "s", **{c: "Pa" for c in STRESS_HEADER[1:]}}
 UNIAXIAL_UNITS = {"t": "s", "stretch": "-", "nominal_stress": "Pa", "lateral_stretch": "-"}
+#: Smallest diagonal entry of C = F^T F a history may give (-): the smallest normal float64, 2.2e-308
+#: (a stretch of 1.5e-154); below it the squared stretch is subnormal or has underflowed to zero.
+C_DIAGONAL_MIN = float(np.finfo(np.float64).tiny)
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
@@ -48,7 +51,9 @@ def read_history(path) -> tuple[np.ndarray, np.ndarray]:
     ------
     InputError
         Naming the file and line: encoding, header, non-finite or non-numeric values, times out
-        of order, det F <= 0, det F or F^T F beyond the float64 range.
+        of order, det F <= 0, det F or F^T F beyond the float64 range, C = F^T F not positive
+        definite in float64 or with a diagonal entry below :data:`C_DIAGONAL_MIN` (2.2e-308: a
+        square that underflowed).
     """
     table = read_table(path, HISTORY_HEADER, {"t": "s", **{c: "-" for c in HISTORY_HEADER[1:]}}, exact=True,
                        strict=False, what="history file")
@@ -68,6 +73,24 @@ def read_history(path) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(f"{path}, line {table.lines[k]}: {what}: beyond the float64 range (largest |F| entry "
                          f"{np.abs(F[k]).max():g}); no material point follows such a deformation. Give "
                          f"stretches (F entries) whose squares and det F are finite numbers.")
+    # det F > 0 makes C = F^T F positive definite in exact arithmetic, but a square that underflows
+    # (F11 = 1e-170: C11 = 1e-340 -> 0) or round-off in a sheared F leaves a C that is singular or
+    # indefinite in float64: J = sqrt(det C) = 0 and every backend divides by it.
+    with np.errstate(all="ignore"):
+        diag = np.einsum("nii->ni", C)
+        m_min = np.linalg.eigvalsh(C)[:, 0]
+    small = np.flatnonzero(~((diag >= C_DIAGONAL_MIN).all(axis=1) & (m_min > 0.0)))
+    if small.size:
+        k = int(small[0])
+        i = int(np.argmin(diag[k]))
+        cause = (f"C{i + 1}{i + 1} = {diag[k, i]:g}: a squared stretch that underflowed; give F entries whose "
+                 f"squares are normal numbers" if diag[k, i] < C_DIAGONAL_MIN else
+                 f"its smallest eigenvalue is {m_min[k]:g}: lost to round-off next to the largest, "
+                 f"{np.abs(C[k]).max():g} (a shear or stretch ratio beyond what float64 resolves); give a "
+                 f"less extreme F")
+        raise InputError(f"{path}, line {table.lines[k]}: C = F^T F (det F = {J[k]:g}) must be positive definite with "
+                         f"every diagonal entry at least {C_DIAGONAL_MIN:g} (the smallest normal float64; a stretch "
+                         f"of at least {math.sqrt(C_DIAGONAL_MIN):.3g} along each axis), but {cause}.")
     return t, F
 
 
@@ -269,9 +292,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
         J = lam * lat**2
         k = int(np.argmax(np.abs(J - 1.0)))
         warnings.warn(f"uniaxial: from stretch {lam[unstable]:.4g} (t = {t[unstable]:.4g} s) on, the lateral stretch "
-                      f"{lat[unstable]:.4g} that gives zero lateral stress makes J = {J[unstable]:.4g}, where the "
-                      f"volumetric energy of material '{material.name}' is not convex (its pressure falls as J grows; "
-                      f"J > 10^(1/9) = 1.29 for the Ogden term): the bulk modulus cannot hold the lateral pull, and no "
+                      f"{lat[unstable]:.4g} that gives zero lateral stress makes J = {J[unstable]:.4g}, where "
+                      f"{nonconvex_volumetric(material)}: the bulk modulus cannot hold the lateral pull, and no "
                       f"physical lateral stretch exists. The curve beyond is not physical (J reaches {J[k]:.4g} at "
                       f"stretch {lam[k]:.4g}); lower the stretch or the fibre stiffness (k1, k2), or raise kappa.",
                       RuntimeWarning, stacklevel=2)
@@ -337,9 +359,7 @@ def nearest_root(f, x0: float, factor: float = 1.01, max_steps: int = 700):
 def volumetric_convex(material, stretch: float, lateral: float, h: float = 1e-6) -> bool:
     """Whether the material's volumetric energy is convex at J = stretch * lateral^2 (U''(J) >= 0).
 
-    The pressure p = U'(J) is read from the volumetric second Piola-Kirchhoff stress
-    S_vol = J p C^-1 of :func:`cfm_core.material.reference.pk2_parts` at F = diag(l, lt, lt) and
-    at the same F scaled to J (1 + h) (same isochoric part); convex where p does not fall.
+    :func:`volumetric_convex_at` at that J (the pressure depends on J alone).
 
     Parameters
     ----------
@@ -355,9 +375,67 @@ def volumetric_convex(material, stretch: float, lateral: float, h: float = 1e-6)
     bool
         True where U''(J) >= 0 (or the material has no volumetric term).
     """
-    F = np.diag([stretch, lateral, lateral])[None]
-    J = stretch * lateral**2
-    F2 = F * (1.0 + h) ** (1.0 / 3.0)
-    p = [float(ref.pk2_parts(material, G)[1][0, 1, 1]) * float(G[0, 1, 1]) ** 2 / float(np.linalg.det(G[0]))
-         for G in (F, F2)]
-    return not (p[1] - p[0] < 0.0 and abs(p[1] - p[0]) > 1e-12 * max(abs(p[0]), 1e-300) and J > 0)
+    return bool(volumetric_convex_at(material, stretch * lateral**2, h)[0])
+
+
+def volumetric_convex_at(material, J, h: float = 1e-6) -> np.ndarray:
+    """Whether the material's volumetric energy U is convex (U''(J) >= 0) at each volume ratio J.
+
+    The pressure p = U'(J) is read from the volumetric second Piola-Kirchhoff stress
+    S_vol = J p C^-1 of :func:`cfm_core.material.reference.pk2_parts` in pure dilatation,
+    F = J^(1/3) I (isochoric stretches 1, so no other term can overflow), at J and J (1 + h);
+    convex where p does not fall by more than 1e-12 of itself. For the paper's Ogden term
+    U = kappa/81 (9 ln J + J^-9 - 1), U'' = kappa/9 (10 J^-11 - J^-2): convex for J <= 10^(1/9) = 1.29
+    (in compression too), not beyond.
+
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material.
+    J : float or array_like, shape (n,)
+        Volume ratios det F (-), > 0.
+    h : float
+        Relative step in J of the difference (-).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True where U''(J) >= 0 (or the material has no volumetric term); True where J is not a
+        positive finite number (nothing to judge).
+
+    Raises
+    ------
+    NumericalError
+        The volumetric term is not finite at a J (e.g. J = 1e-32 for the Ogden term).
+    """
+    J = np.atleast_1d(np.asarray(J, dtype=np.float64)).reshape(-1)
+    ok = np.isfinite(J) & (J > 0.0)
+    out = np.ones(J.shape, dtype=bool)
+    if not ok.any():
+        return out
+    Jk = J[ok]
+    p = []
+    for Jh in (Jk, Jk * (1.0 + h)):
+        a = Jh ** (1.0 / 3.0)
+        S_vol = ref.pk2_parts(material, a[:, None, None] * np.eye(3))[1]
+        p.append(S_vol[:, 1, 1] * a**2 / Jh)   # S_vol = J p C^-1 = J p a^-2 I
+    drop = p[1] - p[0]
+    out[ok] = ~((drop < 0.0) & (np.abs(drop) > 1e-12 * np.maximum(np.abs(p[0]), 1e-300)))
+    return out
+
+
+def nonconvex_volumetric(material) -> str:
+    """The words every driver uses for a J where ``material``'s volumetric energy is not convex.
+
+    Parameters
+    ----------
+    material : cfm_core.material.Material
+        The bound material.
+
+    Returns
+    -------
+    str
+        "the volumetric energy of material '...' is not convex (its pressure falls as J grows; ...)".
+    """
+    return (f"the volumetric energy of material '{material.name}' is not convex (its pressure falls as J grows; "
+            f"J > 10^(1/9) = 1.29 for the Ogden term)")

@@ -159,3 +159,25 @@ def test_a_collapsing_implicit_step_stops_the_run_with_its_time(monkeypatch):
     with pytest.raises(NumericalError, match=r"the time step collapsed at t = .* the last 5 steps advanced") as err:
         get_backend("skfem").run(model)
     assert err.value.quantity == "time step" and err.value.time > 0.0
+
+
+@pytest.mark.parametrize("scene, backend", [("relaxation", "skfem"), ("single-element", "numba"),
+                                            ("single-element", "torch")])
+def test_a_homogeneous_scene_pulled_into_the_nonconvex_volumetric_range_warns(scene, backend):
+    """k2 = 10 pulled to stretch 2.5: the point driver warns from stretch 1.77 (J = 1.29) and reaches J = 3.61;
+    the relaxation (skfem) and single-element (numba, torch) runs followed the same state and finished with
+    no warning. Now they warn naming element 0, the time and J; J = 3.61 is the point driver's (independent:
+    the uniaxial-stress solution of the reference material)."""
+    from cfm_core.simulation.point import uniaxial
+
+    _available(backend)
+    sc = builtin_scene(scene).with_overrides(stretch=2.5, elastic=True, parameters={"k2": 10.0},
+                                             **({"hold": 0.005} if scene == "relaxation" else {}))
+    res = run_model(build_model(sc), backend)
+    (w,) = [w for w in res.info["warnings"] if "not convex" in w]
+    with pytest.warns(RuntimeWarning, match="not convex"):
+        _, lam, _, lat = uniaxial(build_model(sc).material, 100.0, 2.5, steps=200)
+    J_truth = float((lam * lat**2)[-1])
+    assert "element 0 reached J = 1.3" in w and "volumetric energy of material 'cfm' is not convex" in w
+    J_end = res.info["checks"]["volume_ratio"]["max"]
+    assert J_end == pytest.approx(J_truth, rel=2e-3), (J_end, J_truth)

@@ -126,3 +126,58 @@ def test_inversion_is_a_numerical_error():
         get_backend("skfem").run(m, segment_steps=1, dt_min=1e-4)
     e = err.value  # the CFM stiffens without bound: Newton diverges (or J <= 0) at the smallest step
     assert e.time is not None and e.element == 0 and "element 0" in str(e) and e.quantity in ("J", "Newton residual")
+
+
+def test_an_overflowing_fibre_term_is_named_when_the_step_fails():
+    """k2 = 1e12 (relaxation, 30 % compression): the fibre exponential overflows at the first trial steps and
+    the forces of the steps after reach 1e167 N; the run stopped with "non-finite residual" alone. Now the
+    failure names the overflow of the forces and the term that overflowed, with its time, and the error's
+    element and quantity are those of the overflow (as the numba backend reports it)."""
+    m = build_model(builtin_scene("relaxation").with_overrides(parameters={"k2": 1e12}))
+    with pytest.raises(NumericalError) as err:
+        get_backend("skfem").run(m)
+    text, e = str(err.value), err.value
+    assert "the forces overflow float64" in text and "The cause: the material's energy overflows" in text
+    assert "isochoric term 'circular-fibers' of material 'cfm' has a non-finite energy" in text and "k2 = 1e+12" in text
+    assert "exp overflows above an argument of 709" in text
+    assert e.quantity == "non-finite energy derivative of material 'cfm'" and e.element == 0 and 0.0 < e.time < 1e-6
+
+
+def test_a_collapsed_time_step_names_the_overflowing_term():
+    """k2 = 1e9 on the coarse drop test: 240 rejected steps, 14 of them on the fibre exponential beyond
+    exp(709), and the run stopped with "the time step collapsed ... (an element folding, contact chattering,
+    or a material far out of its range)". numba names the term; so does skfem now."""
+    sc = builtin_scene("drop-test").with_overrides(thickness=0.005, width=0.02, element_size=0.0025,
+                                                   parameters={"k2": 1e9})
+    with pytest.raises(NumericalError, match=r"the time step collapsed at t = .*the material's energy overflows: "
+                                             r"\d+ step\(s\) were rejected") as err:
+        get_backend("skfem").run(build_model(sc))
+    text = str(err.value)
+    assert "isochoric term 'circular-fibers'" in text and "k2 = 1e+09" in text and "element folding" not in text
+    assert err.value.quantity == "non-finite energy derivative of material 'cfm'" and err.value.element is not None
+
+
+def test_forces_whose_squares_overflow_are_named_not_a_bare_non_finite_residual():
+    """neo-Hookean mu = 1e306 Pa: forces of 7e291 N, finite, but the residual norm (their squares) is inf."""
+    m = build_model(builtin_scene("single-element").with_overrides(material="neo-hookean", parameters={"mu": 1e306}))
+    with pytest.raises(NumericalError, match=r"non-finite residual: the forces overflow float64 \(the largest "
+                                             r"residual .* N in element 0, internal forces up to .*e\+291 N") as err:
+        get_backend("skfem").run(m)
+    assert err.value.quantity == "residual overflow" and err.value.element == 0
+
+
+def test_stiff_fibres_in_compression_complete_and_match_the_uniaxial_truth():
+    """k2 = 1e5 at stretch 0.5: numba's explicit step collapses (the stable step falls 1e4-fold as the fibres
+    lock), while skfem completes. Its result is the model's: the fibres hold the isochoric stretches, the
+    volume goes (J = 0.13) and the Ogden term carries -3.9e13 Pa, which the independent uniaxial-stress
+    solution of the point driver gives too (the rest: the element's inertia at 100 1/s)."""
+    sc = builtin_scene("single-element").with_overrides(parameters={"k2": 1e5})
+    m = build_model(sc)
+    r = get_backend("skfem").run(m)
+    _, lam, P, lat = uniaxial(m.material, sc.element.rate, sc.element.stretch, steps=200)
+    assert (lam * lat**2)[-1] == pytest.approx(0.131, abs=1e-3)
+    nominal = r.reaction_force / sc.element.size ** 2
+    assert nominal[-1] == pytest.approx(P[-1], rel=1e-5)
+    for s in (0.9, 0.7, 0.6):
+        i, j = np.argmin(np.abs(lam - s)), np.argmin(np.abs(1.0 + (r.t / m.end_time) * (sc.element.stretch - 1) - s))
+        assert nominal[j] == pytest.approx(P[i], rel=2e-2)

@@ -142,3 +142,50 @@ def test_compiled_element_pass_agrees(small_drop, torch_small):
     res = TorchExplicitBackend().run(small_drop, compile=True, frame_interval=2e-3)
     assert res.steps == torch_small.steps
     assert rel_l2(filtered(res, small_drop), filtered(torch_small, small_drop)) < 1e-10
+
+
+def test_a_pace_that_cannot_reach_the_end_time_stops_as_on_numba():
+    """mu = 1e306 Pa: a stable step of 1.4e-155 s. numba stopped after 4096 steps with the projected number
+    of steps; torch ran on towards max_steps = 5e7 (killed after minutes, no word). Both now stop with the
+    one guard (cfm_backends.explicit.errors.pace) and the same message."""
+    pytest.importorskip("numba")
+    from cfm_core.runs.pipeline import run_model
+
+    model = build_model(builtin_scene("single-element").with_overrides(material="neo-hookean",
+                                                                       parameters={"mu": 1e306}))
+    text = {}
+    for backend in ("torch", "numba"):   # max_steps = 20000: without the guard torch stops there (~1 min), not never
+        with pytest.raises(NumericalError, match=r"4096 steps reached only t = .* more than option max_steps = 20000") \
+                as err:
+            run_model(model, backend, max_steps=20_000)
+        assert err.value.quantity == "steps" and 0.0 < err.value.time < 1e-140
+        text[backend] = str(err.value)
+    assert text["torch"] == text["numba"]
+
+
+def test_the_pace_guard_projects_only_after_4096_steps():
+    from types import SimpleNamespace
+
+    from cfm_backends.explicit import errors
+
+    model = SimpleNamespace(name="m", end_time=1.0)
+    assert errors.pace(model, 4095, 1e-9, 1000_000) is None            # too early to project
+    assert "needs about 4.1e+12 steps" in str(errors.pace(model, 4096, 1e-9, 1000_000))
+    assert errors.pace(model, 4096, 0.5, 1000_000) is None             # 8192 steps to go: fine
+    assert "steps reached at t = 0.5 s" in str(errors.pace(model, 1000_000, 0.5, 1000_000))
+
+
+def test_a_batch_stops_a_run_whose_pace_cannot_reach_the_end_time_and_finishes_the_others():
+    """In a batch, the run with mu = 1e306 Pa (stable step ~1e-155 s) stops with the single run's
+    projection (errors.pace) at the first history read after 4096 steps, instead of holding the
+    batch to max_steps; the run beside it finishes as it does alone."""
+    from cfm_core.errors import NumericalError
+
+    scene = builtin_scene("drop-test").with_overrides(element_size=0.004, material="neo-hookean", end_time=1e-3)
+    bad = build_model(scene.with_overrides(parameters={"mu": 1e306}))
+    good = build_model(scene)
+    out = TorchExplicitBackend().run_batch([bad, good], raise_errors=False, max_steps=20_000)
+    assert isinstance(out[0], NumericalError) and out[0].quantity == "steps"
+    assert "more than option max_steps = 20000" in str(out[0])
+    alone = TorchExplicitBackend().run(good)
+    np.testing.assert_allclose(out[1].contact_force, alone.contact_force, rtol=1e-10, atol=1e-12)

@@ -76,3 +76,13 @@ class _no_runtime_warning:
 
     def __exit__(self, *exc):
         return self._ctx.__exit__(*exc)
+
+
+@pytest.mark.parametrize("mvals", [[0.0, 1.0, 1.0], [-1e-18, 1.0, 1e18]])
+def test_j_zero_or_an_indefinite_c_is_described_not_a_zero_division(mvals):
+    """An eigenvalue of C that underflowed to 0 made term_inputs raise "ZeroDivisionError: 0.0 cannot be
+    raised to a negative power" while describing the failure (a traceback in place of the message)."""
+    m = make_material("cfm", {}, "long-term", True)
+    assert nonfinite_term(m, mvals) is None
+    text = describe_nonfinite(m, mvals)
+    assert "crushed to no volume" in text and "material 'cfm'" in text

@@ -131,3 +131,28 @@ def test_typical_scale_of_a_declaration_replaces_its_default():
     assert p.scale == 1e4 and positive("mu", "Pa", 5.0).scale == 5.0
     assert p == Parameter("mu", "Pa", 1.0, low=0.0) and "typical" not in repr(p)  # advisory only
     assert get_material("cfm").parameters[0].scale == 10.0
+
+
+@pytest.mark.parametrize("name, params, G", [
+    ("neo-hookean", {"mu": 1e306}, 1e306),                       # G = mu
+    ("cfm", {"k1": 1e300, "c": 10.0}, 10.0 + 0.5e300),            # G = c + k1/2 (instantaneous moduli)
+    ("cfm", {"k1": 1320.0, "c": 1e290}, 1e290 + 660.0),
+])
+def test_the_bulk_modulus_next_to_a_huge_shear_modulus_is_not_lost_to_cancellation(name, params, G):
+    """K was (CC_1111 + 2 CC_1122) / 3 of the whole tangent, (K + 4G/3) + 2 (K - 2G/3): at mu = 1e306 Pa the
+    warning said "bulk modulus K = 0 Pa" for kappa = 666.1 kPa. The analytic small-strain moduli of the
+    CFM (docs/conventions.md section 2) and the neo-Hookean: K = kappa = U''(1), G = c + k1/2 or mu."""
+    mat = make_material(name, params, moduli="instantaneous")
+    K, G_found = small_strain_moduli(mat)
+    assert K == pytest.approx(666.1e3, rel=1e-12) and G_found == pytest.approx(G, rel=1e-12)
+    (text,) = [t for t in check_material(mat) if "Poisson" in t]
+    assert "bulk modulus K = 6.661e+05 Pa" in text and "nu = -1 " in text
+
+
+def test_the_poisson_ratio_neither_overflows_nor_cancels():
+    """nu = (3K - 2G) / (2 (3K + G)) from the moduli over the larger one: K = 1e308 Pa gave inf / inf = nan."""
+    assert poisson_ratio(1e308, 1.0) == 0.5 and poisson_ratio(1e308, 1e308) == pytest.approx(0.125, rel=1e-15)
+    assert poisson_ratio(666.1e3, 1e306) == -1.0
+    assert poisson_ratio(666.1e3, 31904.76) == pytest.approx((3 * 666.1e3 - 2 * 31904.76) / (2 * (3 * 666.1e3 + 31904.76)),
+                                                             rel=1e-15)
+    assert math.isnan(poisson_ratio(0.0, 0.0)) and math.isnan(poisson_ratio(math.inf, 1.0))

@@ -2,6 +2,8 @@
 geometrically (a node moved behind the plate, into the sphere, across a symmetry plane, a corner
 pushed through its element), so the truth is known without running a solver."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -274,3 +276,66 @@ def test_a_node_inside_the_impactor_far_from_the_others_is_found_by_the_searched
     x[far] = np.array(sph.center) + np.array([0.0, 0.0, -0.009])   # 1 mm inside the sphere's surface
     with pytest.raises(NumericalError, match=rf"node {far} is 1 mm inside the rigid impactor"):
         mon.inspect(1e-4, x, sph.center[2])
+
+
+def _one_element(scene_type="relaxation", material="cfm", **params):
+    """A 1 mm cube with a 1 ms ramp then a 30 s hold (the relaxation scene's schedule) and a real material."""
+    from cfm_core.material.registry import make_material
+
+    nodes, hexes = structured_hex_mesh(H, H, H, 1, 1, 1)
+    top = np.flatnonzero(nodes[:, 2] > 0.5 * H)
+    return Model(name="one", nodes=nodes, hexes=hexes, density=0.0,
+                 material=make_material(material, params, "long-term", True), end_time=30.001, output_interval=0.01,
+                 prescribed=Prescribed(top, 2, np.array([0.0, 1e-3, 30.001]), np.array([0.0, 1.5 * H, 1.5 * H])),
+                 meta={"scene_type": scene_type})
+
+
+def _stretched(model, J, axial=2.5):
+    """The reference nodes under F = diag(lt, lt, axial) with lt^2 axial = J (homogeneous)."""
+    lt = math.sqrt(J / axial)
+    return model.nodes @ np.diag([lt, lt, axial])
+
+
+J_LIMIT = 10.0 ** (1.0 / 9.0)  # the Ogden term kappa/81 (9 ln J + J^-9 - 1): U'' = kappa/9 (10 J^-11 - J^-2) < 0 beyond
+
+
+@pytest.mark.parametrize("scene_type", ["relaxation", "single-element"])
+def test_a_homogeneous_scene_whose_j_leaves_the_convex_volumetric_range_warns_naming_time_and_j(scene_type):
+    """A relaxation run of k2 = 10 pulled to stretch 2.5 ended at J = 3.6 (the point driver warns there:
+    the Ogden term is not convex beyond J = 10^(1/9) = 1.29) with a summary and no warning. The monitor
+    sees J at the element's centre; the threshold is the analytic one."""
+    m = _one_element(scene_type)
+    mon = checks.Monitor(m)
+    for t, J in [(2e-4, 1.0), (4e-4, 0.999 * J_LIMIT), (6e-4, 1.001 * J_LIMIT), (1e-3, 2.6), (10.0, 2.4)]:
+        mon.check(t, _stretched(m, J))
+    rep = mon.report()["volume_ratio"]
+    assert rep["max"] == pytest.approx(2.6, rel=1e-12)
+    first = rep["nonconvex"]
+    assert first["t"] == 6e-4 and first["t_before"] == 4e-4 and first["J"] == pytest.approx(1.001 * J_LIMIT)
+    res = Result(t=np.array([0.0, 10.0]), backend="test", steps=2, wall_time=0.0, info={"checks": mon.report()})
+    (w,) = checks.check_result(m, res)
+    assert "element 0 reached J = 1.293 by t = 0.0006 s (the check before, at t = 0.0004 s, found none)" in w
+    assert "volumetric energy of material 'cfm' is not convex" in w and "J reaches 2.6 in element 0 at t = 0.001 s" in w
+
+
+def test_compression_to_j_0_09_is_convex_and_not_warned_about():
+    """J = 0.09 in confined compression: U'' = kappa/9 (10 J^-11 - J^-2) > 0, the Ogden term is convex there
+    (as everywhere below 1.29): no warning. A drop test (no homogeneous scene) is not followed."""
+    m = _one_element()
+    mon = checks.Monitor(m)
+    mon.check(1e-3, m.nodes @ np.diag([1.0, 1.0, 0.09]))
+    assert mon.report()["volume_ratio"] == {"min": pytest.approx(0.09), "max": 1.0, "nonconvex": None}
+    assert "volume_ratio" not in checks.Monitor(quarter_block()).report()
+
+
+def test_the_ramp_of_a_relaxation_is_checked_100_times():
+    """The relaxation scene's 1 ms ramp lies before a 30 s hold: checks every 0.25 s (25 output intervals)
+    would first see the ramp's end state at t = 0.25 s; during the ramp they come every 10 us."""
+    mon = checks.Monitor(_one_element())
+    seen = []
+    for t in np.arange(0.0, 2e-3, 1e-6):
+        if mon.due(t):
+            seen.append(t)
+            mon.check(t, mon.model.nodes)
+    assert 95 <= len(seen) <= 110 and seen[0] == pytest.approx(1e-5, rel=0.2) and seen[-1] == pytest.approx(1e-3)
+    assert mon.next == pytest.approx(0.25)   # after the ramp: the usual grid

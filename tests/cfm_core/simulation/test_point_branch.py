@@ -73,3 +73,15 @@ def test_cli_prints_the_warning_and_writes_units(tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stderr.startswith("warning: uniaxial: from stretch") and "Traceback" not in run.stderr
     assert out.read_text().splitlines()[0] == "t [s],stretch [-],nominal_stress [Pa],lateral_stretch [-]"
+
+
+def test_volumetric_convexity_at_j_is_the_ogden_terms_analytic_limit():
+    """volumetric_convex_at (pure dilatation, vectorised; the check the run monitor of the single-element
+    and relaxation scenes shares) against U'' = kappa/9 (10 J^-11 - J^-2): convex for J <= 10^(1/9), also
+    in strong compression (J = 0.09)."""
+    from cfm_core.simulation.point import volumetric_convex_at
+
+    mat = make_material("cfm", {"k2": 500.0}, elastic=True)
+    J = np.array([0.09, 0.5, 1.0, 0.999 * J_LIMIT, 1.001 * J_LIMIT, 2.6, 18.0])
+    np.testing.assert_array_equal(volumetric_convex_at(mat, J), 10.0 / J**11 - 1.0 / J**2 >= 0.0)
+    assert volumetric_convex_at(mat, [0.0, np.nan]).all()   # nothing to judge
