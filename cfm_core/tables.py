@@ -34,6 +34,7 @@ from __future__ import annotations
 import codecs
 import csv
 import math
+import numbers
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -225,6 +226,41 @@ def shown(value) -> str:
         digits = str(abs(value))
         return f"{'-' if value < 0 else ''}{digits[:4]}...{digits[-1]} (an integer of {len(digits)} digits)"
     return repr(value)
+
+
+def check_count(name: str, value, low: int, high: int, meaning: str) -> int:
+    """A count the user gives (steps, starts, evaluations, workers), checked against its range.
+
+    The one check of every count option: an unbounded integer (``--steps`` followed by 30 digits)
+    gave an OverflowError traceback or asked numpy for exabytes, and a large one ran for days.
+
+    Parameters
+    ----------
+    name : str
+        How the user gave it, for the message (``"--steps"``).
+    value : int
+        The count given.
+    low, high : int
+        The allowed range, both ends included.
+    meaning : str
+        What it counts (with its unit where it has one), for the message.
+
+    Returns
+    -------
+    int
+        ``value``.
+
+    Raises
+    ------
+    InputError
+        ``value`` is not a whole number (a bool or a float is not) or lies outside [low, high]; one
+        paragraph naming the option, the value (shortened by :func:`shown` when it is long) and the
+        range.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+        raise InputError(f"{name} {shown(value)} is not allowed: give a whole number from {low} to {high} "
+                         f"({meaning}).")
+    return int(value)
 
 
 @dataclass(frozen=True)

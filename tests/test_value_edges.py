@@ -274,3 +274,100 @@ def test_a_speed_given_over_a_velocity_vector_says_the_direction_is_dropped(tmp_
     assert main(["drop-test", "--scene", str(tmp_path / "v.toml"), "--velocity", "2", "--no-plot", "--quiet",
                  "--out", str(tmp_path / "o")]) == 0
     assert "the impact is now vertical" in capsys.readouterr().err
+
+
+BIG = "1" + "0" * 30   # 10**30: an integer no count option can mean
+
+
+def _lab_curve(tmp_path):
+    t, lam, P, _ = point.uniaxial(make_material("cfm"), 100.0, 0.6, steps=40)
+    path = tmp_path / "u.csv"
+    path.write_text("t,stretch,stress\n" + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r}\n" for a, b, c in zip(t, lam, P)))
+    return path
+
+
+def _drop_curve(tmp_path):
+    path = tmp_path / "m.csv"
+    path.write_text("t,a\n" + "".join(f"{k * 2e-5!r},{100.0 * np.sin(np.pi * k / 200) if k <= 200 else 0.0!r}\n"
+                                      for k in range(300)))
+    return path
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["point", "--uniaxial", "--rate", "100", "--stretch", "0.7", "--steps", BIG],
+     "--steps 1000...0 (an integer of 31 digits) is not allowed: give a whole number from 2 to 100000"),  # ValueError
+    (["point", "--uniaxial", "--rate", "100", "--stretch", "0.7", "--steps", "100001"],   # ran for many minutes
+     "--steps 100001 is not allowed: give a whole number from 2 to 100000"),
+    (["fit", "--test", "{lab}:uniaxial:100", "--fit", "k1", "--starts", BIG],              # OverflowError traceback
+     "--starts 1000...0 (an integer of 31 digits) is not allowed: give a whole number from 1 to 1000"),
+    (["fit", "--test", "{lab}:uniaxial:100", "--fit", "k1", "--max-evaluations", BIG],
+     "--max-evaluations 1000...0 (an integer of 31 digits) is not allowed: give a whole number from 1 to 100000"),
+    (["calibrate", "--data", "{drop}:0.005", "--fit", "k1", "--serial", "--max-evaluations", BIG],
+     "--max-evaluations 1000...0 (an integer of 31 digits) is not allowed: give a whole number from 1 to 100000"),
+    (["sweep", "--vary", "k1=1000", "--workers", BIG],                                      # started a cluster for ever
+     "--workers 1000...0 (an integer of 31 digits) is not allowed: give a whole number from 1 to {most}"),
+    (["calibrate", "--data", "{drop}:0.005", "--fit", "k1", "--workers", "{over}"],
+     "--workers {over} is not allowed: give a whole number from 1 to {most}"),
+], ids=["steps", "steps+1", "starts", "fit-evaluations", "calibrate-evaluations", "workers", "workers+1"])
+def test_count_options_beyond_their_range_are_refused_naming_it(tmp_path, capsys, args, expected):
+    """Huge counts gave a traceback (--steps: "Maximum allowed size exceeded", --starts: OverflowError), or
+    started the impossible (--workers 10**30: a local cluster that never came up); now one paragraph with the
+    option, the value (shortened) and the range, exit 2, nothing written."""
+    from cfm_core.studies.dask_runner import max_local_workers
+
+    fill = {"lab": _lab_curve(tmp_path), "drop": _drop_curve(tmp_path), "most": max_local_workers(),
+            "over": max_local_workers() + 1}
+    out = tmp_path / ("o.csv" if args[0] == "point" else "o")
+    assert main([a.format(**fill) for a in args] + ["--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert expected.format(**fill) in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text, shown_as", [("1" + "0" * 400, "max_steps=1000...0 (an integer of 401 digits)"),
+                                            ("1e400", "max_steps=1e400"), ("-1e400", "max_steps=-1e400")])
+def test_an_option_beyond_the_float_range_is_named_as_typed(tmp_path, capsys, text, shown_as):
+    """--option max_steps=1 followed by 400 zeros said "option max_steps = inf is not allowed": the value the user
+    typed is shown (shortened), with why it reads as inf and the allowed range."""
+    assert main(["drop-test", *SMALL, "--option", f"max_steps={text}", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"--option {shown_as} is beyond the float range" in err and "expected an integer in [1, inf)" in err
+    assert "= inf" not in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_option_whose_range_takes_inf_reads_an_overflowing_number_as_inf():
+    """dt_max's range is open to inf: 1e400 reads as inf there, as before."""
+    from argparse import Namespace
+
+    from cfm_core.cli.options import backend_options
+
+    options, _ = backend_options(Namespace(option=["dt_max=1e400"]), "numba")
+    assert options["dt_max"] == float("inf")
+
+
+@pytest.mark.parametrize("value, hint", [
+    ("9.2e-10", "9.2e-10 kg/m^3: did you mean 920 kg/m^3 (9.2e-10 tonne/mm^3)? Give --density 920; every value is in "
+                "SI units."),
+    ("0.92", "0.92 kg/m^3: did you mean 920 kg/m^3 (0.92 g/cm^3)? Give --density 920"),
+], ids=["tonne/mm^3", "g/cm^3"])
+def test_an_export_density_in_other_units_is_refused_with_its_value_in_kg_per_m3(tmp_path, capsys, value, hint):
+    """9.2e-10 (tonne/mm^3, what an LS-DYNA model in mm-s-tonne holds) was refused with "give the tissue's density
+    in kg/m^3" and no hint; the scenes' hint now names the unit it looks like and the kg/m^3 value."""
+    assert main(["export", "cfm", "--to", "lsdyna-umat", "--density", value, "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert f"--density {value} kg/m^3 is not allowed" in err and hint in err and err.count("\n") == 1
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_scene_density_in_tonne_per_cubic_millimetre_gets_the_hint_too(tmp_path, capsys):
+    assert main(["drop-test", *SMALL, "--density", "9.2e-10", "--out", str(tmp_path / "o")]) == 2
+    assert ("9.2e-10 kg/m^3: did you mean 920 kg/m^3 (9.2e-10 tonne/mm^3)? Write density = 920 (--density 920)"
+            in capsys.readouterr().err)
+
+
+def test_a_worker_timeout_beyond_its_range_names_the_range(tmp_path, capsys):
+    """--worker-timeout 1e400 (inf) was refused with "give a number of seconds > 0", which inf is."""
+    assert main(["sweep", "--vary", "k1=1000", "--worker-timeout", "1e400", "--out", str(tmp_path / "o")]) == 2
+    assert "--worker-timeout inf s is not allowed: give a number of seconds > 0 and below 1e+06" in \
+        capsys.readouterr().err

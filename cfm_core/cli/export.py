@@ -38,7 +38,9 @@ def add_parser(sub) -> None:
                    help="moduli convention written on the card (constant 'moduli'); default: the material's")
     p.add_argument("--elastic", action="store_true", help="card with the Prony coefficients g_i = 0")
     p.add_argument("--density", type=float, default=None,
-                   help="density on the explicit cards (VUMAT *DENSITY, LS-DYNA RO), kg/m^3 (default 950)")
+                   help="density on the explicit cards (VUMAT *DENSITY, LS-DYNA RO), kg/m^3, 1 to 100000 (default "
+                        "950); like every value of the card in SI units: docs/user/export.md gives the factors to "
+                        "mm-s-tonne and mm-ms-kg models")
 
 
 def _cmd_export(args) -> int:

@@ -16,7 +16,11 @@ from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
 from ..studies.lab_tests import KINDS
 from ..post.staging import check_folder_target, published_files
-from .options import add_material_options, parse_params
+from ..tables import check_count
+from .options import EVALUATIONS_MAX, add_material_options, parse_params
+
+#: Most starting points ``--starts`` allows.
+STARTS_MAX = 1000
 
 
 def add_parser(sub) -> None:
@@ -37,9 +41,11 @@ def add_parser(sub) -> None:
                         "--param sets the start of these and the value of the others (SI units)")
     p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
     p.add_argument("--max-evaluations", type=int, default=400,
-                   help="most residual evaluations of the optimiser per start (default 400; recorded in fit.json)")
+                   help=f"most residual evaluations of the optimiser per start, a whole number from 1 to "
+                        f"{EVALUATIONS_MAX} (-, default 400; recorded in fit.json)")
     p.add_argument("--starts", type=int, default=None,
-                   help="starting points of the optimiser (default 6 when a Prony time is fitted, else 1)")
+                   help=f"starting points of the optimiser, a whole number from 1 to {STARTS_MAX} (-, default 6 "
+                        f"when a Prony time is fitted, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument("--out", required=True, help="output directory")
 
@@ -47,6 +53,10 @@ def add_parser(sub) -> None:
 def _cmd_fit(args) -> int:
     from ..studies.api import fit as run
 
+    check_count("--max-evaluations", args.max_evaluations, 1, EVALUATIONS_MAX,
+                "most residual evaluations of the optimiser per start")
+    if args.starts is not None:
+        check_count("--starts", args.starts, 1, STARTS_MAX, "starting points of the optimiser")
     check_folder_target(args.out)
     names = lab_fit.fit_names(args.fit, args.material)
     given = parse_params(args.param)
@@ -54,13 +64,14 @@ def _cmd_fit(args) -> int:
     fixed = {k: v for k, v in given.items() if k not in names}
     for text in check_material(make_material(args.material, given, args.moduli, args.elastic)):
         print(f"warning: {text}", file=sys.stderr)  # unit slips of the fixed values and the starting point
-    scene = load_scene(args.scene) if args.scene else None
+    if args.scene:  # its errors, and fitted names no layer takes, before the work
+        lab_fit.check_scene(load_scene(args.scene), names)
     tests = lab_fit.read_tests(args.test)
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     if say:
         say(f"fitting {', '.join(names)} of '{args.material}' to {len(tests)} test(s)")
     outcome = run(args.material, tests, names, start, fixed, args.moduli, args.elastic, args.max_evaluations,
-                  args.starts, scene, args.out, say or False)
+                  args.starts, args.scene, args.out, say or False)  # the file: an input, never removed
     result = outcome.result
     conf = result.confidence["parameters"]
     for n, u in zip(result.coords.names, result.coords.units):

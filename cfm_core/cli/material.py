@@ -16,8 +16,11 @@ from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
 from ..studies.outcomes import uniaxial_title
-from ..tables import unit_header
+from ..tables import check_count, unit_header
 from .options import add_material_options, parse_params
+
+#: Most steps of the --uniaxial loading ramp (about 2 ms each: 100 000 take a few minutes).
+STEPS_MAX = 100_000
 
 
 def _entries(kind: str) -> dict:
@@ -55,6 +58,7 @@ def _cmd_backends(args) -> int:
 
 
 def _cmd_point(args) -> int:
+    check_count("--steps", args.steps, 2, STEPS_MAX, "steps of the --uniaxial loading ramp")
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
         print(f"warning: {text}", file=sys.stderr)
@@ -112,7 +116,8 @@ def add_parser(sub) -> None:
     p.add_argument("--uniaxial", action="store_true", help="uniaxial stress, lateral tractions zero")
     p.add_argument("--rate", type=float, help="engineering strain rate for --uniaxial, 1/s")
     p.add_argument("--stretch", type=float, help="final stretch for --uniaxial, dimensionless (e.g. 0.5)")
-    p.add_argument("--steps", type=int, default=200, help="steps of the loading ramp for --uniaxial (default 200)")
+    p.add_argument("--steps", type=int, default=200, help=f"steps of the loading ramp for --uniaxial, a whole number "
+                                                           f"from 2 to {STEPS_MAX} (-, default 200)")
     p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
     p.add_argument("--no-plot", action="store_true", help="--uniaxial: do not write the stress-stretch PNG next to --out")
     p.add_argument("--out", required=True, help="output CSV (header t [s],s11 [Pa],...,s13 [Pa]; or t [s],stretch [-],nominal_stress [Pa],"

@@ -5,11 +5,17 @@ is the run pipeline's, ``progress=True``)."""
 from __future__ import annotations
 
 import argparse
+import math
+import re
 from pathlib import Path
 
 from ..errors import InputError
 from ..runs.settings import RunPlan, plan_run
 from ..simulation.registry import backend_for
+from ..tables import shown
+
+#: Most optimiser evaluations ``--max-evaluations`` allows (``cfm fit`` per start, ``cfm calibrate``).
+EVALUATIONS_MAX = 100_000
 
 
 def parse_params(items) -> dict:
@@ -71,6 +77,36 @@ def _option_value(text: str, spec):
     return text
 
 
+#: How ``float()`` spells infinity: a value typed so means inf; any other that reads as inf overflowed.
+_INF_TEXT = re.compile(r"[+-]?inf(inity)?", re.IGNORECASE)
+
+
+def typed(text: str) -> str:
+    """What the user typed, for a message: an integer of more than 20 digits shortened as
+    :func:`cfm_core.tables.shown` shortens it, other text of more than 40 characters cut in the middle."""
+    t = text.strip()
+    if re.fullmatch(r"[+-]?\d+", t):
+        try:
+            return shown(int(t))
+        except ValueError:  # beyond Python's 4300 digits of int(): shortened as text
+            pass
+    return t if len(t) <= 40 else f"{t[:24]}...{t[-8:]} ({len(t)} characters)"
+
+
+def _overflowed(name: str, text: str, value, spec, backend: str) -> None:
+    """InputError naming what was typed when a finite number beyond the float range (``1e400``,
+    ``1`` followed by 400 zeros) read as inf and the option does not take inf; the declaration's
+    own message would show only "inf"."""
+    if not (isinstance(value, float) and math.isinf(value)) or _INF_TEXT.fullmatch(text.strip()):
+        return
+    try:
+        spec.check(name, value, backend)  # inf allowed where the range is open to it (dt_max)
+    except InputError:
+        raise InputError(f"--option {name}={typed(text)} is beyond the float range (largest about 1.8e308), so it "
+                         f"reads as {'-' if value < 0 else ''}inf, which {name} does not take: expected "
+                         f"{spec.allowed()} ({spec.doc}); 'cfm backends --options' lists the options.") from None
+
+
 def backend_options(args, backend: str) -> tuple[dict, dict]:
     """The backend options of the command line: ``--option NAME=VALUE`` (repeatable), ``--vtu``,
     ``--device`` and ``--dtype``; InputError for a name the backend does not declare. Also how each
@@ -88,6 +124,7 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
             raise InputError(f"--option {name}: backend '{backend}' has no option of that name; its options are "
                              f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
         options[name] = _option_value(value, specs[name])
+        _overflowed(name, value, options[name], specs[name], backend)
         given_as[name] = f"--option {name}={value.strip()}"
     if getattr(args, "vtu", False) and "frame_interval" not in options:  # --option frame_interval=... wins
         options["frame_interval"] = VTU_FRAME_INTERVAL

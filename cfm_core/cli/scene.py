@@ -37,8 +37,9 @@ def add_parser(sub) -> None:
     p.add_argument("--radius", type=float, help="impactor (hemisphere) radius, m (default 0.055)")
     p.add_argument("--width", type=float, help="specimen width (square), m (default 0.050)")
     p.add_argument("--density", type=float, help="specimen density, kg/m^3 (default 950, an assumption)")
-    p.add_argument("--mesh", help="hexahedral specimen mesh file read with meshio, coordinates in m "
-                                  "(replaces the structured mesh; width and thickness come from it)")
+    p.add_argument("--mesh", help="hexahedral specimen mesh file, coordinates in m: an Abaqus .inp (read by cfm's "
+                                  "own reader) or a format meshio reads (.vtu, .msh, ...); replaces the structured "
+                                  "mesh, and width and thickness come from it")
     p.add_argument("--friction", type=float, help="Coulomb friction coefficient on both contacts, - (default 0)")
     p.add_argument("--symmetry", choices=["auto", "quarter", "half", "none"],
                    help="auto (default: quarter for a centred vertical impact, half (y >= 0) when only y is "

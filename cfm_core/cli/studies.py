@@ -16,8 +16,9 @@ from ..scene.scene import builtin_scene, load_scene
 from ..runs.pipeline import is_material_warning, warnings_once
 from ..scene.plausible import check_plausible
 from ..studies import calibrate, measured, sweep
-from ..studies.dask_runner import open_runner
-from .options import parse_params, plan_from_args
+from ..studies.dask_runner import WORKERS_PER_CORE, check_runner_options, max_local_workers, open_runner
+from ..tables import check_count
+from .options import EVALUATIONS_MAX, parse_params, plan_from_args
 
 
 def _runner_options(p) -> None:
@@ -33,11 +34,12 @@ def _runner_options(p) -> None:
                             "default: a local Dask cluster")
     where.add_argument("--serial", action="store_true", help="run the drop tests one after another in this "
                                                              "process (no Dask)")
-    p.add_argument("--workers", type=int, help="worker processes of the local Dask cluster (default: the "
-                                               "number of cores)")
+    p.add_argument("--workers", type=int, help=f"worker processes of the local Dask cluster, a whole number from 1 "
+                                               f"to {max_local_workers()} (at most {WORKERS_PER_CORE} per core; default: "
+                                               f"the number of cores)")
     p.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
                    help="with Dask: stop waiting after this many seconds with no worker left (the runs not "
-                        "done fail with a message; finished runs are kept and a rerun resumes); default 30 s")
+                        "done fail with a message; finished runs are kept and a rerun resumes); default 30 s, below 1e6 s")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
 
 
@@ -75,7 +77,8 @@ def add_parser(sub) -> None:
     c.add_argument("--rel-step", type=float, default=None,
                    help="relative finite-difference step of the Jacobian (default 1e-3)")
     c.add_argument("--max-evaluations", type=int, default=60,
-                   help="most objective evaluations of the optimiser (default 60; recorded in fit.json)")
+                   help=f"most objective evaluations of the optimiser, a whole number from 1 to {EVALUATIONS_MAX} "
+                        f"(-, default 60; recorded in fit.json)")
     _runner_options(c)
     c.add_argument("--out", required=True, help="output directory")
 
@@ -102,8 +105,13 @@ def _planned(args, scene):
     return scene.with_run(None), plan.backend, plan.options
 
 
+def _runner_args(args) -> tuple:
+    """(scheduler, workers, worker_timeout) of :func:`open_runner` from the command line."""
+    return "none" if args.serial else args.scheduler, args.workers, args.worker_timeout
+
+
 def _open(args):
-    return open_runner("none" if args.serial else args.scheduler, args.workers, args.worker_timeout)
+    return open_runner(*_runner_args(args))
 
 
 def _confirm(n: int, seconds: float, yes: bool) -> None:
@@ -131,12 +139,13 @@ def _duration(seconds: float) -> str:
 def _cmd_sweep(args) -> int:
     from ..studies.api import sweep as run
 
+    check_runner_options(*_runner_args(args))  # --workers, --worker-timeout: before any work
     scene, backend, options = _planned(args, _scene(args.scene))
     axes = sweep.parse_vary(args.vary, scene)
     sweep.check_cases(scene, axes)  # every value, before any run (exit 2 naming it)
     sweep.run_key(scene, backend, options)  # backend and options checked too
     sweep.check_backend(scene, axes, backend)  # and what the backend accepts (skfem: no friction)
-    out = check_folder_target(args.out)  # before any run: an unwritable --out is an input error
+    out = check_folder_target(args.out, inputs=[args.scene])  # before any run; never removes the --scene file
     n = len(sweep.cases(axes))
     seconds = sweep.estimate_seconds(scene, axes)
     if not args.quiet or n > sweep.CONFIRM_RUNS:
@@ -166,6 +175,9 @@ def _cmd_sweep(args) -> int:
 def _cmd_calibrate(args) -> int:
     from ..studies.api import calibrate as run
 
+    check_count("--max-evaluations", args.max_evaluations, 1, EVALUATIONS_MAX,
+                "most objective evaluations of the optimiser")
+    check_runner_options(*_runner_args(args))  # --workers, --worker-timeout: before any work
     scene, backend, options = _planned(args, _scene(args.scene))
     names = calibrate.fit_names(args.fit, scene)
     start = parse_params(args.param)
@@ -174,9 +186,7 @@ def _cmd_calibrate(args) -> int:
         raise InputError(f"--param {', '.join(extra)}: only fitted parameters take a starting value here "
                          f"(fitted: {', '.join(names)}); set fixed values in the --scene file.")
     curves = measured.read_curves(args.data, scene, scene_given=args.scene is not None)
-    if args.max_evaluations < 1:
-        raise InputError(f"--max-evaluations {args.max_evaluations} must be at least 1.")
-    check_folder_target(args.out)
+    check_folder_target(args.out, inputs=[args.scene, *(c.path for c in curves)])  # files it reads: never removed
     for text in check_plausible(scene.with_overrides(parameters=start)):  # the user's values, once: the fit's
         if is_material_warning(text):                                      # trial values are not said
             print(f"warning: {text}", file=sys.stderr)

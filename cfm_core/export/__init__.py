@@ -19,6 +19,9 @@ from .targets import TARGETS
 
 __all__ = ["TARGETS", "export"]
 
+#: Densities the explicit cards take, kg/m^3 (the range of a scene's density).
+DENSITY_RANGE = (1.0, 1e5)
+
 
 def export(material, target: str, out, density: float | None = None) -> list[Path]:
     """Write the generated source, card and manifest of ``material`` for ``target`` into ``out``.
@@ -45,17 +48,25 @@ def export(material, target: str, out, density: float | None = None) -> list[Pat
     Raises
     ------
     InputError
-        ``target`` is not one of :data:`TARGETS`, ``out`` cannot hold the output, or an energy
-        cannot be traced symbolically.
+        ``target`` is not one of :data:`TARGETS`, ``density`` is outside :data:`DENSITY_RANGE`
+        (with the unit it looks like: 9.2e-10 is tonne/mm^3, 920 kg/m^3), ``out`` cannot hold the
+        output, or an energy cannot be traced symbolically.
     """
     if target not in TARGETS:
         raise InputError(f"--to {target!r} is not a known target; use one of {', '.join(TARGETS)}.")
     from .generate import DENSITY, generate  # deferred: imports sympy, which the command line does not need
 
     rho = DENSITY if density is None else density
-    if not (isinstance(rho, (int, float)) and math.isfinite(rho) and 1.0 <= rho <= 1e5):
-        raise InputError(f"--density {rho!r} kg/m^3 is not allowed; give the tissue's density in kg/m^3 (1 to 1e5; "
-                         f"soft tissue 900-1100).")
+    lo, hi = DENSITY_RANGE
+    finite = isinstance(rho, (int, float)) and math.isfinite(rho)
+    if not (finite and lo <= rho <= hi):
+        from ..scene.plausible import unit_hint
+
+        # 9.2e-10: tonne/mm^3 (an mm-s-tonne model's), 0.92: g/cm^3; both 920 kg/m^3
+        hint = unit_hint("density", rho, "kg/m^3", lo, hi, option="--density") if finite else ""
+        raise InputError(" ".join(filter(None, (
+            f"--density {rho!r} kg/m^3 is not allowed; give the tissue's density in kg/m^3 ({lo:g} to {hi:g}; "
+            f"soft tissue 900-1100).", hint))))
     with staged_folder(out, "--out", need_bytes=200_000) as stage:
         result = generate(material, target, float(rho))
         for name, text in result.files.items():

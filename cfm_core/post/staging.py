@@ -6,10 +6,12 @@ Only when everything was written is the stage published: the files of an earlier
 ``--out`` (those its manifest lists, or cfm's known output names for outputs written before
 manifests existed) are removed and the new files moved in, with a manifest
 (:data:`MANIFEST`) naming them. Files cfm did not write are never touched. A failure removes the
-stage and leaves ``--out`` as it was, so no folder ever holds the files of two runs.
+stage and leaves ``--out`` as it was, so no folder ever holds the files of two runs. A file the
+command names as its input (``inputs``) is never removed or replaced: an output that would do
+so is refused (:func:`refuse_inputs`).
 
 Public API: :func:`staged_folder` (a context manager), :func:`check_folder_target`,
-:func:`check_file_target`.
+:func:`check_file_target`, :func:`refuse_inputs`.
 """
 
 from __future__ import annotations
@@ -73,7 +75,7 @@ def _check_space(folder: Path, need_bytes: int, what: str, target: Path) -> None
                          f"(or store fewer frames: option frame_interval).")
 
 
-def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
+def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=()) -> Path:
     """Check that ``out`` can become an output folder, before any work is done.
 
     Parameters
@@ -85,6 +87,9 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
     need_bytes : int
         Bytes the output will take (0: not checked); refused when the disk has less free space
         plus :data:`SPACE_MARGIN`.
+    inputs : iterable of path-like
+        The files the command reads (None and empty entries are skipped): none of them may be a
+        file that publishing an output in ``out`` removes (:func:`refuse_inputs`).
 
     Returns
     -------
@@ -95,7 +100,8 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
     ------
     InputError
         ``out`` or one of its parents is a file, it or the folder it would be made in cannot be
-        written, or the disk is too full.
+        written, the disk is too full, or one of ``inputs`` is a file of the earlier cfm output
+        in ``out``.
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -107,12 +113,67 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0) -> Path:
     if out.exists():
         _probe(out, what, out)
     _check_space(base, need_bytes, what, out)
+    refuse_inputs(out, inputs, what)
     return out
+
+
+def refuse_inputs(out, inputs, what: str = "--out", names=(), keep: tuple[str, ...] = ()) -> None:
+    """Refuse an output in ``out`` that would remove or replace a file the command reads.
+
+    Publishing an output removes the earlier cfm output's files there (:func:`earlier_files`:
+    those its manifest lists, or cfm's known output names) and puts the new files in their place:
+    an input among them (``cfm fit --scene run/scene.toml --out run``, ``cfm calibrate --data
+    run/acceleration.csv --out run``) would be gone after the command, though the command read it.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The output folder (it may not exist yet).
+    inputs : iterable of path-like
+        The files the command reads; None and empty entries are skipped. A file is matched under
+        any spelling or link.
+    what : str
+        How messages name ``out``.
+    names : iterable of str
+        Names of the new output's files (known once it is written), which replace files of the
+        same name in ``out``.
+    keep : tuple of str
+        Earlier entries the publication keeps (:func:`publish`).
+
+    Raises
+    ------
+    InputError
+        Naming the input, why it would go, and what to do instead.
+    """
+    out = Path(out)
+    given = [Path(p) for p in inputs if p]
+    if not given or not out.is_dir():
+        return
+    earlier = "of the earlier cfm output there, which this command's output replaces"
+    going = [(f, earlier) for f in earlier_files(out) if f.name not in keep and f.name != MANIFEST]
+    going += [(out / n, "of the same name as a file this command writes") for n in names]
+    for path, why in going:
+        hit = next((g for g in given if _same_file(path, g)), None)
+        inner = None if hit is not None else next((g for g in given if _inside(g, path)), None)
+        if hit is not None or inner is not None:
+            where = f"is {path.name}, a file {why}" if hit is not None else f"lies in {path.name}/, a folder {why}"
+            raise InputError(f"{what} {out}: the input {hit or inner} {where}, so writing the output there would "
+                             f"remove a file this command reads. Choose another {what} folder, or copy the file out "
+                             f"of {out} and give the copy.")
 
 
 def _same_file(a: Path, b: Path) -> bool:
     try:
         return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` lies in the folder ``folder`` (not a link to one), links resolved."""
+    try:
+        return (folder.is_dir() and not folder.is_symlink()
+                and Path(path).resolve().is_relative_to(folder.resolve()))
     except OSError:
         return False
 
@@ -248,7 +309,7 @@ class PublishError(OSError):
         self.touched = touched
 
 
-def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
+def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=()) -> list[str]:
     """Move a finished stage's files into ``out``, replacing an earlier cfm output there.
 
     The order keeps every intermediate state honest: the earlier output's completion markers
@@ -267,6 +328,9 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     keep : tuple of str
         Names of earlier entries to keep (a study's resumable run cache), unless the stage holds
         a new entry of the same name.
+    inputs : iterable of path-like
+        Files the command read: if one of them would be removed or replaced, nothing is
+        published (:func:`refuse_inputs`).
 
     Returns
     -------
@@ -277,8 +341,11 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     ------
     PublishError
         A file could not be removed or moved; ``touched`` False: ``out`` is as it was.
+    InputError
+        One of ``inputs`` would be removed or replaced; ``out`` is as it was.
     """
     names = sorted(p.name for p in stage.iterdir())
+    refuse_inputs(out, inputs, names=names, keep=keep)
     if not out.exists():
         try:
             _write_manifest(stage, names)
@@ -290,8 +357,10 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = ()) -> list[str]:
     replaced_note(out, earlier, output_kind(names))
     going = [old for old in earlier if (old.name not in keep or old.name in names) and old.name != MANIFEST]
     gone = {p.name for p in going}  # removed below: not "kept"
+    read = [Path(p) for p in inputs if p]  # the command's own inputs are not "made from the earlier output"
     others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
-                    and p.name not in keep and p.name not in gone and not p.name.startswith("."))
+                    and p.name not in keep and p.name not in gone and not p.name.startswith(".")
+                    and not any(_same_file(p, f) for f in read))
     if earlier and others:  # cfm fields --png out/x/cut.png, cfm compare --json out/x/c.json: of the run now gone
         print(f"note: {out} keeps {', '.join(others[:6])}{' ...' if len(others) > 6 else ''}, not written by this "
               f"command: if they were made from the earlier output there, they no longer describe the folder's "
@@ -378,7 +447,8 @@ def _write_manifest(folder: Path, names: list[str]) -> None:
 
 
 @contextlib.contextmanager
-def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool = True, keep: tuple[str, ...] = ()):
+def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool = True, keep: tuple[str, ...] = (),
+                  inputs=()):
     """Write an output into a stage beside ``out`` and publish it only if the block succeeds.
 
     Use it around the whole work, so that the destination is checked before the solve::
@@ -399,6 +469,10 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
         False: refuse (InputError, before any work) when ``out`` holds an earlier cfm output.
     keep : tuple of str
         Entries of the earlier output to keep (e.g. a sweep's resumable ``runs`` folder).
+    inputs : iterable of path-like
+        Files the command reads: an output that would remove or replace one of them is refused,
+        before the block (an earlier output's file) or, for a name only the new output writes,
+        after it with nothing published (:func:`refuse_inputs`).
 
     Yields
     ------
@@ -408,10 +482,13 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
     Raises
     ------
     InputError
-        From :func:`check_folder_target`, or ``overwrite`` is False and ``out`` holds an earlier
-        output. Exceptions of the block propagate after the stage is removed; ``out`` is untouched.
+        From :func:`check_folder_target` or :func:`refuse_inputs`, or ``overwrite`` is False and
+        ``out`` holds an earlier output. Exceptions of the block propagate after the stage is
+        removed; ``out`` is untouched.
     """
+    inputs = [p for p in inputs if p]
     out = check_folder_target(out, what, need_bytes)
+    refuse_inputs(out, inputs, what, keep=keep)
     if not overwrite and out.is_dir() and earlier_files(out):
         raise InputError(f"{what} {out} holds the files of an earlier run ({', '.join(p.name for p in earlier_files(out)[:4])}"
                          f"{', ...' if len(earlier_files(out)) > 4 else ''}); without overwriting, choose a new folder "
@@ -434,7 +511,11 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
         raise
     with deferred_signals() as caught:
         try:
-            publish(stage, out, keep)
+            publish(stage, out, keep, inputs)
+        except InputError:
+            shutil.rmtree(stage, ignore_errors=True)
+            _remove_empty(made)
+            raise
         except PublishError as exc:
             shutil.rmtree(stage, ignore_errors=True)
             _remove_empty(made)

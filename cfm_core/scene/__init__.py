@@ -1,7 +1,8 @@
 """The scene layer: what is simulated, and the backend-neutral model it becomes.
 
 Flow: a TOML scene (scene.py, validated sections in sections.py, built-ins in ``scenes/``) ->
-meshes (mesh.py: structured hexahedra or a user's mesh through meshio) -> the model builder
+meshes (mesh.py: structured hexahedra or a user's mesh: Abaqus .inp through abaqus_inp.py, other
+formats through meshio) -> the model builder
 (builder.py), which includes only what a scene needs (docs/conventions.md section 4) -> a
 :class:`Model` of plain arrays (model.py) that every backend runs. SI units everywhere.
 """

@@ -313,6 +313,48 @@ class _Body:
     transform: list[_Line] = field(default_factory=list)  # an instance's translation and rotation lines
 
 
+@dataclass(frozen=True)
+class Labels:
+    """The file's own numbers of the points and cells of a mesh :func:`read_inp` returns, for
+    messages (its attribute ``file_labels``): Abaqus node and element numbers, ``INSTANCE.NUMBER``
+    for those of an instance, as Abaqus names them.
+
+    Parameters
+    ----------
+    points : list of (int, str, list of int)
+        Per body in the order of the points: its first point, its prefix (``""`` or
+        ``"INSTANCE."``) and its node numbers by row.
+    cells : list of (str, list of int)
+        Per cell block: the prefix and the element numbers by row.
+    """
+
+    points: list
+    cells: list
+
+    def node(self, index: int) -> str:
+        """The label of point ``index`` (0-based row of the mesh's points), e.g. ``"1001"``."""
+        for first, prefix, numbers in self.points:
+            if first <= index < first + len(numbers):
+                return f"{prefix}{numbers[index - first]}"
+        raise IndexError(f"point {index} is not among the {sum(len(b[2]) for b in self.points)} points read")
+
+    def element(self, block: int, row: int) -> str:
+        """The label of row ``row`` of cell block ``block``, e.g. ``"105"`` or ``"Part-1-1.105"``."""
+        prefix, numbers = self.cells[block]
+        return f"{prefix}{numbers[row]}"
+
+
+def _prefix(body: "_Body", root: "_Body") -> str:
+    return "" if body is root else f"{body.name}."
+
+
+def _numbers_by_row(body: "_Body") -> list[int]:
+    numbers = [0] * len(body.node_row)
+    for number, row in body.node_row.items():
+        numbers[row] = number
+    return numbers
+
+
 class _Reader:
     """The state of one reading: the bodies, the current one, and the main file for messages."""
 
@@ -671,7 +713,11 @@ class _Reader:
             for block in body.blocks:
                 cells.append((block.kind, self._connectivity(body, block, offset)))
         cell_sets = self._cell_sets(bodies, first_block, len(cells))
-        return meshio.Mesh(np.vstack(points) if points else np.zeros((0, 3)), cells, cell_sets=cell_sets)
+        mesh = meshio.Mesh(np.vstack(points) if points else np.zeros((0, 3)), cells, cell_sets=cell_sets)
+        mesh.file_labels = Labels(
+            [(offset[id(b)], _prefix(b, self.root), _numbers_by_row(b)) for b in bodies],
+            [(_prefix(b, self.root), blk.ids) for b in bodies for blk in b.blocks])
+        return mesh
 
     def _connectivity(self, body: _Body, block: _Block, offset: dict) -> np.ndarray:
         if not block.cross:
@@ -750,7 +796,8 @@ def read_inp(path) -> object:
     Returns
     -------
     meshio.Mesh
-        Points, cells and cell sets.
+        Points, cells and cell sets; its attribute ``file_labels`` (:class:`Labels`) gives the
+        file's node and element numbers of each point and cell, for messages.
 
     Raises
     ------

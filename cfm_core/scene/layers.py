@@ -290,7 +290,7 @@ def unused_by_layers(scene, names) -> dict:
     return out
 
 
-def refuse_unused(scene, names, flag, effect: str) -> None:
+def refuse_unused(scene, names, flag, effect: str, advice: str = "Give the layer its value in the scene file.") -> None:
     """InputError for the first of ``names`` no layer uses (:func:`unused_by_layers`).
 
     Parameters
@@ -303,13 +303,15 @@ def refuse_unused(scene, names, flag, effect: str) -> None:
         name -> how the command line names it (``"--vary k1"``, ``"--density"``).
     effect : str
         What would happen otherwise, for the message.
+    advice : str
+        The message's last sentence: what to do instead (``{name}`` stands for the name).
     """
     unused = unused_by_layers(scene, names)
     if unused:
         name, why = next(iter(unused.items()))
         where = {"density": "[specimen] density", "material": "[material] name"}.get(name, f"[material] {name}")
-        raise InputError(f"{flag(name)}: no layer of the specimen uses {where} ({why}), so {effect}. Give the "
-                         f"layer its value in the scene file.")
+        raise InputError(f"{flag(name)}: no layer of the specimen uses {where} ({why}), so {effect}. "
+                         f"{advice.replace('{name}', name)}")
 
 
 def regions(scene) -> list[tuple[str, object]]:
@@ -391,8 +393,10 @@ def mesh_part_elements(mesh: str, n_elements: int, parts) -> list[np.ndarray]:
     ------
     InputError
         A part name that no cell set of the mesh has (the message lists the names the mesh has),
-        a cell in two parts, or cells in no part (their count and the first few indices).
+        a cell in two parts, or cells in no part (their count and the first few, by the file's element
+        labels where it has them, else by their place in the file).
     """
+    from .mesh import file_mesh_names
     from .sections import read_specimen_cell_sets  # the sections import this module
 
     sets = read_specimen_cell_sets(mesh)
@@ -413,14 +417,14 @@ def mesh_part_elements(mesh: str, n_elements: int, parts) -> list[np.ndarray]:
         if taken.size:
             other = parts[int(owner[taken[0]])].name
             raise InputError(f"[parts.{part.name}] and [parts.{other}] both hold {taken.size} cell(s) of the mesh "
-                             f"'{mesh}' (e.g. hexahedron {int(taken[0])}); a cell must belong to exactly one part. "
-                             f"Fix the mesh's cell sets or list only disjoint ones.")
+                             f"'{mesh}' (e.g. {file_mesh_names(mesh).element(int(taken[0]))}); a cell must belong "
+                             f"to exactly one part. Fix the mesh's cell sets or list only disjoint ones.")
         owner[el] = i
         out.append(el)
     free = np.flatnonzero(owner < 0)
     if free.size:
-        first = ", ".join(str(int(e)) for e in free[:5]) + (", ..." if free.size > 5 else "")
+        first = file_mesh_names(mesh).elements(free[:5], more=free.size > 5)
         raise InputError(f"[parts]: {free.size} of the {n_elements} hexahedra of the mesh '{mesh}' are in no part "
-                         f"(hexahedra {first}, counted in file order); every cell needs a material. Add a "
+                         f"({first}); every cell needs a material. Add a "
                          f"[parts.NAME] for their cell set (the mesh has: {have}) or put them in one in the mesher.")
     return out

@@ -1,4 +1,5 @@
-"""Hexahedral meshes: structured generation, reading with meshio, node sets, volumes, Jacobians.
+"""Hexahedral meshes: structured generation, reading (Abaqus .inp files with cfm's own reader,
+:mod:`cfm_core.scene.abaqus_inp`; other formats with meshio), node sets, volumes, Jacobians.
 
 All coordinates are in m, volumes in m^3. Connectivity follows the meshio/VTK hexahedron order:
 nodes 0-3 are the bottom face counter-clockwise seen from +z, nodes 4-7 the top face directly
@@ -49,7 +50,7 @@ def meshio_read(path: Path):
     Raises
     ------
     InputError
-        meshio cannot read the file.
+        meshio cannot read the file, or cfm's reader an .inp file (naming the line).
     """
     import contextlib
     import io
@@ -69,7 +70,87 @@ def meshio_read(path: Path):
         reason = printed if isinstance(exc, SystemExit) or not str(exc).strip() else " ".join(str(exc).split())
         reason = reason.removeprefix("Error: ") or type(exc).__name__
         raise InputError(f"mesh file '{path}' could not be read by meshio ({reason[:300]}). Use a format meshio "
-                         f"reads (.vtu, .msh, .inp, ...), with a suffix that names it.") from None
+                         f"reads (.vtu, .msh, ...) or an Abaqus .inp file (read by cfm itself), with a suffix that "
+                         f"names it.") from None
+
+
+def _ordinal(n: int) -> str:
+    """1 -> '1st', 2 -> '2nd', 3 -> '3rd', 11 -> '11th', 22 -> '22nd'."""
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
+
+
+class MeshNames:
+    """How messages name the hexahedra of a mesh and their nodes.
+
+    A mesh read from a file is named as its user knows it: by the file's own labels where it has
+    them (an Abaqus .inp file's element and node numbers, ``INSTANCE.NUMBER`` in an assembly),
+    otherwise the hexahedra by their place in the file (1-based: "the 5th hexahedron of the
+    file") and the nodes by their 0-based point index in the file (as VTK, ParaView and meshio
+    count them), before unused points are dropped and coincident ones merged. A mesh made in
+    memory (no file) is named by its 0-based rows.
+
+    Parameters
+    ----------
+    corners : ndarray, shape (e, 8)
+        Per hexahedron its nodes: the file's point indices (a file), or the rows (in memory).
+    labels : cfm_core.scene.abaqus_inp.Labels, optional
+        The file's node and element numbers (the Abaqus reader's ``file_labels``).
+    blocks : sequence of (int, int), optional
+        Per hexahedron block of the file, in order: its cell-block index and its first hexahedron.
+    from_file : bool
+        Whether the mesh was read from a file (default: made in memory).
+    """
+
+    def __init__(self, corners, labels=None, blocks=(), from_file: bool = False):
+        self.corners = np.asarray(corners)
+        self.labels = labels
+        self.blocks = list(blocks)
+        self.from_file = from_file
+
+    def _label(self, e: int) -> str:
+        block, first = max((b for b in self.blocks if b[1] <= e), key=lambda b: b[1])
+        return self.labels.element(block, e - first)
+
+    def element(self, e: int, with_nodes: bool = False) -> str:
+        """Hexahedron ``e`` (0-based row), optionally with its nodes.
+
+        E.g. "element 105 (the 2nd hexahedron of the file; nodes 1010, 1011, ...)" (labels), "the 2nd
+        hexahedron of the file (points 9, 10, ... of the file, 0-based)", "element 1 (nodes [9, 10, ...])"
+        (in memory).
+        """
+        rows = self.corners[e].tolist()
+        if not self.from_file:
+            return f"element {e} (nodes {rows})" if with_nodes else f"element {e}"
+        nth = f"the {_ordinal(e + 1)} hexahedron of the file"
+        if self.labels is not None:
+            nodes = "; nodes " + ", ".join(self.labels.node(i) for i in rows) if with_nodes else ""
+            return f"element {self._label(e)} ({nth}{nodes})"
+        return f"{nth} (points {', '.join(str(i) for i in rows)} of the file, 0-based)" if with_nodes else nth
+
+    def elements(self, indices, more: bool = False) -> str:
+        """Several hexahedra (0-based rows), ``more``: followed by ", ...".
+
+        E.g. "elements 101, 102, ..." (labels), "the 1st, 2nd, ... hexahedra of the file", "elements 0, 1, ..."
+        (in memory).
+        """
+        rows = [int(e) for e in indices]
+        tail, plural = (", ..." if more else ""), len(rows) > 1 or more
+        word = "elements" if plural else "element"
+        if not self.from_file:
+            return f"{word} {', '.join(map(str, rows))}{tail}"
+        nths = f"the {', '.join(_ordinal(e + 1) for e in rows)}{tail} {'hexahedra' if plural else 'hexahedron'} of the file"
+        if self.labels is not None:
+            return f"{word} {', '.join(self._label(e) for e in rows)}{tail} ({nths})"
+        return nths
+
+    def corner(self, e: int, a: int) -> str:
+        """Corner ``a`` (0-7, in node order) of hexahedron ``e``: "5th node (1001)", or "corner 4" in memory."""
+        if not self.from_file:
+            return f"corner {a}"
+        i = int(self.corners[e, a])
+        return f"{_ordinal(a + 1)} node ({self.labels.node(i) if self.labels is not None else f'point {i}'})"
+
 
 def _shape_gradients(points: np.ndarray) -> np.ndarray:
     """dN_a/dxi_k of the trilinear shape functions at reference points (p, 3) -> (p, 8, 3)."""
@@ -149,8 +230,46 @@ def structured_hex_mesh(lx: float, ly: float, lz: float, nx: int, ny: int, nz: i
     return nodes, hexes
 
 
+def _hexahedron_blocks(mesh) -> tuple[list[np.ndarray], list[tuple[int, int]]]:
+    """The hexahedron blocks of a meshio mesh and, per block, (its cell-block index, its first hexahedron);
+    empty blocks (an ``*ELEMENT`` line without data) left out."""
+    blocks, where = [], []
+    for b, block in enumerate(mesh.cells):
+        if block.type == "hexahedron" and len(block.data):
+            where.append((b, sum(len(x) for x in blocks)))
+            blocks.append(np.asarray(block.data, dtype=np.int64))
+    return blocks, where
+
+
+def _file_names(mesh, hexes: np.ndarray, where) -> MeshNames:
+    """How messages name the hexahedra of a mesh read from a file (its labels, when the reader gave them)."""
+    return MeshNames(hexes, getattr(mesh, "file_labels", None), where, from_file=True)
+
+
+def file_mesh_names(path) -> MeshNames:
+    """How messages name the hexahedra of the mesh file ``path`` and their nodes (:class:`MeshNames`), in the
+    order :func:`read_hex_mesh` and :func:`read_cell_sets` count them; for a message, the file is read again.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mesh file :func:`read_hex_mesh` has read.
+
+    Returns
+    -------
+    MeshNames
+        The file's labels (Abaqus .inp), else the hexahedra's places in the file.
+    """
+    mesh = meshio_read(Path(path))
+    blocks, where = _hexahedron_blocks(mesh)
+    return _file_names(mesh, np.vstack(blocks) if blocks else np.zeros((0, 8), dtype=np.int64), where)
+
+
 def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Read a hexahedral mesh with meshio; return (nodes (n, 3) in m, hexes (e, 8) int64).
+    """Read a hexahedral mesh file; return (nodes (n, 3) in m, hexes (e, 8) int64).
+
+    An Abaqus .inp file is read by cfm's own reader (:func:`cfm_core.scene.abaqus_inp.read_inp`),
+    every other format by meshio (:func:`meshio_read`).
 
     Only ``hexahedron`` volume cells are accepted; vertex, line, triangle and quad blocks
     (boundary markers from mesh generators) are ignored; any other cell type is an InputError
@@ -159,12 +278,14 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     merged when ``merge`` is True and refused otherwise; disconnected parts are refused.
     An element listed twice is refused (:func:`check_duplicate_cells`).
     Every element must have a positive Jacobian at its centre and its 8 corners (VTK node order);
-    otherwise an InputError names the first bad element. Coordinates are taken as metres.
+    otherwise an InputError names the first bad element. The messages name elements and nodes as
+    the file does (:class:`MeshNames`: an .inp file's element and node numbers, else the nth
+    hexahedron of the file and its 0-based point indices). Coordinates are taken as metres.
 
     Parameters
     ----------
     path : str or Path
-        A mesh file meshio reads (.vtu, .msh, .inp, ...).
+        A mesh file: Abaqus .inp, or a format meshio reads (.vtu, .msh, ...).
     merge : bool
         Merge coincident nodes the elements do not share (default: refuse such a mesh).
 
@@ -182,15 +303,13 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"mesh file '{path}' does not exist; give the path of a hexahedral mesh "
-                         f"readable by meshio (e.g. .vtu, .msh, .inp).")
+        raise InputError(f"mesh file '{path}' does not exist; give the path of a hexahedral mesh file "
+                         f"(Abaqus .inp, or a format meshio reads: .vtu, .msh, ...).")
     mesh = meshio_read(path)
     found = {}
-    blocks = []
     for block in mesh.cells:
         found[block.type] = found.get(block.type, 0) + len(block.data)
-        if block.type == "hexahedron":
-            blocks.append(np.asarray(block.data, dtype=np.int64))
+    blocks, where = _hexahedron_blocks(mesh)
     found_text = ", ".join(f"{n} {t}" for t, n in found.items()) or "no cells"
     other = sorted(t for t in found if t != "hexahedron" and t not in _SURFACE_CELL_TYPES)
     if other or not blocks:
@@ -201,9 +320,11 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(f"mesh file '{path}' has points of shape {points.shape}; 3D points (n, 3) "
                          f"in m are required.")
     hexes = np.vstack(blocks)
+    names = _file_names(mesh, hexes, where)
     used = np.unique(hexes)
     if used[0] < 0 or used[-1] >= len(points):
-        raise InputError(f"mesh file '{path}' refers to node {int(used[-1])} but has only "
+        bad = int(used[0]) if used[0] < 0 else int(used[-1])
+        raise InputError(f"mesh file '{path}' refers to point {bad} (0-based) but has only "
                          f"{len(points)} points.")
     renumber = np.full(len(points), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
@@ -211,13 +332,14 @@ def read_hex_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarray]:
     hexes = renumber[hexes]
     if not np.all(np.isfinite(nodes)):
         raise InputError(f"mesh file '{path}' has non-finite (NaN or inf) node coordinates.")
-    nodes, hexes = check_one_body(nodes, hexes, source=f"mesh file '{path}'", merge=merge)
-    check_duplicate_cells(hexes, source=f"mesh file '{path}'")
-    check_hex_jacobians(nodes, hexes, source=f"mesh file '{path}'")
+    source = f"mesh file '{path}'"
+    nodes, hexes = check_one_body(nodes, hexes, source=source, merge=merge, names=names)
+    check_duplicate_cells(hexes, source=source, names=names)
+    check_hex_jacobians(nodes, hexes, source=source, names=names)
     return nodes, hexes
 
 
-def check_duplicate_cells(hexes: np.ndarray, source: str = "the mesh") -> None:
+def check_duplicate_cells(hexes: np.ndarray, source: str = "the mesh", names: MeshNames | None = None) -> None:
     """Refuse hexahedra listed more than once (the same 8 nodes, in any order).
 
     A file whose hexahedron block is written twice (a gmsh volume in two physical groups) ran as a
@@ -230,12 +352,15 @@ def check_duplicate_cells(hexes: np.ndarray, source: str = "the mesh") -> None:
         Connectivity (after merging coincident nodes).
     source : str
         What the mesh is, for the message.
+    names : MeshNames, optional
+        How to name the elements (a file's labels); default: their 0-based rows.
 
     Raises
     ------
     InputError
-        Naming the count and the first pair (0-based element numbers in the file's order).
+        Naming the count and the first pair.
     """
+    names = names or MeshNames(hexes)
     key = np.sort(np.asarray(hexes), axis=1)
     _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
     if counts.size and counts.max() > 1:
@@ -244,9 +369,8 @@ def check_duplicate_cells(hexes: np.ndarray, source: str = "the mesh") -> None:
         other = int(np.flatnonzero((key == key[twin]).all(axis=1))[1])
         extra = int(np.sum(counts[dup] - 1))
         raise InputError(f"{source} lists {extra} {'hexahedron' if extra == 1 else 'hexahedra'} more than once (the "
-                         f"same 8 nodes): element {other} repeats "
-                         f"element {twin} (0-based, hexahedra in the file's order). Each would count its mass and "
-                         f"stiffness twice. Write each element once (a volume exported in two physical groups, or "
+                         f"same 8 nodes): {names.element(other)} repeats {names.element(twin)}. Each would count "
+                         f"its mass and stiffness twice. Write each element once (a volume exported in two physical groups, or "
                          f"a block written twice, does this); parts are named by cell sets over one block.")
 
 
@@ -317,7 +441,7 @@ def connected_parts(hexes: np.ndarray, n_nodes: int) -> np.ndarray:
 
 
 def check_one_body(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh", merge: bool = False,
-                   rel_tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+                   rel_tol: float = 1e-6, names: MeshNames | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A mesh that is one body: (nodes (n', 3) in m, hexes (e, 8)), coincident nodes merged on request.
 
     Parameters
@@ -333,6 +457,8 @@ def check_one_body(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh", m
         element, or layers that do not share nodes); False: refuse such a mesh.
     rel_tol : float
         Distance (-, relative to the mean edge length) below which two nodes are the same.
+    names : MeshNames, optional
+        How to name the elements (a file's labels); default: their 0-based rows.
 
     Returns
     -------
@@ -363,7 +489,8 @@ def check_one_body(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh", m
         nodes = nodes[used]
         degenerate = np.flatnonzero([len(set(h)) < 8 for h in hexes.tolist()])
         if degenerate.size:
-            raise InputError(f"{source}: merging coincident nodes collapsed element {int(degenerate[0])} "
+            raise InputError(f"{source}: merging coincident nodes collapsed "
+                             f"{(names or MeshNames(hexes)).element(int(degenerate[0]))} "
                              f"({degenerate.size} in total): some of its own corners coincide; fix the mesh.")
     labels = connected_parts(hexes, len(nodes))
     counts = np.bincount(labels)
@@ -376,19 +503,39 @@ def check_one_body(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh", m
     return nodes, hexes
 
 
-def check_hex_jacobians(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh") -> None:
-    """Raise InputError naming the first element whose Jacobian is <= 0 at its centre or a corner."""
+def check_hex_jacobians(nodes: np.ndarray, hexes: np.ndarray, source: str = "mesh",
+                        names: MeshNames | None = None) -> None:
+    """Refuse a mesh with an element whose Jacobian is <= 0 at its centre or a corner.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Coordinates (m).
+    hexes : ndarray, shape (e, 8)
+        Connectivity, VTK order.
+    source : str
+        What the mesh is, for the message.
+    names : MeshNames, optional
+        How to name the element and its nodes (a file's labels); default: their 0-based rows.
+
+    Raises
+    ------
+    InputError
+        Naming the first bad element, its nodes, where its Jacobian is lowest and the count.
+    """
     dets = hex_jacobians(nodes, hexes)
     bad = np.flatnonzero(np.any(dets <= 0.0, axis=1))
     if bad.size:
+        names = names or MeshNames(hexes)
         e = int(bad[0])
-        where = ["centre"] + [f"corner {a}" for a in range(8)]
         p = int(np.argmin(dets[e]))
+        where = "centre" if p == 0 else names.corner(e, p - 1)
         raise InputError(
-            f"{source}: element {e} (nodes {hexes[e].tolist()}) has a non-positive Jacobian "
-            f"{dets[e, p]:.3g} m^3 at its {where[p]} ({bad.size} bad element(s) in total). The "
-            f"element is inverted, degenerate or not in VTK hexahedron order (nodes 0-3 the bottom "
-            f"face counter-clockwise seen from +z, 4-7 the top face above them); fix the mesh."
+            f"{source}: {names.element(e, with_nodes=True)} has a non-positive Jacobian "
+            f"{dets[e, p]:.3g} m^3 at its {where}; {bad.size} bad element(s) in total. The "
+            f"element is inverted, degenerate or not in the hexahedron node order of VTK and Abaqus C3D8 "
+            f"(its first four nodes the bottom face, counter-clockwise seen from +z, its last four the top "
+            f"face above them); fix the mesh."
         )
 
 
@@ -461,7 +608,8 @@ def read_cell_sets(path) -> dict[str, np.ndarray]:
 
     The indices count the hexahedra in the order :func:`read_hex_mesh` returns them (the
     hexahedron blocks of the file one after the other). Names come from, in this order:
-    meshio ``cell_sets`` (Abaqus ``*ELSET``, gmsh 4 physical groups, ...); gmsh 2 physical
+    the cell sets (Abaqus ``*ELSET``, read by :mod:`cfm_core.scene.abaqus_inp`; gmsh 4 physical
+    groups and the others meshio reads as ``cell_sets``); gmsh 2 physical
     groups (``gmsh:physical`` tags named by ``field_data``; a tag without a name is
     ``physical_TAG``); every other integer cell-data array ARRAY except ``gmsh:geometrical``,
     one set per value V named ``ARRAY_V`` (e.g. a VTU array ``part`` with ids 1 and 2 gives
@@ -470,7 +618,7 @@ def read_cell_sets(path) -> dict[str, np.ndarray]:
     Parameters
     ----------
     path : str or Path
-        A mesh file meshio reads.
+        A mesh file: Abaqus .inp, or a format meshio reads.
 
     Returns
     -------
@@ -481,7 +629,7 @@ def read_cell_sets(path) -> dict[str, np.ndarray]:
     Raises
     ------
     InputError
-        The file cannot be read by meshio.
+        The file cannot be read (:func:`meshio_read`).
     """
     mesh = meshio_read(Path(path))
     offsets, start = {}, 0

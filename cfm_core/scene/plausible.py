@@ -49,8 +49,10 @@ import numpy as np
 from ..material.plausible import check_material
 from ..material.registry import make_material
 
-#: SI unit -> (the unit often typed instead, the factor from it to the SI unit).
-UNIT_SLIPS = {"m": ("mm", 1e-3), "kg": ("g", 1e-3), "m/s": ("mm/s", 1e-3), "kg/m^3": ("g/cm^3", 1e3)}
+#: SI unit -> the units often typed instead, each with the factor from it to the SI unit (a density in
+#: tonne/mm^3 is what an LS-DYNA or Abaqus model in mm-s-tonne units holds: 9.2e-10 for 920 kg/m^3).
+UNIT_SLIPS = {"m": (("mm", 1e-3),), "kg": (("g", 1e-3),), "m/s": (("mm/s", 1e-3),),
+              "kg/m^3": (("g/cm^3", 1e3), ("tonne/mm^3", 1e12))}
 
 #: Smallest value a unit-slip hint proposes (SI): below it the corrected value is no more plausible.
 PLAUSIBLE_FLOOR = {"m": 1e-4, "kg": 1e-3, "m/s": 1e-2}
@@ -85,7 +87,7 @@ _FLAGS = {"mass": "--mass", "radius": "--radius", "velocity": "--velocity", "wid
 
 
 def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = float("inf"), fix: str | None = None,
-              flag: bool = True) -> str:
+              flag: bool = True, option: str | None = None) -> str:
     """The likely unit slip of a value outside its range, as a sentence ("" when none fits).
 
     Parameters
@@ -103,24 +105,31 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
     flag : bool
         Name the command-line flag that sets the field (default); False for a layer's or part's field,
         which no flag sets (``--element-size`` sets [specimen]'s).
+    option : str, optional
+        The option of a command without a scene (``"--density"`` of ``cfm export``): the hint says
+        "Give --density 920" instead of "Write density = 920".
 
     Returns
     -------
     str
         E.g. ``"220 kg: did you mean 0.22 kg (220 g)? Write mass = 0.22 (--mass 0.22)."``, or ``""``.
+        Of the units often typed instead (:data:`UNIT_SLIPS`), the first whose corrected value falls
+        in [lo, hi] is named.
     """
     if unit not in UNIT_SLIPS or value == 0.0:  # zero is no unit slip
         return ""
-    alt, factor = UNIT_SLIPS[unit]
     lo = max(lo, PLAUSIBLE_FLOOR.get(unit, 0.0))  # no "did you mean 2e-05 m" for an element size
-    flag = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS and flag else ""
-    if lo <= value * factor <= hi:
-        todo = fix or f"Write {key} = {value * factor:g}{flag}"
-        return (f"{value:g} {unit}: did you mean {value * factor:g} {unit} ({value:g} {alt})? "
-                f"{todo}; every value is in SI units.")
-    if lo <= value / factor <= hi and value < lo:  # e.g. mm converted to m twice
-        return (f"{value:g} {unit}: did you mean {value / factor:g} {unit}? The value looks converted from "
-                f"{alt} to {unit} twice; every value is in SI units.")
+    for alt, factor in UNIT_SLIPS[unit]:
+        if lo <= value * factor <= hi:
+            flagged = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS and flag else ""
+            todo = (fix or (f"Give {option} {value * factor:g}" if option else
+                            f"Write {key} = {value * factor:g}{flagged}"))
+            return (f"{value:g} {unit}: did you mean {value * factor:g} {unit} ({value:g} {alt})? "
+                    f"{todo}; every value is in SI units.")
+    for alt, factor in UNIT_SLIPS[unit]:
+        if lo <= value / factor <= hi and value < lo:  # e.g. mm converted to m twice
+            return (f"{value:g} {unit}: did you mean {value / factor:g} {unit}? The value looks converted from "
+                    f"{alt} to {unit} twice; every value is in SI units.")
     return ""
 
 

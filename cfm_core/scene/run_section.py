@@ -70,19 +70,32 @@ def _plain(section: str):
 
 
 def _digest(section: str):
+    """Check of a content digest ``"sha256:<hex>"``, read in any case and kept in lower case (as cfm
+    writes it, so that a digest retyped in upper case still compares equal)."""
     def check(name, v):
-        if not isinstance(v, str) or not v.startswith("sha256:"):
+        if not isinstance(v, str) or not v.lower().startswith("sha256:"):
             raise InputError(f"[{section}] {name!r} = {v!r} must be a content digest \"sha256:<hex>\".")
-        return v
+        return v.lower()
     return check
 
 
+#: Characters of a material definition digest (:func:`cfm_core.material.cache.definition_digest`).
+DEFINITION_DIGITS = 24
+
+
 def _definition(section: str):
+    """Check of a material definition digest: 24 hexadecimal digits in any case, kept in lower case (as
+    cfm writes it)."""
     def check(name, v):
-        if not (isinstance(v, str) and len(v) == 24 and all(c in "0123456789abcdef" for c in v)):
-            raise InputError(f"[{section}] {name} = {v!r} must be a material definition digest (24 hexadecimal "
-                             f"characters, as cfm writes it).")
-        return v
+        hexdigits = "0123456789abcdef"
+        if not (isinstance(v, str) and len(v) == DEFINITION_DIGITS and all(c in hexdigits for c in v.lower())):
+            got = (f"it is not text ({type(v).__name__})" if not isinstance(v, str) else
+                   f"it has {len(v)} characters" if len(v) != DEFINITION_DIGITS else
+                   "it has characters other than 0-9 and a-f")
+            raise InputError(f"[{section}] {name} = {v!r} must be a material definition digest: "
+                             f"{DEFINITION_DIGITS} hexadecimal digits (0-9, a-f in either case), as cfm writes it; "
+                             f"{got}.")
+        return v.lower()
     return check
 
 
@@ -112,13 +125,16 @@ class RunSettings:
     materials : mapping or tuple of pairs
         ``material name -> definition digest`` of every material the run used
         (:func:`cfm_core.material.cache.definition_digest`: its code, the values its code imports,
-        its Prony defaults), so that a repeat says when a definition changed since.
+        its Prony defaults), so that a repeat says when a definition changed since. Each is 24
+        hexadecimal digits, read in either case and kept in lower case, as cfm writes them (so are
+        the content digests of ``input_files``).
 
     Raises
     ------
     InputError
-        A name that is not text, an option value that is not a number, bool or text, or a
-        digest not of the form ``sha256:<hex>``.
+        A name that is not text, an option value that is not a number, bool or text, a content
+        digest not of the form ``sha256:<hex>``, or a definition digest not of 24 hexadecimal
+        digits.
     """
 
     backend: str | None = None

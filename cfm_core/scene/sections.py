@@ -95,8 +95,8 @@ def read_specimen_mesh(path, merge: bool = False) -> tuple[np.ndarray, np.ndarra
     st = p.stat() if p.is_file() else None
     if st is None:
         raise InputError(f"[specimen] mesh = '{path}': the file does not exist. Give the path of a "
-                         f"hexahedral mesh readable by meshio (relative paths are taken from the "
-                         f"scene file's folder).")
+                         f"hexahedral mesh file (Abaqus .inp, or a format meshio reads: .vtu, .msh, ...; relative "
+                         f"paths are taken from the scene file's folder).")
     return _read_mesh_cached(str(p), st.st_mtime_ns, st.st_size, bool(merge))
 
 

@@ -16,8 +16,13 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..post.staging import check_folder_target
-from .fit_outcomes import CalibrationOutcome, LabFitOutcome
+from .fit_outcomes import CalibrationOutcome, LabFitOutcome, files_read
 from .outcomes import SweepOutcome, UniaxialOutcome, clear_earlier_output
+
+
+def _scene_file(scene) -> tuple:
+    """(the scene's TOML file,) when ``scene`` is a path, else (): a file the study reads."""
+    return (str(scene),) if isinstance(scene, (str, Path)) else ()
 
 
 def _scene(scene):
@@ -84,7 +89,8 @@ def sweep(scene=None, vary=None, backend: str | None = None, runner=None, out=No
     out : str or path-like, optional
         Output folder: the content-keyed run cache ``out/runs`` (a repeated call computes only
         what is not there) and, at the end, the files of ``cfm sweep``. Default: none, results in
-        memory (``save`` writes them).
+        memory (``save`` writes them). Refused when the earlier output there holds the scene file
+        (or its mesh), which the sweep would remove.
     progress : bool or callable
         True: a tqdm.auto bar; a callable: one line per finished run; False: none.
     options : dict, optional
@@ -99,10 +105,11 @@ def sweep(scene=None, vary=None, backend: str | None = None, runner=None, out=No
     ------
     InputError
         Unknown names, non-finite or out-of-range values (before any run), bad backend options,
-        an unwritable ``out``.
+        an unwritable ``out`` or one whose earlier output holds the scene file.
     """
     from . import sweep as sw
 
+    read = _scene_file(scene)
     scene = _scene(scene)
     if vary is None:
         raise InputError("cfm.sweep needs vary={name: [values]} (SI units), e.g. vary={'k2': [1.6, 1.8]}.")
@@ -110,6 +117,8 @@ def sweep(scene=None, vary=None, backend: str | None = None, runner=None, out=No
     axes = sw.parse_vary(vary, scene)
     sw.check_cases(scene, axes)
     sw.check_backend(scene, axes, backend)
+    if out is not None:  # the earlier output goes now: not the scene file read from it
+        check_folder_target(out, inputs=files_read((), scene, read))
     folder = clear_earlier_output(out, keep=("runs",)) if out is not None else None
     bar = _bar(progress, len(sw.cases(axes)), "sweep")
     result = sw.execute(scene, axes, backend, options, runner, folder / "runs" if folder else None, bar)
@@ -140,6 +149,8 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
         As for :func:`sweep`.
     out : str or path-like, optional
         Output folder (checked first; fit.json, plots and fitted-scene.toml written at the end).
+        Refused when the earlier cfm output there holds a file the calibration reads (a curve,
+        the scene file or its mesh), which writing the output would remove.
     progress : bool or callable
         True: a line per evaluation on stderr; a callable receives them; False: none.
     rel_step : float, optional
@@ -155,7 +166,8 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
     Raises
     ------
     InputError
-        Bad names, files, values or ``out``.
+        Bad names, files, values or ``out``; a fitted parameter that no layer of a layered
+        specimen takes from [material] (:func:`cfm_core.studies.calibrate.fit_names`).
     NumericalError
         A drop test failed.
     """
@@ -164,7 +176,7 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
     from . import calibrate as cal
     from . import measured
 
-    given, scene = scene is not None, _scene(scene)
+    given, read, scene = scene is not None, _scene_file(scene), _scene(scene)
     scene, backend, options = _planned(scene, backend, options)
     names = cal.fit_names(",".join(fit) if isinstance(fit, (list, tuple)) else fit, scene)
     start = dict(start or {})
@@ -181,7 +193,7 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
     if not (isinstance(max_evaluations, int) and max_evaluations >= 1):
         raise InputError(f"max_evaluations = {max_evaluations!r} must be a whole number >= 1.")
     if out is not None:  # checked now; an earlier output there is replaced when the fit is saved, kept if it fails
-        out = check_folder_target(out)
+        out = check_folder_target(out, inputs=files_read(curves, scene, read))
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else _bar(progress, 0, "")
     t0 = time.perf_counter()
     result = cal.fit(scene, curves, names, start, backend, runner, cal.REL_STEP if rel_step is None else rel_step,
@@ -189,7 +201,8 @@ def calibrate(scene=None, data=None, fit="k1,k2", start: dict | None = None, bac
     label = getattr(runner, "label", "serial (this process)")
     outcome = CalibrationOutcome(scene, result, backend, dict(options or {}),
                                  {"runner": label, "total_time": time.perf_counter() - t0,
-                                  "max_evaluations": max_evaluations})  # the fit stops there: a repeat needs it
+                                  "max_evaluations": max_evaluations},  # the fit stops there: a repeat needs it
+                                 read)
     if out is not None:
         outcome.save(out)
     return outcome
@@ -218,9 +231,13 @@ def fit(material: str = "cfm", tests=None, fit="c,k1,k2", start: dict | None = N
     starts : int, optional
         Starting points (default 6 when a Prony time is fitted, else 1).
     scene : Scene or str, optional
-        Drop-test scene fitted-scene.toml starts from (default: built-in).
+        Drop-test scene fitted-scene.toml starts from (default: built-in). The fitted values go
+        into its [material] section: a layered specimen must have a layer that takes each of
+        them from there.
     out : str or path-like, optional
-        Output folder (checked first; written at the end).
+        Output folder (checked first; written at the end). Refused when the earlier cfm output
+        there holds a file the fit reads (a test, the scene file or its mesh), which writing the
+        output would remove.
     progress : bool or callable
         True: a line every 10 evaluations on stderr; a callable receives them.
 
@@ -232,7 +249,8 @@ def fit(material: str = "cfm", tests=None, fit="c,k1,k2", start: dict | None = N
     Raises
     ------
     InputError
-        Bad names, tests, values or ``out``.
+        Bad names, tests, values or ``out``; a fitted parameter that no layer of the scene's
+        layered specimen takes (:func:`cfm_core.studies.fit.check_scene`).
     NumericalError
         A test's simulation failed.
     """
@@ -249,14 +267,18 @@ def fit(material: str = "cfm", tests=None, fit="c,k1,k2", start: dict | None = N
     if not tests:
         raise InputError("cfm.fit needs tests=['FILE:KIND:RATE[:WEIGHT]', ...] (columns t s, stretch or shear -, "
                          "stress Pa).")
+    read = _scene_file(scene)
     scene = _scene(scene) if scene is not None else None
+    if scene is not None:  # fitted-scene.toml puts the values into [material]: a layer must take them from there
+        lab.check_scene(scene, names)
     if out is not None:  # checked now; an earlier output there is replaced when the fit is saved, kept if it fails
-        out = check_folder_target(out)
+        out = check_folder_target(out, inputs=files_read(tests, scene, read))
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else _bar(progress, 0, "")
     t0 = time.perf_counter()
     result = lab.fit_lab(material, tests, names, start, fixed, moduli, elastic, max_evaluations, say, starts)
     outcome = LabFitOutcome(result, scene, {"total_time": time.perf_counter() - t0,
-                                            "max_evaluations": max_evaluations})  # per start: a repeat needs it
+                                            "max_evaluations": max_evaluations},  # per start: a repeat needs it
+                            read)
     if out is not None:
         outcome.save(out)
     return outcome

@@ -106,14 +106,60 @@ def parse_fit_names(text: str, spec, prony: tuple, example: str) -> list[str]:
 
 def fit_names(text: str, scene) -> list[str]:
     """``c,k1,k2,prony`` -> parameter names of the scene's material (prony: :data:`PRONY`, the term
-    that relaxes during a drop test); see :func:`parse_fit_names`."""
+    that relaxes during a drop test); see :func:`parse_fit_names`. A name that no layer of a
+    layered specimen takes from the [material] section (every layer names its own material or
+    gives that parameter itself) is refused: the drop tests would not depend on it
+    (:func:`cfm_core.scene.layers.refuse_unused`)."""
+    from ..scene.layers import refuse_unused
+
     spec = get_material(scene.material.name)
-    return parse_fit_names(text, spec, PRONY if spec.prony is not None else (), "k1,k2")
+    names = parse_fit_names(text, spec, PRONY if spec.prony is not None else (), "k1,k2")
+    refuse_unused(scene, names, lambda n: f"--fit {n}",
+                  "no drop test depends on it and the fit cannot determine it",
+                  "Let a layer take {name} from [material] (one without a material or a {name} of its own), or "
+                  "drop {name} from --fit.")
+    return names
+
+
+def from_log(v: float) -> float:
+    """The parameter p of a log coordinate v = ln p: the shortest decimal float whose ``math.log`` is v.
+
+    Several floats p share one ln p (near p = 900 about seven: ln p has a coarser grid than p), and
+    ``math.exp`` picks one of them, not the value written: exp(ln 900) = 900.0000000000001. Of the
+    floats that map to v, the one with the fewest significant digits is as exact a reading of v as
+    any, and it gives back the value the coordinate came from (a start, a bound) to the bit, so
+    that a fit that did not move a parameter writes 900.0, not 900.0000000000001. Where no shorter
+    float maps to v, exp(v); inf from v = 709 (p = 8.2e307) on, 0 below the float range.
+
+    Parameters
+    ----------
+    v : float
+        The coordinate ln p.
+
+    Returns
+    -------
+    float
+        p.
+    """
+    if v >= 709.0:  # a near-flat coordinate's interval: at the float range's end (math.exp raises beyond)
+        return math.inf
+    p = math.exp(v)
+    if not (p > 0.0 and math.isfinite(p)):
+        return p
+    for digits in range(1, 17):
+        q = float(f"{p:.{digits}g}")
+        if q > 0.0 and math.log(q) == v:
+            return q
+    return p
 
 
 @dataclass(frozen=True)
 class Coordinates:
-    """Fitted coordinates x of the parameters p: x = ln p (``log``) or x = p, with bounds."""
+    """Fitted coordinates x of the parameters p: x = ln p (``log``) or x = p, with bounds.
+
+    A log coordinate maps back to p by :func:`from_log` (the shortest float with that logarithm),
+    so ``to_params(to_x(p)) == p`` for every value written with up to 14 significant digits.
+    """
 
     names: tuple
     units: tuple
@@ -121,8 +167,12 @@ class Coordinates:
     lower: np.ndarray
     upper: np.ndarray
 
+    def value(self, i: int, v: float) -> float:
+        """Parameter ``i``'s value (SI) at coordinate value ``v``."""
+        return from_log(float(v)) if self.log[i] else float(v)
+
     def to_params(self, x) -> dict:
-        return {n: float(math.exp(v) if lg else v) for n, v, lg in zip(self.names, x, self.log)}
+        return {n: self.value(i, v) for i, (n, v) in enumerate(zip(self.names, x))}
 
     def to_x(self, params: dict) -> np.ndarray:
         return np.array([math.log(params[n]) if lg else params[n] for n, lg in zip(self.names, self.log)])
@@ -321,7 +371,7 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
             continue
         sd = math.sqrt(cov[i, i])
         if coords.log[i]:
-            ci, std = [_exp(x[i] - q * sd), _exp(x[i] + q * sd)], values[n] * sd
+            ci, std = [coords.value(i, x[i] - q * sd), coords.value(i, x[i] + q * sd)], values[n] * sd
         else:
             ci, std = [x[i] - q * sd, x[i] + q * sd], sd
         if not all(math.isfinite(v) for v in (*ci, std)):  # a flat direction: beyond the float range
@@ -334,8 +384,8 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
     if cov is not None:
         d = np.sqrt(np.maximum(np.diag(cov), 1e-300))
         corr = (cov / np.outer(d, d)).tolist()
-    bounds = ranges or {n: tuple(float(math.exp(b) if lg else b) for b in (lo, hi))
-                        for n, lg, lo, hi in zip(coords.names, coords.log, coords.lower, coords.upper)}
+    bounds = ranges or {n: tuple(coords.value(i, b) for b in (lo, hi))
+                        for i, (n, lo, hi) in enumerate(zip(coords.names, coords.lower, coords.upper))}
     ident = identifiability.analyse(x, jac, k * s2, q, coords.names, coords.log, values, bounds, residual)
     warnings = list(ident["warnings"]) + [text for n, text in flat.items() if n not in ident["unidentified"]]
     poor = identifiability.poorly_determined(out, [n for n in coords.names if n not in ident["unidentified"]])
@@ -352,11 +402,6 @@ def confidence(x, jac, residual, coords: Coordinates, level: float = 0.95, range
             "independent_samples": n_ind, "correlation_factor": k,
             "cond_JTJ": float(np.linalg.cond(jtj)) if rank == p else None, "identifiability": ident,
             "poorly_determined": poor, "flat": flat, "warnings": warnings}
-
-
-def _exp(v: float) -> float:
-    """exp(v), inf instead of OverflowError (a near-flat log coordinate gives a huge half-width)."""
-    return math.exp(v) if v < 709.0 else math.inf
 
 
 def mark_bounds(conf: dict, x, coords: Coordinates, what: str = "bound") -> dict:

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
 from ..errors import InputError
+from ..tables import check_count
 
 #: Values of --scheduler that mean "no Dask, a loop in this process".
 SERIAL = ("none", "serial")
@@ -40,6 +41,8 @@ WORKER_WAIT = 60.0
 #: Seconds a running map waits without any worker before it gives up on the tasks left (the last
 #: worker died or was stopped; a nanny restarts a killed worker within a few seconds).
 WORKER_LOST = 30.0
+#: Longest --worker-timeout (s), about 11.6 days.
+WORKER_TIMEOUT_MAX = 1e6
 #: Seconds between two looks at the scheduler's workers while no task finishes.
 POLL = 0.25
 #: Seconds without a finished task, workers present, after which (and again after each as many) a
@@ -236,6 +239,42 @@ HANDSHAKE_WAIT = 10.0
 HANDSHAKE_BYTES = 2**26
 
 
+#: The port a Dask scheduler listens on by default (its dashboard serves http on 8787).
+SCHEDULER_PORT = 8786
+
+
+def check_scheduler_address(address: str) -> None:
+    """Refuse a web address (http:// or https://) as the scheduler's, saying which address to give.
+
+    A scheduler's dashboard (``http://host:8787/status``) is what a browser shows, and the address
+    users copy; Dask's client refused it with "unknown address scheme 'http'", and the advice then
+    was ``dask worker http://...``, which no worker can connect to: workers and clients both take
+    the scheduler's own address, ``tcp://host:8786`` by default.
+
+    Parameters
+    ----------
+    address : str
+        The ``--scheduler`` value.
+
+    Raises
+    ------
+    InputError
+        ``address`` is an http:// or https:// address; the message gives the tcp:// address on the
+        same host at :data:`SCHEDULER_PORT` and the matching ``dask worker`` command.
+    """
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address.strip())
+    if parts.scheme.lower() not in ("http", "https"):
+        return
+    host = parts.hostname or "localhost"
+    tcp = f"tcp://{f'[{host}]' if ':' in host else host}:{SCHEDULER_PORT}"
+    raise InputError(f"--scheduler {address} is a web address, such as the scheduler's dashboard (port 8787 by "
+                     f"default), not the scheduler's own: give its tcp:// address, {tcp} for the default port (the "
+                     f"scheduler's log says 'Scheduler at: tcp://...'). Workers connect to that address too: "
+                     f"'dask worker {tcp} --nthreads 1'.")
+
+
 def check_speaks_dask(address: str, timeout: float = HANDSHAKE_WAIT) -> None:
     """Check that whatever listens at a tcp:// ``address`` answers as a Dask scheduler does.
 
@@ -288,6 +327,7 @@ def connect(address: str, timeout: float = 30.0, worker_timeout: float = WORKER_
     """A :class:`DaskRunner` on the Dask scheduler at ``address`` (e.g. tcp://host:8786); a server
     there that does not speak Dask's protocol is an InputError (:func:`check_speaks_dask`)."""
     distributed = _import_distributed()
+    check_scheduler_address(address)
     check_speaks_dask(address)
     try:
         client = distributed.Client(address, timeout=f"{timeout}s")
@@ -307,6 +347,61 @@ def connect(address: str, timeout: float = 30.0, worker_timeout: float = WORKER_
     return runner
 
 
+#: Most local Dask workers per core of this machine (:func:`max_local_workers`).
+WORKERS_PER_CORE = 4
+
+
+def max_local_workers() -> int:
+    """The most worker processes a local cluster may have: :data:`WORKERS_PER_CORE` per core of
+    this machine (each is a Python process with numba loaded; more than the cores only share them)."""
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_runner_options(scheduler: str | None = None, workers: int | None = None,
+                         worker_timeout: float | None = None) -> float:
+    """Check the options of :func:`open_runner` before any work (the commands call it first).
+
+    Parameters
+    ----------
+    scheduler, workers, worker_timeout
+        As for :func:`open_runner`.
+
+    Returns
+    -------
+    float
+        The worker timeout (s), :data:`WORKER_LOST` when None.
+
+    Raises
+    ------
+    InputError
+        ``workers`` not a whole number from 1 to :func:`max_local_workers`, or given with a serial
+        run or a scheduler; ``worker_timeout`` not a number of seconds in (0, 1e6); a web address as
+        the scheduler (:func:`check_scheduler_address`).
+    """
+    if worker_timeout is None:
+        worker_timeout = WORKER_LOST
+    elif isinstance(worker_timeout, bool) or not (0.0 < float(worker_timeout) < WORKER_TIMEOUT_MAX):
+        raise InputError(f"--worker-timeout {worker_timeout!r} s is not allowed: give a number of seconds > 0 and "
+                         f"below {WORKER_TIMEOUT_MAX:g} (how long a sweep waits with no Dask worker left before it "
+                         f"stops).")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
+    if workers is not None:
+        cores = os.cpu_count() or 1
+        check_count("--workers", workers, 1, max_local_workers(),
+                    f"worker processes of the local Dask cluster: at most {WORKERS_PER_CORE} per core of this "
+                    f"machine's {cores} core{'s' if cores != 1 else ''}")
+    if scheduler is not None and scheduler.strip().lower() in SERIAL:
+        if workers not in (None, 1):
+            raise InputError(f"--workers {workers} has no effect with a serial run; leave it out "
+                             f"or drop --serial / --scheduler none.")
+    elif scheduler is not None and workers is not None:
+        raise InputError(f"--workers {workers} sets the size of the local cluster and has no effect "
+                         f"with --scheduler {scheduler}: the scheduler's workers are used. Leave one "
+                         f"of them out.")
+    return float(worker_timeout)
+
+
 @contextlib.contextmanager
 def open_runner(scheduler: str | None = None, workers: int | None = None, worker_timeout: float | None = None):
     """Context manager yielding a runner (see the module docstring); closes what it started.
@@ -316,7 +411,8 @@ def open_runner(scheduler: str | None = None, workers: int | None = None, worker
     scheduler : str, optional
         None (local cluster), "none"/"serial" (this process) or a Dask address.
     workers : int, optional
-        Processes of the local cluster (default ``os.cpu_count()``); only with scheduler=None.
+        Processes of the local cluster, 1 to :func:`max_local_workers` (default ``os.cpu_count()``);
+        only with scheduler=None.
     worker_timeout : float, optional
         Seconds a Dask run waits with no worker left before the tasks left fail with a message
         (default :data:`WORKER_LOST`, 30 s).
@@ -329,29 +425,16 @@ def open_runner(scheduler: str | None = None, workers: int | None = None, worker
     Raises
     ------
     InputError
-        Bad workers or worker_timeout, Dask missing, scheduler unreachable or without workers.
+        Bad workers or worker_timeout (:func:`check_runner_options`), Dask missing, scheduler
+        unreachable or without workers.
     """
-    if worker_timeout is None:
-        worker_timeout = WORKER_LOST
-    elif isinstance(worker_timeout, bool) or not (float(worker_timeout) > 0.0 and float(worker_timeout) < 1e6):
-        raise InputError(f"--worker-timeout {worker_timeout!r} s is not allowed: give a number of seconds > 0 "
-                         f"(how long a sweep waits with no Dask worker left before it stops).")
-    if workers is not None and (isinstance(workers, bool) or int(workers) != workers or workers < 1):
-        raise InputError(f"--workers {workers!r} is not allowed: give a whole number >= 1 "
-                         f"(worker processes of the local Dask cluster).")
+    worker_timeout = check_runner_options(scheduler, workers, worker_timeout)
     if scheduler is not None and scheduler.strip().lower() in SERIAL:
-        if workers not in (None, 1):
-            raise InputError(f"--workers {workers} has no effect with a serial run; leave it out "
-                             f"or drop --serial / --scheduler none.")
         yield SerialRunner()
         return
-    if scheduler is not None and workers is not None:
-        raise InputError(f"--workers {workers} sets the size of the local cluster and has no effect "
-                         f"with --scheduler {scheduler}: the scheduler's workers are used. Leave one "
-                         f"of them out.")
     with quiet_distributed():
-        runner = (local_cluster(workers or os.cpu_count() or 1, float(worker_timeout)) if scheduler is None
-                  else connect(scheduler, worker_timeout=float(worker_timeout)))
+        runner = (local_cluster(workers or os.cpu_count() or 1, worker_timeout) if scheduler is None
+                  else connect(scheduler, worker_timeout=worker_timeout))
         try:
             yield runner
         finally:

@@ -20,6 +20,9 @@ correlation matrix has a condition number above :data:`CONDITION_LIMIT` (near-si
 the data fix a combination, not each value: a warning names them (printed and in fit.json) and
 their intervals are withheld (null), not reported as if they meant something.
 
+Noise: a curve's stress at its undeformed rows is called a load-cell offset (:func:`offset_warnings`)
+only when it stands out of the noise measured on the curve (:func:`stress_noise`).
+
 Files (plots, fitted-scene.toml, fit.json): :mod:`cfm_core.studies.fit_output`.
 """
 
@@ -28,6 +31,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +50,10 @@ CONDITION_LIMIT = 1e10
 #: A parameter fitted in log coordinates is searched within start / SEARCH_FACTOR .. start * SEARCH_FACTOR
 #: (and its valid range); a value that ends on this box is reported as not determined.
 SEARCH_FACTOR = 1e4
+#: A fitted coordinate this close to a bound of its search range (relative to max(1, |bound|)) is put on the
+#: bound: the trust-region method stops a few units of the last bit inside it, and the value is then
+#: reported as the bound itself (700.0, not 699.999999999999), at a change far below its tolerance (1e-10).
+SNAP = 1e-12
 #: Starting points of a fit that includes a Prony time (the given start and PRONY_STARTS - 1 others).
 PRONY_STARTS = 6
 
@@ -142,6 +150,34 @@ def fit_names(text: str, material: str) -> list[str]:
     return parse_fit_names(text, spec, prony, "c,k1,k2")
 
 
+def check_scene(scene, names) -> None:
+    """Refuse fitted parameters that the drop-test scene of fitted-scene.toml would not use.
+
+    fitted-scene.toml is the scene with the fitted material in its [material] section; in a
+    layered specimen a layer that names its own material, or gives a parameter itself, does not
+    take that parameter from there, so a fitted value no layer takes would change no drop test.
+
+    Parameters
+    ----------
+    scene : Scene
+        The drop-test scene (``--scene``).
+    names : list of str
+        Fitted parameter names.
+
+    Raises
+    ------
+    InputError
+        Naming the first such parameter and why no layer takes it
+        (:func:`cfm_core.scene.layers.refuse_unused`).
+    """
+    from ..scene.layers import refuse_unused
+
+    refuse_unused(scene, names, lambda n: f"--fit {n}",
+                  "its fitted value would go into fitted-scene.toml's [material] section, where no drop test reads it",
+                  "Let a layer take {name} from [material] (one without a material or a {name} of its own), or "
+                  "drop {name} from --fit.")
+
+
 #: A test whose measured stresses are this many times larger (or smaller) than the starting material's
 #: is warned about as a probable unit slip (a stress column in kPa read as Pa).
 STRESS_SLIP = 100.0
@@ -187,6 +223,47 @@ def stress_scale_warnings(tests, start_stresses) -> list[str]:
 #: Stress at the undeformed rows of a test, as a fraction of its largest |stress|, from which the
 #: curve is said to carry an offset (-).
 OFFSET = 0.01
+#: ... and the standard errors of the undeformed rows' mean stress (noise / sqrt(rows), the noise from
+#: :func:`stress_noise`) it must exceed too, so that one noisy undeformed row is not called an offset (-).
+OFFSET_NOISE = 4.0
+#: The noise is judged on the rows up to the first beyond this fraction of the largest deformation, and
+#: on at least NOISE_ROWS rows (-).
+NOISE_SPAN = 0.5
+NOISE_ROWS = 10
+
+
+def stress_noise(test) -> float:
+    """Standard deviation of the measured stress's noise near the undeformed state (Pa), robust.
+
+    Each row's departure from the straight line in time through its two neighbours,
+    e_k = P_k - ((1 - w) P_(k-1) + w P_(k+1)) with w = (t_k - t_(k-1)) / (t_(k+1) - t_(k-1)), holds no
+    trace of the curve's level or slope (its curvature enters as P'' dt^2 / 2, small on a sampled
+    curve) and, for white noise of standard deviation sigma, has the standard deviation
+    sigma sqrt(1 + (1 - w)^2 + w^2). So sigma = 1.4826 median |e_k / sqrt(1 + (1 - w)^2 + w^2)| (the
+    median absolute deviation of a normal distribution; robust to the kink where the loading starts),
+    over the rows up to the first beyond :data:`NOISE_SPAN` of the largest deformation, at least
+    :data:`NOISE_ROWS`.
+
+    Parameters
+    ----------
+    test : LabTest
+        The test (t in s, deformation x, measured nominal stress P in Pa).
+
+    Returns
+    -------
+    float
+        sigma (Pa); 0 with fewer than 3 rows to judge.
+    """
+    t, P = np.asarray(test.t, float), np.asarray(test.P, float)
+    d = np.abs(np.asarray(test.x, float) - undeformed(test.kind))
+    beyond = np.flatnonzero(d > NOISE_SPAN * d.max())
+    n = max(int(beyond[0]) + 1 if beyond.size else t.size, NOISE_ROWS)
+    t, P = t[:n], P[:n]
+    if t.size < 3:
+        return 0.0
+    w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
+    e = (P[1:-1] - ((1.0 - w) * P[:-2] + w * P[2:])) / np.sqrt(1.0 + (1.0 - w) ** 2 + w**2)
+    return float(1.4826 * np.median(np.abs(e)))
 
 
 def offset_warnings(tests) -> list[str]:
@@ -194,6 +271,11 @@ def offset_warnings(tests) -> list[str]:
     (a tare). The model's stress there is exactly zero, so the fit bends the parameters to absorb
     the offset: 1 % of the peak moved k1 by 7.5 % and k2 by 9 %, with tight intervals that
     excluded the truth. The fit's intervals are withheld where this is said.
+
+    The undeformed rows' mean stress is called an offset when it exceeds both :data:`OFFSET` of the
+    test's largest |stress| and :data:`OFFSET_NOISE` standard errors of that mean, noise / sqrt(rows)
+    with the noise of :func:`stress_noise`: a single undeformed row of a curve with 1 % noise is
+    1 % off zero one time in three, which is noise, not a tare.
 
     Parameters
     ----------
@@ -212,11 +294,13 @@ def offset_warnings(tests) -> list[str]:
         if rest.size == 0 or not test.scale > 0.0:
             continue
         level = float(np.mean(np.asarray(test.P)[rest]))
-        if abs(level) > OFFSET * test.scale:
+        noise = stress_noise(test)
+        if abs(level) > OFFSET * test.scale and abs(level) > OFFSET_NOISE * noise / math.sqrt(rest.size):
+            scatter = f"; the stress's noise there is {noise:.3g} Pa" if noise > 0.0 else ""
             out.append(f"test '{test.name}' ({test.path}): its stress is {level:.4g} Pa ({100 * abs(level) / test.scale:.2g} % "
                        f"of its largest |stress|) at the undeformed state ({KINDS[test.kind][0]} = {base:g}, "
-                       f"{rest.size} row(s)), where the material's is 0: a load-cell offset? Subtract it from the "
-                       f"stress column; the fit bends the parameters to absorb it, so no interval is given.")
+                       f"{rest.size} row(s){scatter}), where the material's is 0: a load-cell offset? Subtract it "
+                       f"from the stress column; the fit bends the parameters to absorb it, so no interval is given.")
     return out
 
 
@@ -272,11 +356,16 @@ def _correlations(conf: dict, names) -> tuple[list[str], set]:
 
 
 def _search_box(coords: Coordinates, values: dict) -> Coordinates:
-    """The valid ranges, narrowed for log coordinates to start / SEARCH_FACTOR .. start * SEARCH_FACTOR."""
-    x = coords.to_x(values)
-    span = np.where(coords.log, math.log(SEARCH_FACTOR), np.inf)
-    return Coordinates(coords.names, coords.units, coords.log, np.maximum(coords.lower, x - span),
-                       np.minimum(coords.upper, x + span))
+    """The valid ranges, narrowed for log coordinates to start / SEARCH_FACTOR .. start * SEARCH_FACTOR
+    (the logarithms of those two values, so that a fit ending there reports them to the bit:
+    :func:`cfm_core.studies.calibrate.from_log`)."""
+    def scaled(v, power):  # v * SEARCH_FACTOR**power in decimal, rounded once: 0.07 * 1e4 = 700.0 (not ...01)
+        return float(Decimal(repr(float(v))) * Decimal(repr(SEARCH_FACTOR)) ** power)
+
+    low = [math.log(scaled(values[n], -1)) if lg else -math.inf for n, lg in zip(coords.names, coords.log)]
+    high = [math.log(scaled(values[n], 1)) if lg else math.inf for n, lg in zip(coords.names, coords.log)]
+    return Coordinates(coords.names, coords.units, coords.log, np.maximum(coords.lower, low),
+                       np.minimum(coords.upper, high))
 
 
 def _start_offsets(coords: Coordinates, x0, values: dict, names, starts: int) -> list[np.ndarray]:
@@ -341,7 +430,9 @@ class LabFitResult:
     start, fitted : dict
         Every parameter's value at the start and at the end (SI units).
     P_start, P_fit : list of ndarray
-        Simulated nominal stress per test at the start and at the end (Pa).
+        Simulated nominal stress per test at the start and at the end (Pa), each simulated from a
+        clean state (no lateral stretches remembered from other parameters): a function of the
+        parameters alone, equal to the optimiser's evaluation there to the Newton tolerance.
     cost_start, cost : float
         Objective 1/2 sum r^2 at the start and at the end (-).
     confidence : dict
@@ -427,6 +518,8 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         Number of starting points (:func:`_start_offsets`); default :data:`PRONY_STARTS` when a Prony
         time is fitted (Prony fits have local minima: a time far above the test's duration has no
         effect, and the fit can stop there), else 1. The lowest cost wins; all are in fit.json.
+        Each start begins from a clean state (no lateral stretches remembered from another), and
+        a coordinate that ends within :data:`SNAP` of its bound is put on it.
 
     Returns
     -------
@@ -476,6 +569,16 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
                 raise NumericalError(f"test '{t.name}' ({t.path}) at {values}: {exc}") from None
         return out
 
+    def forget():
+        """A clean state: no lateral stretches remembered from other parameters (another start's lead Newton
+        astray), so what follows depends on its parameters alone (each start, the final evaluations)."""
+        for mem in memories:
+            mem.pop("lateral", None)
+
+    def fresh(x):
+        forget()
+        return stresses(x)
+
     def residual(x):
         sims = stresses(x)
         r = np.concatenate([math.sqrt(t.weight / t.x.size) * (s - t.P) / t.scale for s, t in zip(sims, tests)])
@@ -495,6 +598,7 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         # near the start instead of jumping by |ln p| (a jump of ln tau by ~7 lands on the plateau where a
         # Prony time has no effect, and the fit stops there).
         done = len(history)
+        forget()  # its result does not depend on the starts before it
         try:
             res = _trf(lambda y: residual(x0 + y), y0, (coords.lower - x0, coords.upper - x0), max_evaluations)
         except NumericalError as exc:  # a trial point of this start broke the model: the start is lost, not the fit
@@ -502,6 +606,8 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
             failed.append(exc)
             continue
         res.x = x0 + res.x
+        for bound in (coords.lower, coords.upper):  # a value on a bound is reported as the bound (SNAP)
+            res.x = np.where(np.abs(res.x - bound) <= SNAP * np.maximum(1.0, np.abs(bound)), bound, res.x)
         tried.append({"start": coords.to_params(x0 + y0), "fitted": coords.to_params(res.x),
                       "cost": 0.5 * float(res.fun @ res.fun), "evaluations": int(res.nfev)})
         if best is None or tried[-1]["cost"] < 0.5 * float(best.fun @ best.fun):
@@ -514,8 +620,8 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     bounds = at_bounds(res.x, coords)
     conf["at_bound"] = bounds
     warnings, withheld = identifiability(conf, list(coords.names), bounds)
-    start_stresses = stresses(x0)
-    fitted_stresses = stresses(res.x)
+    start_stresses = fresh(x0)
+    fitted_stresses = fresh(res.x)
     offsets = offset_warnings(tests)
     if offsets:
         withheld |= set(coords.names)

@@ -19,6 +19,27 @@ if TYPE_CHECKING:
     import pandas as pd
 
 
+def files_read(data, scene=None, extra=()) -> list:
+    """The files a fit reads: its data's (tests or curves, each with ``path``), the scene's mesh, ``extra``.
+
+    Parameters
+    ----------
+    data : iterable
+        LabTest or Curve objects.
+    scene : Scene, optional
+        The scene (its [specimen] mesh file, if any).
+    extra : iterable of str
+        Other files read (the scene TOML).
+
+    Returns
+    -------
+    list of str
+        The paths (a test made in memory has the path "-", matching no file).
+    """
+    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
+    return [str(p) for p in (*(d.path for d in data), mesh, *extra) if p]
+
+
 # ----------------------------------------------------------------------------- calibration
 @dataclass
 class CalibrationOutcome:
@@ -37,6 +58,9 @@ class CalibrationOutcome:
         Backend options given.
     settings : dict
         Extra entries for fit.json (runner, total time in s).
+    inputs : tuple of str
+        Files read besides the measured curves and the scene's mesh (the scene TOML), which
+        ``save`` never removes or replaces (:meth:`read_files`).
     """
 
     scene: object
@@ -44,6 +68,11 @@ class CalibrationOutcome:
     backend: str = "numba"
     options: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    inputs: tuple = ()
+
+    def read_files(self) -> list:
+        """The files the calibration read: the measured curves, the scene's mesh and :attr:`inputs`."""
+        return files_read(self.result.problem.curves, self.scene, self.inputs)
 
     @property
     def fitted(self) -> dict:
@@ -91,7 +120,8 @@ class CalibrationOutcome:
         Parameters
         ----------
         out : str or path-like
-            Output directory (an earlier cfm output there is replaced).
+            Output directory (an earlier cfm output there is replaced, unless that would remove a
+            file read).
 
         Returns
         -------
@@ -101,11 +131,12 @@ class CalibrationOutcome:
         Raises
         ------
         InputError
-            ``out`` cannot be written.
+            ``out`` cannot be written, or writing there would remove or replace a file the
+            calibration read (:meth:`read_files`; ``out`` is then left as it was).
         """
         from .calibrate import write_fit
 
-        with staged_folder(out) as stage:
+        with staged_folder(out, inputs=self.read_files()) as stage:
             write_fit(stage, self.scene, self.result, {**self.settings, "provenance": self.provenance()})
         return Path(out)
 
@@ -123,11 +154,19 @@ class LabFitOutcome:
         Drop-test scene that fitted-scene.toml starts from (None: built-in).
     settings : dict
         Extra entries for fit.json.
+    inputs : tuple of str
+        Files read besides the tests (the scene TOML), which ``save`` never removes or replaces
+        (:meth:`read_files`).
     """
 
     result: object
     scene: object = None
     settings: dict = field(default_factory=dict)
+    inputs: tuple = ()
+
+    def read_files(self) -> list:
+        """The files the fit read: the tests, the scene's mesh and :attr:`inputs`."""
+        return files_read(self.result.tests, self.scene, self.inputs)
 
     @property
     def fitted(self) -> dict:
@@ -172,7 +211,8 @@ class LabFitOutcome:
         Parameters
         ----------
         out : str or path-like
-            Output directory (an earlier cfm output there is replaced).
+            Output directory (an earlier cfm output there is replaced, unless that would remove a
+            file read).
 
         Returns
         -------
@@ -182,10 +222,11 @@ class LabFitOutcome:
         Raises
         ------
         InputError
-            ``out`` cannot be written.
+            ``out`` cannot be written, or writing there would remove or replace a file the fit
+            read (:meth:`read_files`; ``out`` is then left as it was).
         """
         from .fit_output import write_lab_fit
 
-        with staged_folder(out) as stage:
+        with staged_folder(out, inputs=self.read_files()) as stage:
             write_lab_fit(stage, self.result, self.scene, {**self.settings, "provenance": self.provenance()})
         return Path(out)

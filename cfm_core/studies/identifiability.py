@@ -308,7 +308,7 @@ def at_bounds(x, coords, tol: float = 1e-6) -> dict:
     for i, n in enumerate(coords.names):
         for side, b in (("lower", coords.lower[i]), ("upper", coords.upper[i])):
             if math.isfinite(b) and abs(x[i] - b) <= tol * max(1.0, abs(b)):
-                out[n] = {"side": side, "bound": float(math.exp(b) if coords.log[i] else b), "unit": coords.units[i]}
+                out[n] = {"side": side, "bound": coords.value(i, b), "unit": coords.units[i]}
     return out
 
 

@@ -340,7 +340,14 @@ def _diagonal(material, t, axis1, free, guess=None, iterations=100):
         lam[:, list(free)] = (np.prod(lam[:, fixed], axis=1) ** (-1.0 / len(free)))[:, None]
     a0 = free[0] if free else None
     for _ in range(iterations):
-        S0, Sv, dS0, dSv = _principal(material, lam**2)
+        with np.errstate(over="ignore"):
+            m = lam**2
+        if not np.isfinite(m).all():  # a Newton step out of the float range (a guess far from the solution)
+            k = int(np.argmax(~np.isfinite(m).all(axis=1)))
+            raise NumericalError(f"material '{material.name}': the lateral stretch diverged (to {lam[k, a0]:.6g} at "
+                                 f"t = {t[k]:.6g} s, axial stretch {lam[k, 0]:.6g}): no lateral stretch with zero "
+                                 f"lateral stress was found there.", quantity="lateral stretch")
+        S0, Sv, dS0, dSv = _principal(material, m)
         S_iso, eff = _viscous(material, t, S0)
         S = S_iso + Sv
         if not free:
@@ -348,8 +355,9 @@ def _diagonal(material, t, axis1, free, guess=None, iterations=100):
         r = S[:, a0]
         scale = max(float(np.abs(S).max()), 1e-30)
         q = lam[:, a0]
-        d = sum(eff * dS0[:, a0, b] + dSv[:, a0, b] for b in free) * 2 * q
-        step = r / d
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # a step out of range: said above
+            d = sum(eff * dS0[:, a0, b] + dSv[:, a0, b] for b in free) * 2 * q
+            step = r / d
         # converged: the lateral stress is ~0 next to the stresses, or the lateral stretch moves by no more
         # than its last bits (near the incompressible limit the lateral stress cannot fall below
         # kappa times the round-off of J: at kappa = 6.7e8 Pa that is above 1e-11 of the stresses)
@@ -376,7 +384,10 @@ def simulate(material, test: LabTest, memory: dict | None = None) -> np.ndarray:
     memory : dict, optional
         Kept between calls for the same test (a fit): the simulation's time rows (:func:`_grid`) and
         the last lateral stretches, reused as the next starting guess, which saves most Newton
-        iterations.
+        iterations. Where Newton fails from that guess it is tried again from the volume-preserving
+        lateral stretch (what a call without memory starts from), so a memory never makes a
+        simulation fail that succeeds without one; the result agrees with a call without memory to
+        the Newton tolerance (about 1e-11 of the largest stress), not to the bit.
 
     Returns
     -------
@@ -407,7 +418,16 @@ def simulate(material, test: LabTest, memory: dict | None = None) -> np.ndarray:
     free = {"uniaxial": (1, 2), "relaxation": (1, 2), "equibiaxial": (2,), "confined": ()}[test.kind]
     if test.kind == "equibiaxial":
         stretches[:, 1] = x
-    S, lam = _diagonal(material, t, stretches, free, memory.get("lateral"))
+    guess = memory.get("lateral")
+    try:
+        S, lam = _diagonal(material, t, stretches, free, guess)
+    except NumericalError:
+        if guess is None:
+            raise
+        # the remembered stretches belong to other parameters (another start of a fit, far away): where the
+        # volumetric energy is not convex they lead Newton away; the volume-preserving start decides
+        memory.pop("lateral", None)
+        S, lam = _diagonal(material, t, stretches, free)
     if free:
         memory["lateral"] = lam[:, free[0]].copy()
     if not free:

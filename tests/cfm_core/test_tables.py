@@ -257,3 +257,25 @@ def test_a_deformation_beyond_the_float_range_is_refused_by_its_line(tmp_path, r
     path = _write(tmp_path / "F.csv", f"t,F11,F12,F13,F21,F22,F23,F31,F32,F33\n0.001,1.1,0,0,0,1,0,0,0,1\n0.002,{row}\n")
     with pytest.raises(InputError, match=needle):
         point.read_history(path)
+
+
+@pytest.mark.parametrize("row, needle", [("1e-170,0,0,0,1,0,0,0,1", r"line 3: .*but C11 = 0: a squared stretch that underflowed"),
+                                         ("1,0,0,0,1e-160,0,0,0,1", r"line 3: .*but C22 = 9.99989e-321: a squared stretch"),
+                                         ("1,1e9,0,0,1,0,0,0,1", r"line 3: .*but its smallest eigenvalue is 0: lost to round-off")])
+def test_a_c_that_underflows_or_is_not_positive_definite_is_refused_by_its_line(tmp_path, row, needle):
+    """det F = 1e-170 > 0 passed, but C11 = (1e-170)^2 underflows to 0: J = sqrt(det C) = 0 and the
+    diagnosis of the non-finite stress crashed with "ZeroDivisionError: 0.0 cannot be raised to a
+    negative power" (a traceback, exit 1). A shear of 1e9 leaves C's smallest eigenvalue, 1e-18 in
+    exact arithmetic, as 0 in float64: the same crash."""
+    path = _write(tmp_path / "F.csv", f"t,F11,F12,F13,F21,F22,F23,F31,F32,F33\n0.001,1.1,0,0,0,1,0,0,0,1\n0.002,{row}\n")
+    with pytest.raises(InputError, match=needle) as err:
+        point.read_history(path)
+    assert "positive definite with every diagonal entry at least 2.22507e-308" in str(err.value)
+
+
+def test_a_tiny_but_normal_squared_stretch_is_read(tmp_path):
+    """The bound is the underflow, not a physical judgement: C11 = 1e-200 (F11 = 1e-100) is read (the
+    run then names the term that overflows)."""
+    path = _write(tmp_path / "F.csv", "t,F11,F12,F13,F21,F22,F23,F31,F32,F33\n0,1e-100,0,0,0,1,0,0,0,1\n")
+    t, F = point.read_history(path)
+    assert F[0, 0, 0] == 1e-100

@@ -212,3 +212,35 @@ def test_the_keeps_note_never_names_files_the_publication_removes(tmp_path, caps
     assert "held the output of a run (3 files); it is replaced by this fit's" in err
     assert "keeps cut.png, not written" in err and "reaction.csv" not in err.split("keeps", 1)[1]
     assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "cut.png", "fit.json", "fitted-scene.toml"])
+
+
+def test_an_output_never_removes_or_replaces_a_file_the_command_reads(tmp_path, capsys):
+    """A fit into the folder of an earlier run removed that run's files, the scene.toml the fit read among them.
+    An input that publishing would remove or replace is refused, naming it; ``out`` stays as it was."""
+    out = tmp_path / "run"
+    with staged_folder(out) as stage:
+        _write(stage, **{"summary.json": "run", "scene.toml": "run", "acceleration.csv": "run"})
+    (out / "runs").mkdir()  # a folder its manifest lists (a sweep's cache), with a file a command reads
+    (out / "runs" / "a.csv").write_text("run")
+    manifest = json.loads((out / MANIFEST).read_text())
+    (out / MANIFEST).write_text(json.dumps({**manifest, "files": [*manifest["files"], "runs"]}))
+    (out / "data.csv").write_text("mine")
+    before = sorted(p.name for p in out.iterdir())
+    entered = []
+    for read in (out / "scene.toml", tmp_path / "run" / ".." / "run" / "acceleration.csv", out / "runs" / "a.csv"):
+        with pytest.raises(InputError) as err:
+            with staged_folder(out, inputs=[None, read]):
+                entered.append(read)  # never: refused before the work
+        assert str(read) in str(err.value) and "a file this command reads" in str(err.value)
+    assert "lies in runs/" in str(err.value)
+    assert entered == [] and sorted(p.name for p in out.iterdir()) == before
+    with pytest.raises(InputError, match="data.csv is data.csv, a file of the same name as a file this command writes"):
+        with staged_folder(out, inputs=[out / "data.csv"]) as stage:  # known only once the output is written
+            _write(stage, **{"fit.json": "fit", "data.csv": "fit"})
+    assert sorted(p.name for p in out.iterdir()) == before and (out / "data.csv").read_text() == "mine"
+    assert [p.name for p in tmp_path.iterdir()] == ["run"]  # no stage left
+    capsys.readouterr()
+    with staged_folder(out, inputs=[out / "data.csv"]) as stage:  # a foreign input: kept, and not called stale
+        _write(stage, **{"fit.json": "fit"})
+    assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "data.csv", "fit.json"])
+    assert "keeps" not in capsys.readouterr().err

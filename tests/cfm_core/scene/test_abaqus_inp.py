@@ -292,3 +292,87 @@ def test_cli_drop_test_on_a_lower_case_cae_mesh_matches_the_flat_file_and_refusa
     done, _ = run(lower)
     assert done.returncode == 2 and "Traceback" not in done.stderr and "\n" not in done.stderr.strip()
     assert "line 3 ('*node, input=nodes.inp')" in done.stderr and "does not exist" in done.stderr
+
+
+# ----------------------------------------------------------------------------- mesh checks name the file's labels
+def labelled(nodes=NODES, hexes=HEXES, node0=1001, element0=101):
+    """A flat file whose node numbers start at node0 and element numbers at element0 (not at 1)."""
+    return (["*NODE", *[f"{k + node0}, {x!r}, {y!r}, {z!r}" for k, (x, y, z) in enumerate(nodes.tolist())],
+             "*ELEMENT, TYPE=C3D8R"] +
+            [", ".join(str(v) for v in [e + element0, *(h + node0)]) for e, h in enumerate(hexes)])
+
+
+def test_an_inverted_element_is_named_by_its_element_and_node_numbers(tmp_path):
+    """The message named "element 1 (nodes [9, 10, 14, 13, 1, 2, 6, 5])", 0-based rows after renumbering, for
+    the file's element 102 on nodes 1010 ... 1006."""
+    hexes = HEXES.copy()
+    hexes[1] = hexes[1][[4, 5, 6, 7, 0, 1, 2, 3]]  # top and bottom swapped: mirrored
+    text = refused(write(tmp_path, labelled(hexes=hexes)), "element 102 (the 2nd hexahedron of the file; nodes "
+                   + ", ".join(str(v + 1001) for v in hexes[1]) + ") has a non-positive Jacobian")
+    assert "element 1 " not in text and "nodes 0-3" not in text and "first four nodes the bottom face" in text
+
+
+def test_a_corner_is_named_by_its_place_and_node_number(tmp_path):
+    nodes = NODES.copy()
+    nodes[HEXES[0, 6]] = nodes[HEXES[0, 0]] + [0.0002, 0.0002, 0.0002]  # corner 7 pulled inside past the centre
+    text = refused(write(tmp_path, labelled(nodes=nodes)), "element 101 (the 1st hexahedron of the file; nodes ")
+    assert f"m^3 at its 7th node ({HEXES[0, 6] + 1001}); 1 bad element(s) in total" in text
+
+
+def test_a_repeated_element_is_named_by_its_numbers(tmp_path):
+    """It said "element 12 repeats element 1 (0-based, hexahedra in the file's order)" for elements 113 and 102."""
+    refused(write(tmp_path, labelled(hexes=np.vstack([HEXES, HEXES[1:2]]))),
+            "element 113 (the 13th hexahedron of the file) repeats element 102 (the 2nd hexahedron of the file)")
+
+
+def test_an_element_collapsed_by_merging_is_named_by_its_number(tmp_path):
+    nodes = np.vstack([NODES, NODES[HEXES[4, 2]]])  # a twin of element 105's 3rd node, used by it alone
+    hexes = HEXES.copy()
+    hexes[4, 3] = len(NODES)  # its 4th node is now at the same place as its 3rd
+    path = write(tmp_path, labelled(nodes=nodes, hexes=hexes))
+    with pytest.raises(InputError, match=r"merging coincident nodes collapsed element 105 \(the 5th hexahedron"):
+        read_hex_mesh(path, merge=True)
+
+
+def test_an_instance_element_is_named_as_abaqus_names_it(tmp_path):
+    """In an assembly the labels are INSTANCE.NUMBER, as Abaqus writes them in its own messages."""
+    lines = cae(NODES)
+    at = lines.index("*Element, type=C3D8R") + 2  # element 2's line
+    e, *nodes = lines[at].split(", ")
+    lines[at] = ", ".join([e, *nodes[4:], *nodes[:4]])
+    refused(write(tmp_path, lines), "element Specimen-1.2 (the 2nd hexahedron of the file; nodes Specimen-1."
+            + ", Specimen-1.".join(nodes[4:] + nodes[:4]) + ")")
+
+
+def test_a_file_without_labels_names_the_place_of_the_element_and_its_points(tmp_path):
+    """A .vtu has no labels: "the 2nd hexahedron of the file" and the file's 0-based point indices (the message
+    gave the rows left after unused points were dropped: 9 for the file's point 10)."""
+    meshio = pytest.importorskip("meshio")
+    nodes, hexes = structured_hex_mesh(3.0, 1.0, 1.0, 3, 1, 1)
+    hexes[1] = hexes[1][[4, 5, 6, 7, 0, 1, 2, 3]]
+    path = tmp_path / "m.vtu"
+    meshio.write(path, meshio.Mesh(np.vstack([[[5.0, 5.0, 5.0]], nodes]), [("hexahedron", hexes + 1)]))
+    with pytest.raises(InputError) as err:
+        read_hex_mesh(path)
+    assert "the 2nd hexahedron of the file (points " + ", ".join(str(v + 1) for v in hexes[1]) + " of the file, " \
+           "0-based)" in str(err.value)
+
+
+def test_texts_about_a_mesh_file_say_which_reader_reads_it(tmp_path, capsys):
+    """--mesh's help said "read with meshio" and the messages offered .inp among meshio's formats, although cfm
+    reads .inp files itself."""
+    from cfm_core.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["drop-test", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "read with meshio" not in help_text
+    assert "an Abaqus .inp (read by cfm's own reader) or a format meshio reads (.vtu, .msh, ...)" in help_text
+    with pytest.raises(InputError) as err:
+        read_hex_mesh(tmp_path / "absent.inp")
+    assert "(Abaqus .inp, or a format meshio reads: .vtu, .msh, ...)" in str(err.value)
+    junk = tmp_path / "junk.vtu"
+    junk.write_text("not a mesh")
+    with pytest.raises(InputError) as err:
+        read_hex_mesh(junk)
+    assert "meshio reads (.vtu, .msh, ...) or an Abaqus .inp file (read by cfm itself)" in str(err.value)

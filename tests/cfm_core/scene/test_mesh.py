@@ -102,7 +102,7 @@ def test_read_rejects_inverted_element(tmp_path):
     nodes, hexes = structured_hex_mesh(2.0, 1.0, 1.0, 2, 1, 1)
     hexes[1] = hexes[1][[0, 3, 2, 1, 4, 7, 6, 5]]  # clockwise ordering
     path = _write(tmp_path / "bad.vtu", nodes, [("hexahedron", hexes)])
-    with pytest.raises(InputError, match="element 1 ") as err:
+    with pytest.raises(InputError, match="the 2nd hexahedron of the file ") as err:
         read_hex_mesh(path)
     assert "bad.vtu" in str(err.value)
 

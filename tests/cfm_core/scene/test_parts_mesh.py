@@ -76,9 +76,32 @@ def test_part_absent_from_the_mesh_lists_the_names(tmp_path):
 
 def test_cells_in_no_part_are_refused(tmp_path):
     path, _ = write(tmp_path, "gmsh")
+    assert (UPPER[0], UPPER[1]) == (8, 9)
     with pytest.raises(InputError, match=rf"{len(UPPER)} of the {len(HEXES)} hexahedra .* are in no part "
-                                         rf"\(hexahedra {UPPER[0]}, {UPPER[1]},"):
+                                         rf"\(the 9th, 10th, 11th, 12th, 13th, \.\.\. hexahedra of the file\)"):
         scene_from_dict(drop(specimen={"mesh": str(path)}, parts={"fat": {}}))
+
+
+def abaqus_labelled(tmp_path, extra_sets=()):
+    """The block as an .inp whose element numbers start at 501 and node numbers at 1001 (not at 1)."""
+    lines = ["*NODE", *[f"{k + 1001}, {x!r}, {y!r}, {z!r}" for k, (x, y, z) in enumerate(NODES.tolist())],
+             "*ELEMENT, TYPE=C3D8R, ELSET=ALL",
+             *[", ".join(str(v) for v in [e + 501, *(h + 1001)]) for e, h in enumerate(HEXES)],
+             "*ELSET, ELSET=FAT", ", ".join(str(e + 501) for e in LOWER), *extra_sets]
+    path = tmp_path / "labelled.inp"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_cells_of_an_abaqus_mesh_are_named_by_their_element_numbers(tmp_path):
+    """They were named by 0-based places ("hexahedra 8, 9, ..." for the file's elements 509, 510, ...)."""
+    path = abaqus_labelled(tmp_path)
+    with pytest.raises(InputError, match=r"are in no part \(elements 509, 510, 511, 512, 513, \.\.\. \(the 9th, 10th, "
+                                         r"11th, 12th, 13th, \.\.\. hexahedra of the file\)\)"):
+        scene_from_dict(drop(specimen={"mesh": str(path)}, parts={"FAT": {}}))
+    with pytest.raises(InputError, match=r"both hold 8 cell\(s\) .* \(e\.g\. element 501 \(the 1st hexahedron of the "
+                                         r"file\)\)"):
+        scene_from_dict(drop(specimen={"mesh": str(path)}, parts={"FAT": {}, "ALL": {}}))
 
 
 def test_overlapping_parts_are_refused(tmp_path):

@@ -50,3 +50,32 @@ def test_relative_input_file_paths_are_taken_from_the_scene_file_folder(tmp_path
 def test_bad_run_sections_name_the_key_and_value(run, match):
     with pytest.raises(InputError, match=match):
         scene_from_dict({"scene": {"type": "drop-test"}, "run": run})
+
+
+def test_a_definition_digest_in_upper_case_is_read_as_cfm_writes_it():
+    """An upper-case digest in [run.materials] was refused with "must be a material definition digest (24
+    hexadecimal characters ...)" although it was 24 hexadecimal characters; it is read in lower case, and the repeat
+    compares it with the material's without a false "defined differently" warning."""
+    from cfm_core.material.cache import definition_digest
+    from cfm_core.material.registry import get_material
+    from cfm_core.runs.settings import changed_inputs
+
+    digest = definition_digest(get_material("cfm"))
+    upper = "sha256:" + "AB" * 32
+    scene = scene_from_dict({"scene": {"type": "drop-test"},
+                             "run": {"backend": "numba", "materials": {"cfm": digest.upper()},
+                                     "input_files": {"/data/m.vtu": upper.upper()}}})
+    assert scene.run.materials == (("cfm", digest),) and digest == digest.lower()
+    assert scene.run.file_dict == {"/data/m.vtu": upper.lower()}
+    assert not any("defined differently" in w for w in changed_inputs(scene))
+    assert "cfm = " + repr(digest).replace("'", '"') in scene_to_toml(scene)  # written back as cfm writes it
+
+
+@pytest.mark.parametrize("value, says", [("0123456789ABCDEF0123456G", "it has characters other than 0-9 and a-f"),
+                                         ("0123456789abcdef0123456", "it has 23 characters"),
+                                         (5, "it is not text (int)")])
+def test_a_bad_definition_digest_is_told_what_is_wrong_with_it(value, says):
+    with pytest.raises(InputError) as err:
+        scene_from_dict({"scene": {"type": "drop-test"}, "run": {"materials": {"cfm": value}}})
+    assert ("[run.materials] cfm = " + repr(value) + " must be a material definition digest: 24 hexadecimal digits "
+            "(0-9, a-f in either case), as cfm writes it; " + says + ".") in str(err.value)

@@ -168,3 +168,51 @@ def test_bounds_keep_prony_sum_below_one(scene):
     assert high.sum() < 1 - 0.094 and high.sum() - 0.45 - 0.435 == pytest.approx(0.99 * (g_inf - 1e-6), rel=1e-6)
     assert 1 - high.sum() - 0.094 >= 1e-6       # every fitted g_i at its bound leaves gamma_inf at cfm's floor
     assert coords.upper[2] == np.inf and coords.log == (True, True, True)
+
+
+def _earlier_output_with(out, scene_text, curve_text):
+    """An earlier cfm output in ``out`` (its manifest lists them) holding a scene and a curve t,a."""
+    from cfm_core.post.staging import staged_folder
+
+    with staged_folder(out) as stage:
+        (stage / "scene.toml").write_text(scene_text)
+        (stage / "acceleration.csv").write_text(curve_text)
+        (stage / "summary.json").write_text("{}")
+    return {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+def test_a_calibration_into_the_folder_of_its_inputs_is_refused_before_any_drop_test(scene, measured, tmp_path,
+                                                                                       capsys):
+    """--data run/acceleration.csv (a drop test as the measurement) or --scene run/scene.toml with --out run: the
+    fit removed the run's files, its own inputs among them; now exit 2 naming the file, the folder as it was."""
+    from pathlib import Path
+
+    out = tmp_path / "run"
+    before = _earlier_output_with(out, scene_to_toml(scene), Path(measured[0].rpartition(":")[0]).read_text())
+    for data, extra, name in ((f"{out / 'acceleration.csv'}:{THICKNESSES[0]}", [], "acceleration.csv"),
+                              (measured[0], ["--scene", str(out / "scene.toml")], "scene.toml")):
+        rc = main(["calibrate", "--data", data, "--fit", "k1", "--serial", "--max-evaluations", "1", *extra,
+                   "--out", str(out)])
+        err = capsys.readouterr().err
+        assert rc == 2 and f"is {name}, a file of the earlier cfm output there" in err and "Traceback" not in err
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_a_fitted_parameter_no_layer_takes_is_refused_before_any_drop_test(tmp_path, capsys):
+    """A layered scene whose only layer taking [material] gives its own k1: the calibration ran its drop tests and
+    warned of a zero Jacobian column afterwards (a minute later); now refused with the reason."""
+    path = tmp_path / "layered.toml"
+    path.write_text('[scene]\ntype = "drop-test"\n[specimen]\nwidth = 0.03\nelement_size = 0.002\n'
+                    '[[specimen.layers]]\nname = "muscle"\nthickness = 0.004\nmaterial = "neo-hookean"\n'
+                    '[[specimen.layers]]\nname = "fat"\nthickness = 0.004\n[specimen.layers.parameters]\nk1 = 1000.0\n')
+    layered = load_scene(path)
+    assert calibrate.fit_names("k2", layered) == ["k2"]
+    with pytest.raises(InputError, match=r"--fit k1: no layer of the specimen uses \[material\] k1"):
+        calibrate.fit_names("k2,k1", layered)
+    data = tmp_path / "d.csv"
+    data.write_text("t,a\n0,0\n0.001,100\n0.002,200\n0.003,100\n0.004,0\n")
+    assert main(["calibrate", "--scene", str(path), "--data", f"{data}:0.008", "--fit", "k1", "--serial",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--fit k1: no layer of the specimen uses [material] k1" in err and "drop k1 from --fit" in err
+    assert not (tmp_path / "o").exists()

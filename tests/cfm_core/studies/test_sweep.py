@@ -192,3 +192,34 @@ def test_a_server_that_is_not_a_dask_scheduler_is_named_in_bounded_time(greeting
     server.close()
     for conn in held:
         conn.close()
+
+
+@pytest.mark.parametrize("address, tcp", [("http://localhost:8787", "tcp://localhost:8786"),
+                                          ("https://10.0.0.5:8787/status", "tcp://10.0.0.5:8786"),
+                                          ("http://[::1]:8787", "tcp://[::1]:8786")])
+def test_a_dashboard_address_is_refused_with_the_schedulers_address(tmp_path, capsys, address, tcp):
+    """--scheduler http://host:8787 (the dashboard a browser shows): the hint said to start workers with
+    'dask worker http://host:8787', which no worker can connect to; workers and clients take tcp://host:8786."""
+    out = tmp_path / "o"
+    assert main(["sweep", "--vary", "k1=1000", "--scheduler", address, "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"--scheduler {address} is a web address" in err and f"'dask worker {tcp} --nthreads 1'" in err
+    assert f"give its tcp:// address, {tcp} for the default port" in err
+    assert "dask worker http" not in err and err.count("\n") == 1 and not out.exists()
+
+
+def test_a_sweep_never_removes_the_scene_file_it_reads(scene, tmp_path, capsys):
+    """cfm sweep --scene run/scene.toml --out run removed the run's files, scene.toml among them, before the first run."""
+    from cfm_core.post.staging import staged_folder
+    from cfm_core.scene.scene import scene_to_toml
+
+    out = tmp_path / "run"
+    with staged_folder(out) as stage:
+        (stage / "scene.toml").write_text(scene_to_toml(scene))
+        (stage / "summary.json").write_text("{}")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    rc = main(["sweep", "--scene", str(out / "scene.toml"), "--vary", "k1=1000,1320", "--serial", "--quiet",
+               "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "is scene.toml, a file of the earlier cfm output there" in err and "Traceback" not in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
