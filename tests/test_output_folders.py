@@ -22,8 +22,9 @@ def _earlier_vtu_run(folder, frames=55):
     folder.mkdir()
     for k in range(frames):
         (folder / f"specimen_{k:04d}.vtu").write_text("old frame")
-    for name in ("specimen.pvd", "acceleration.png", "acceleration.csv", "summary.json", "scene.toml"):
+    for name in ("specimen.pvd", "acceleration.png", "acceleration.csv", "scene.toml"):
         (folder / name).write_text("old")
+    (folder / "summary.json").write_text('{"peak_g": 56.8, "backend": "numba"}')
     (folder / "my notes.txt").write_text("mine")
 
 
@@ -169,3 +170,18 @@ def test_sigterm_ends_a_run_like_ctrl_c_and_leaves_out_as_it_was(tmp_path):
     assert proc.returncode == 143, err
     assert "terminated (SIGTERM); no result written" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_run_never_removes_the_mesh_it_reads_from_its_out_folder(tmp_path, capsys):
+    """`cfm drop-test --mesh V/specimen_0000.vtu --out V` (a frame of an earlier --vtu run as the
+    mesh) removed the mesh with the earlier frames, and its scene.toml named a file that was gone:
+    refused before the run, naming the file, with nothing removed."""
+    out = tmp_path / "V"
+    assert main(["drop-test", *SMALL, "--vtu", "--fields", "J", "--out", str(out)]) == 0
+    mesh = out / "specimen_0000.vtu"
+    before = sorted(p.name for p in out.iterdir())
+    capsys.readouterr()
+    assert main(["drop-test", "--mesh", str(mesh), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "specimen_0000.vtu" in err and "remove a file this command reads" in err
+    assert sorted(p.name for p in out.iterdir()) == before

@@ -257,10 +257,40 @@ def earlier_files(out: Path) -> list[Path]:
     if manifest.is_file():
         found.update(out / n for n in _manifest_names(out) if "/" not in n and n not in ("", ".", ".."))
         found.add(manifest)
-    found.update(out / n for n in LEGACY_NAMES)
-    for pattern in LEGACY_PATTERNS:
-        found.update(out.glob(pattern))
+    elif legacy_output(out):
+        found.update(out / n for n in LEGACY_NAMES)
+        for pattern in LEGACY_PATTERNS:
+            found.update(out.glob(pattern))
     return sorted(p for p in found if p.exists() or p.is_symlink())
+
+
+#: Keys of which a completion marker (:data:`MARKERS`) written by cfm before manifests holds at least one.
+LEGACY_KEYS = ("provenance", "backend", "units")
+
+
+def legacy_output(out: Path) -> bool:
+    """Whether ``out`` (no manifest) holds a cfm output written before manifests existed: one of its
+    completion markers (:data:`MARKERS`) reads as a JSON object with one of :data:`LEGACY_KEYS`.
+    File names alone do not make an output: a user's own acceleration.csv or summary.json in a
+    folder cfm never wrote was removed as "the earlier output" by a fit or sweep written there.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        An existing folder without a manifest.
+
+    Returns
+    -------
+    bool
+    """
+    for name in MARKERS:
+        try:
+            doc = json.loads((out / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(doc, dict) and any(key in doc for key in LEGACY_KEYS):
+            return True
+    return False
 
 
 #: Suffixes of result files (plots, tables, data): such a file left beside a new output is named.

@@ -28,7 +28,7 @@ from ..post.fields import parse_fields
 from ..post.vtu import write_field_series
 from ..post.writers import write_drop_test, write_text, write_reaction
 from ..scene.scene import scene_to_toml
-from .provenance import describe_run
+from .provenance import describe_run, scene_paths
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -47,9 +47,11 @@ def _run_phrases(summary: dict) -> list[str]:
     return [_material_text(summary), *(describe_run(record) if record else [summary.get("backend", "?")])]
 
 
-def _staged_save(out, overwrite: bool, write) -> Path:
-    """``write(folder)`` into a stage beside ``out``, published into ``out`` when it succeeded."""
-    with staged_folder(out, what="output directory", overwrite=overwrite) as stage:
+def _staged_save(out, overwrite: bool, write, scene=None) -> Path:
+    """``write(folder)`` into a stage beside ``out``, published into ``out`` when it succeeded (never
+    removing a file ``scene`` reads: its mesh)."""
+    inputs = scene_paths(scene) if scene is not None else []
+    with staged_folder(out, what="output directory", overwrite=overwrite, inputs=inputs) as stage:
         write(stage)
     return Path(out)
 
@@ -161,7 +163,7 @@ class DropTestOutcome:
         NumericalError
             A history or summary value is not finite (nothing is published).
         """
-        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot, vtu, fields, full))
+        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot, vtu, fields, full), self.scene)
 
     def write(self, folder, plot: bool = True, vtu: bool = False, fields=None, full: bool = False) -> list[str]:
         """Write the files of :meth:`save` into ``folder`` directly, without staging (for a caller
@@ -302,7 +304,7 @@ class ReactionOutcome:
         NumericalError
             A history or summary value is not finite.
         """
-        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot))
+        return _staged_save(out, overwrite, lambda folder: self.write(folder, plot), self.scene)
 
     def write(self, folder, plot: bool = True) -> list[str]:
         """Write the files of :meth:`save` into ``folder`` directly, without staging.

@@ -198,8 +198,24 @@ def scene_files(scene) -> dict:
     dict
         ``path -> "sha256:<hex>"``; empty for built-in meshes.
     """
+    return input_files(scene_paths(scene))
+
+
+def scene_paths(scene) -> list:
+    """The files a scene reads (its [specimen] mesh), as given; empty for built-in meshes. An output
+    written where one of them lies must not remove it (:func:`cfm_core.post.staging.refuse_inputs`).
+
+    Parameters
+    ----------
+    scene : Scene
+        Any scene.
+
+    Returns
+    -------
+    list of str or path-like
+    """
     mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
-    return input_files([mesh] if mesh else [])
+    return [mesh] if mesh else []
 
 
 def provenance(backend: str | None = None, options: dict | None = None, material=None, files: dict | None = None,

@@ -41,10 +41,28 @@ def test_rerun_removes_every_file_of_the_earlier_run_but_not_foreign_files(tmp_p
 def test_legacy_output_without_manifest_is_recognised(tmp_path):
     out = tmp_path / "old"
     out.mkdir()
-    _write(out, **{"summary.json": "old", "acceleration.png": "old", "specimen_0003.vtu": "old", "keep.me": "x"})
+    _write(out, **{"summary.json": '{"backend": "numba"}', "acceleration.png": "old", "specimen_0003.vtu": "old",
+                   "keep.me": "x"})
     with staged_folder(out) as stage:
         _write(stage, **{"summary.json": "new"})
     assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "summary.json", "keep.me"])
+
+
+@pytest.mark.parametrize("summary", [None, "my own notes", '{"peak": 3.1}', "[1, 2]"])
+def test_files_named_like_cfm_outputs_in_a_folder_cfm_never_wrote_are_kept(tmp_path, summary):
+    """Without a manifest, names alone make no cfm output: a user's acceleration.csv (measured data)
+    and fit.json in a folder with no summary.json of cfm's (none, not JSON, JSON without cfm's keys)
+    were removed by a calibration written there."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    _write(out, **{"acceleration.csv": "measured", "fit.json": "{}"})
+    if summary is not None:
+        _write(out, **{"summary.json": summary})
+    with staged_folder(out) as stage:
+        _write(stage, **{"sweep.json": "new"})
+    kept = {"acceleration.csv", "fit.json"} | ({"summary.json"} if summary is not None else set())
+    assert sorted(p.name for p in out.iterdir()) == sorted([MANIFEST, "sweep.json", *kept])
+    assert (out / "acceleration.csv").read_text() == "measured"
 
 
 def test_failure_leaves_the_earlier_output_untouched(tmp_path):
@@ -181,7 +199,7 @@ def test_the_command_line_says_an_interrupted_output_was_finished(tmp_path, monk
 def test_frames_and_fields_of_a_folder_without_manifest_are_cfm_files(tmp_path):
     out = tmp_path / "copied"  # `cp run/* copied/` leaves the manifest (a dot file) behind
     out.mkdir()
-    _write(out, **{"summary.json": "old", "fields.json": "old", "specimen_0020.vtu": "old",
+    _write(out, **{"summary.json": '{"units": {}}', "fields.json": "old", "specimen_0020.vtu": "old",
                    "impactor_0020.vtu": "old", "fitted-scene.toml": "old", "mine.vtk": "x"})
     with staged_folder(out) as stage:
         _write(stage, **{"summary.json": "new", "specimen_0000.vtu": "new", "impactor_0000.vtu": "new"})
