@@ -161,7 +161,7 @@ def test_export_writes_the_density_given_and_refuses_an_impossible_one(tmp_path,
     assert main(["export", "cfm", "--to", "abaqus-vumat", "--density", "1100", "--out", str(tmp_path / "v")]) == 0
     assert "*DENSITY\n1100.0" in (tmp_path / "v" / "material.inp").read_text()
     assert main(["export", "cfm", "--to", "lsdyna-umat", "--density", "1.06", "--out", str(tmp_path / "d")]) == 0
-    assert "almost surely in g/cm^3" in capsys.readouterr().err
+    assert "almost surely a unit slip. 1.06 kg/m^3: did you mean 1060 kg/m^3 (1.06 g/cm^3)?" in capsys.readouterr().err
     assert main(["export", "cfm", "--to", "lsdyna-umat", "--density", "0", "--out", str(tmp_path / "z")]) == 2
     assert not (tmp_path / "z").exists()
 

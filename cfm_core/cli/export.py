@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
-from ..export import TARGETS, export, layout, lsdyna
+from ..export import TARGETS, check_density, export, layout, lsdyna
 from ..material.plausible import check_material
 from ..material.registry import make_material
-from ..scene.plausible import DENSITY_SLIP
-from .options import parse_params
+from ..scene.plausible import density_warning
+from .options import parse_params, typed
+
+
+def _number(text: str) -> str:
+    """A number's text, kept as typed (``--density 1e400`` reads as inf: the message names 1e400)."""
+    try:
+        float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}") from None
+    return text
 
 
 def add_parser(sub) -> None:
@@ -37,25 +47,26 @@ def add_parser(sub) -> None:
     p.add_argument("--moduli", choices=["instantaneous", "long-term"], default=None,
                    help="moduli convention written on the card (constant 'moduli'); default: the material's")
     p.add_argument("--elastic", action="store_true", help="card with the Prony coefficients g_i = 0")
-    p.add_argument("--density", type=float, default=None,
+    p.add_argument("--density", type=_number, default=None,
                    help="density on the explicit cards (VUMAT *DENSITY, LS-DYNA RO), kg/m^3, 1 to 100000 (default "
                         "950); like every value of the card in SI units: docs/user/export.md gives the factors to "
                         "mm-s-tonne and mm-ms-kg models")
 
 
 def _cmd_export(args) -> int:
+    density = None if args.density is None else check_density(float(args.density), typed(args.density))
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa) go into the card as given
         print(f"warning: {text}", file=sys.stderr)
-    if args.density is not None and 1.0 <= args.density < DENSITY_SLIP:  # g/cm^3: 1.06 for 1060
-        print(f"warning: --density {args.density:g} kg/m^3 is not a plausible tissue density: below "
-              f"{DENSITY_SLIP:g} kg/m^3 it is almost surely in g/cm^3 ({args.density * 1e3:g} kg/m^3 meant?). The card "
-              f"holds it as given.", file=sys.stderr)
+    slip = density_warning("--density", density, option="--density",  # g/cm^3 (1.06 for 1060), or unusual
+                           as_given="the card holds it as given") if density is not None else None
+    if slip:
+        print(f"warning: {slip}", file=sys.stderr)
     rounding = (lsdyna.gamma_inf_warning(layout.constants(material.spec, lsdyna=True, material=material))
                 if args.to == "lsdyna-umat" else None)
     if rounding:
         print(f"warning: {rounding}", file=sys.stderr)
-    files = export(material, args.to, args.out, args.density)
+    files = export(material, args.to, args.out, density)
     print(f"wrote {', '.join(str(f) for f in files)}: {material.name} for {TARGETS[args.to]['solver']}")
     return 0
 

@@ -41,7 +41,8 @@ def add_parser(sub) -> None:
                         "--param sets the start of these and the value of the others (SI units)")
     p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
     p.add_argument("--max-evaluations", type=int, default=400,
-                   help=f"most residual evaluations of the optimiser per start, a whole number from 1 to "
+                   help=f"most evaluations of the optimiser per start (the finite-difference Jacobian's not counted), "
+                        f"a whole number from 1 to "
                         f"{EVALUATIONS_MAX} (-, default 400; recorded in fit.json)")
     p.add_argument("--starts", type=int, default=None,
                    help=f"starting points of the optimiser, a whole number from 1 to {STARTS_MAX} (-, default 6 "
@@ -82,7 +83,9 @@ def _cmd_fit(args) -> int:
         print(f"{t.name}: {t.kind} at {t.rate:g} 1/s, rel. RMS {100 * e:.2f} %")
     for w in result.warnings:
         print(f"WARNING: {w}")
-    print(f"{result.evaluations} evaluations, {result.wall:.1f} s; {result.status}")
+    print(f"{result.evaluations} optimiser evaluation(s) (--max-evaluations {args.max_evaluations} per start; "
+          f"{result.residual_evaluations} residual evaluations in all, the start's and the finite-difference "
+          f"Jacobian's included), {result.wall:.1f} s; {result.status}")
     print(f"wrote {args.out}: {', '.join(published_files(args.out))}")
     return 0
 

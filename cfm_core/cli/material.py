@@ -21,6 +21,13 @@ from .options import add_material_options, parse_params
 
 #: Most steps of the --uniaxial loading ramp (about 2 ms each: 100 000 take a few minutes).
 STEPS_MAX = 100_000
+#: --steps and --hold of the --uniaxial ramp when not given (-, s).
+STEPS_DEFAULT = 200
+HOLD_DEFAULT = 0.0
+#: The options of --uniaxial alone (argparse dest, flag): their defaults are None (False for --no-plot), so
+#: that one the user typed with --history, where it would be ignored, is told from one not given.
+UNIAXIAL_ONLY = (("rate", "--rate"), ("stretch", "--stretch"), ("steps", "--steps"), ("hold", "--hold"),
+                 ("no_plot", "--no-plot"))
 
 
 def _entries(kind: str) -> dict:
@@ -57,21 +64,40 @@ def _cmd_backends(args) -> int:
     return 0
 
 
+def _check_mode(args) -> None:
+    """One of --uniaxial and --history, and no option of --uniaxial with --history (it would be ignored)."""
+    if args.uniaxial and args.history:
+        raise InputError("--uniaxial and --history exclude each other: give one of them.")
+    if not args.history:
+        return
+    values = [(flag, getattr(args, dest)) for dest, flag in UNIAXIAL_ONLY]
+    typed = [(flag, v) for flag, v in values if v is not None and v is not False]  # by identity: 0 == False
+    if typed:
+        flags = ", ".join(flag for flag, _ in typed)
+        given = " ".join(flag if value is True else f"{flag} {value!r}" for flag, value in typed)
+        shape, them = ("they shape", "them") if len(typed) > 1 else ("it shapes", "it")
+        raise InputError(f"{flags}: only with --uniaxial, whose loading {shape} (given: {given}); --history "
+                         f"{args.history} takes the deformation and its times from the file, and would ignore "
+                         f"{them}. Drop {them}, or give --uniaxial instead of --history.")
+
+
 def _cmd_point(args) -> int:
-    check_count("--steps", args.steps, 2, STEPS_MAX, "steps of the --uniaxial loading ramp")
+    _check_mode(args)
+    steps = STEPS_DEFAULT if args.steps is None else args.steps
+    hold = HOLD_DEFAULT if args.hold is None else args.hold
+    if args.uniaxial:
+        check_count("--steps", steps, 2, STEPS_MAX, "steps of the --uniaxial loading ramp")
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
         print(f"warning: {text}", file=sys.stderr)
     check_file_target(args.out, "--out", suffix=".csv",  # before the work: a directory, a file as parent, unwritable,
                       inputs=[args.history] if args.history else [])  # the input itself
     if args.uniaxial:
-        if args.history:
-            raise InputError("--uniaxial and --history exclude each other: give one of them.")
         if args.rate is None or args.stretch is None:
             raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
         with warnings.catch_warnings(record=True) as caught:  # printed as the run checks' warnings are
             warnings.simplefilter("always", RuntimeWarning)
-            t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, args.steps, args.hold)
+            t, lam, P, lat = point.uniaxial(material, args.rate, args.stretch, steps, hold)
         for w in caught:
             print(f"warning: {w.message}", file=sys.stderr)
         source = "numpy reference"
@@ -116,9 +142,10 @@ def add_parser(sub) -> None:
     p.add_argument("--uniaxial", action="store_true", help="uniaxial stress, lateral tractions zero")
     p.add_argument("--rate", type=float, help="engineering strain rate for --uniaxial, 1/s")
     p.add_argument("--stretch", type=float, help="final stretch for --uniaxial, dimensionless (e.g. 0.5)")
-    p.add_argument("--steps", type=int, default=200, help=f"steps of the loading ramp for --uniaxial, a whole number "
-                                                           f"from 2 to {STEPS_MAX} (-, default 200)")
-    p.add_argument("--hold", type=float, default=0.0, help="hold time at the final stretch for --uniaxial, s")
+    p.add_argument("--steps", type=int, default=None, help=f"steps of the loading ramp for --uniaxial, a whole number "
+                                                            f"from 2 to {STEPS_MAX} (-, default {STEPS_DEFAULT})")
+    p.add_argument("--hold", type=float, default=None,
+                   help=f"hold time at the final stretch for --uniaxial, s (default {HOLD_DEFAULT:g})")
     p.add_argument("--no-plot", action="store_true", help="--uniaxial: do not write the stress-stretch PNG next to --out")
     p.add_argument("--out", required=True, help="output CSV (header t [s],s11 [Pa],...,s13 [Pa]; or t [s],stretch [-],nominal_stress [Pa],"
                                                  "lateral_stretch [-])")

@@ -17,10 +17,51 @@ from ..errors import InputError
 from ..post.staging import staged_folder
 from .targets import TARGETS
 
-__all__ = ["TARGETS", "export"]
+__all__ = ["TARGETS", "check_density", "export"]
 
 #: Densities the explicit cards take, kg/m^3 (the range of a scene's density).
 DENSITY_RANGE = (1.0, 1e5)
+
+
+def check_density(density, shown: str | None = None) -> float:
+    """The density of the explicit cards (kg/m^3), checked against :data:`DENSITY_RANGE`: the one check of
+    :func:`export` and ``cfm export --density``.
+
+    Parameters
+    ----------
+    density : float
+        The density given (kg/m^3).
+    shown : str, optional
+        How it was typed, for the message (the command line's text: ``1e400`` reads as inf, and the
+        message names 1e400); default its repr.
+
+    Returns
+    -------
+    float
+        The density.
+
+    Raises
+    ------
+    InputError
+        Outside :data:`DENSITY_RANGE` or not a finite number, with the unit it looks like (9.2e-10 is
+        tonne/mm^3, 9.2e-7 kg/mm^3, 0.92 g/cm^3: 920 kg/m^3; :func:`cfm_core.scene.plausible.unit_hint`).
+    """
+    lo, hi = DENSITY_RANGE
+    finite = isinstance(density, (int, float)) and not isinstance(density, bool) and math.isfinite(density)
+    if finite and lo <= density <= hi:
+        return float(density)
+    from ..scene.plausible import DENSITY_USUAL, unit_hint
+
+    text = shown if shown is not None else repr(density)
+    overflow = ""
+    typed_inf = text.strip().lstrip("+-").lower() in ("inf", "infinity")
+    if isinstance(density, float) and math.isinf(density) and not typed_inf:
+        overflow = f" (beyond the float range, about 1.8e308, so it reads as {'-' if density < 0 else ''}inf)"
+    # the hint proposes a density usual for tissue: 9.2e-10 tonne/mm^3, 9.2e-7 kg/mm^3, 0.92 g/cm^3 are 920 kg/m^3
+    hint = unit_hint("density", density, "kg/m^3", *DENSITY_USUAL, option="--density") if finite else ""
+    raise InputError(" ".join(filter(None, (
+        f"--density {text} kg/m^3 is not allowed{overflow}; give the tissue's density in kg/m^3 ({lo:g} to {hi:g}; "
+        f"soft tissue 900-1100).", hint))))
 
 
 def export(material, target: str, out, density: float | None = None) -> list[Path]:
@@ -49,24 +90,14 @@ def export(material, target: str, out, density: float | None = None) -> list[Pat
     ------
     InputError
         ``target`` is not one of :data:`TARGETS`, ``density`` is outside :data:`DENSITY_RANGE`
-        (with the unit it looks like: 9.2e-10 is tonne/mm^3, 920 kg/m^3), ``out`` cannot hold the
-        output, or an energy cannot be traced symbolically.
+        (:func:`check_density`), ``out`` cannot hold the output, or an energy cannot be traced
+        symbolically.
     """
     if target not in TARGETS:
         raise InputError(f"--to {target!r} is not a known target; use one of {', '.join(TARGETS)}.")
     from .generate import DENSITY, generate  # deferred: imports sympy, which the command line does not need
 
-    rho = DENSITY if density is None else density
-    lo, hi = DENSITY_RANGE
-    finite = isinstance(rho, (int, float)) and math.isfinite(rho)
-    if not (finite and lo <= rho <= hi):
-        from ..scene.plausible import unit_hint
-
-        # 9.2e-10: tonne/mm^3 (an mm-s-tonne model's), 0.92: g/cm^3; both 920 kg/m^3
-        hint = unit_hint("density", rho, "kg/m^3", lo, hi, option="--density") if finite else ""
-        raise InputError(" ".join(filter(None, (
-            f"--density {rho!r} kg/m^3 is not allowed; give the tissue's density in kg/m^3 ({lo:g} to {hi:g}; "
-            f"soft tissue 900-1100).", hint))))
+    rho = check_density(DENSITY if density is None else density)
     with staged_folder(out, "--out", need_bytes=200_000) as stage:
         result = generate(material, target, float(rho))
         for name, text in result.files.items():

@@ -31,6 +31,8 @@ layer, part, element)     1060)                                  (soft tissue 90
 size (one cube's edge)
 ========================  =====================================  ===============================
 
+The density row is :func:`density_warning`, which ``cfm export --density`` uses too.
+
 Every scene type's material is checked too (:func:`cfm_core.material.plausible.check_material`:
 a modulus 100 times off its typical value, a Poisson ratio far from 0.5, gamma_inf near 0), and a
 drop-test specimen with fewer than :data:`MIN_LAYERS` = 2 elements through the thickness is warned
@@ -50,9 +52,10 @@ from ..material.plausible import check_material
 from ..material.registry import make_material
 
 #: SI unit -> the units often typed instead, each with the factor from it to the SI unit (a density in
-#: tonne/mm^3 is what an LS-DYNA or Abaqus model in mm-s-tonne units holds: 9.2e-10 for 920 kg/m^3).
+#: tonne/mm^3 is what an LS-DYNA or Abaqus model in mm-s-tonne units holds: 9.2e-10 for 920 kg/m^3; in
+#: kg/mm^3 one in mm-ms-kg units: 9.2e-7; docs/user/export.md's table of units).
 UNIT_SLIPS = {"m": (("mm", 1e-3),), "kg": (("g", 1e-3),), "m/s": (("mm/s", 1e-3),),
-              "kg/m^3": (("g/cm^3", 1e3), ("tonne/mm^3", 1e12))}
+              "kg/m^3": (("g/cm^3", 1e3), ("tonne/mm^3", 1e12), ("kg/mm^3", 1e9))}
 
 #: Smallest value a unit-slip hint proposes (SI): below it the corrected value is no more plausible.
 PLAUSIBLE_FLOOR = {"m": 1e-4, "kg": 1e-3, "m/s": 1e-2}
@@ -206,21 +209,55 @@ def _densities(scene) -> list[tuple[str, float]]:
     return out
 
 
-def _density_warnings(scene) -> list[str]:
-    """A density that is almost surely in g/cm^3 (below :data:`DENSITY_SLIP`), or unusual for tissue."""
-    warnings = []
+def density_warning(where: str, rho: float, fix: str | None = None, option: str | None = None,
+                    as_given: str | None = None) -> str | None:
+    """The warning for a density (kg/m^3) that is almost surely a unit slip (below :data:`DENSITY_SLIP`: g/cm^3)
+    or unusual for tissue (outside :data:`DENSITY_USUAL`): the one check of a scene's densities and of
+    ``cfm export --density``.
+
+    Parameters
+    ----------
+    where : str
+        Where it was given: ``"[specimen] density"`` (named ``where = value``) or an option ``"--density"``
+        (named ``--density value``).
+    rho : float
+        The density (kg/m^3), within the range the caller accepts.
+    fix, option
+        Passed to :func:`unit_hint` (what to do instead; the option of a command without a scene).
+    as_given : str, optional
+        What happens to the value, a clause (default: a scene's "it runs as given", with the time step a slip
+        costs; ``cfm export``: "the card holds it as given").
+
+    Returns
+    -------
+    str or None
+        The warning, or None for a usual density.
+    """
     lo, hi = DENSITY_USUAL
+    named = f"{where} {rho:g}" if where.startswith("--") else f"{where} = {rho:g}"
+    if rho < DENSITY_SLIP:
+        hint = unit_hint("density", rho, "kg/m^3", lo, hi, fix=fix, option=option)
+        after = (f"{as_given.capitalize()}." if as_given else
+                 f"It runs as given (a specimen {1e3 / rho:.0f}x lighter than soft tissue takes a "
+                 f"{(1e3 / rho) ** 0.5:.0f}x smaller time step).")
+        return (f"{named} kg/m^3 is not a plausible tissue density (soft tissue 900-1100, bone up to ~2000 kg/m^3): "
+                f"below {DENSITY_SLIP:g} kg/m^3 it is almost surely a unit slip. "
+                f"{hint or 'Give the density in kg/m^3.'} {after}")
+    if not lo <= rho <= hi:
+        return (f"{named} kg/m^3 is unusual for tissue (soft tissue 900-1100, bone up to ~2000 kg/m^3); "
+                f"{as_given or 'it runs as given'}.")
+    return None
+
+
+def _density_warnings(scene) -> list[str]:
+    """A density that is almost surely in g/cm^3 (below :data:`DENSITY_SLIP`), or unusual for tissue
+    (:func:`density_warning`)."""
+    warnings = []
     for where, rho in _densities(scene):
-        if rho < DENSITY_SLIP:
-            fix = None if where.startswith("[specimen]") else f"Write density = {rho * 1e3:g} in {where.split(' density')[0]}"
-            hint = unit_hint("density", rho, "kg/m^3", lo, hi, fix=fix)  # --density sets [specimen]'s only
-            warnings.append(f"{where} = {rho:g} kg/m^3 is not a plausible tissue density (soft tissue 900-1100, "
-                            f"bone up to ~2000 kg/m^3): below {DENSITY_SLIP:g} kg/m^3 it is almost surely a unit slip. "
-                            f"{hint or 'Give the density in kg/m^3.'} It runs as given (a specimen {1e3 / rho:.0f}x "
-                            f"lighter than soft tissue takes a {(1e3 / rho) ** 0.5:.0f}x smaller time step).")
-        elif not lo <= rho <= hi:
-            warnings.append(f"{where} = {rho:g} kg/m^3 is unusual for tissue (soft tissue 900-1100, bone up to "
-                            f"~2000 kg/m^3); it runs as given.")
+        fix = None if where.startswith("[specimen]") else f"Write density = {rho * 1e3:g} in {where.split(' density')[0]}"
+        text = density_warning(where, rho, fix=fix)  # --density sets [specimen]'s only
+        if text:
+            warnings.append(text)
     return warnings
 
 

@@ -431,6 +431,24 @@ class FitResult:
     wall: float
 
 
+def stopped_at_limit(res) -> bool:
+    """Whether ``least_squares`` stopped at its evaluation limit (scipy's status 0, ``max_nfev``) before
+    converging (:func:`fit` and :func:`cfm_core.studies.fit.fit_lab` withhold their intervals then): its
+    values are where it stopped, not a minimum, and intervals from its Jacobian mean nothing.
+
+    Parameters
+    ----------
+    res : scipy.optimize.OptimizeResult
+        What ``least_squares`` returned (its ``status``).
+
+    Returns
+    -------
+    bool
+        True when it stopped at ``max_nfev``.
+    """
+    return int(res.status) == 0
+
+
 def fit(scene, curves: list, names: list, start: dict | None = None, backend: str = "numba",
         runner=None, rel_step: float = REL_STEP, max_evaluations: int = 60, progress=None,
         options: dict | None = None) -> FitResult:
@@ -474,7 +492,7 @@ def fit(scene, curves: list, names: list, start: dict | None = None, backend: st
     if any(getattr(c, "late", "") for c in curves):  # a record cut after contact: tight intervals around a biased fit
         for n in names:
             conf["parameters"][n].update(ci=None, std=None, withheld="a measured record starts after contact")
-    if res.status == 0:  # stopped by max_nfev: the intervals are those of a point that is not the minimum
+    if stopped_at_limit(res):  # the intervals would be those of a point that is not the minimum
         conf["warnings"].append(
             f"the fit stopped at the limit of {max_evaluations} evaluations (max_evaluations) before converging: "
             f"the values are where it stopped, not a minimum, and their intervals are withheld; raise it "

@@ -18,7 +18,10 @@ they assume independent residuals and a correct model. Identifiability (:func:`i
 when two fitted parameters are correlated with |r| >= :data:`CORRELATION_LIMIT`, or the
 correlation matrix has a condition number above :data:`CONDITION_LIMIT` (near-singular J^T J),
 the data fix a combination, not each value: a warning names them (printed and in fit.json) and
-their intervals are withheld (null), not reported as if they meant something.
+their intervals are withheld (null), not reported as if they meant something. So are all of them when
+the reported start stopped at ``max_evaluations`` before converging
+(:func:`~cfm_core.studies.calibrate.stopped_at_limit`, the
+rule of ``cfm calibrate``): its values are not a minimum.
 
 Noise: a curve's stress at its undeformed rows is called a load-cell offset (:func:`offset_warnings`)
 only when it stands out of the noise measured on the curve (:func:`stress_noise`).
@@ -39,7 +42,7 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..material.registry import get_material
 from ..scene.scene import builtin_scene
-from .calibrate import Coordinates, confidence, coordinates, parse_fit_names
+from .calibrate import Coordinates, confidence, coordinates, parse_fit_names, stopped_at_limit
 from .identifiability import at_bounds, bound_warning, misfit_warning, poor_warning
 from .lab_tests import KINDS, LabTest, read_lab_test, simulate, undeformed
 
@@ -413,6 +416,25 @@ def _rel_rms(P, test: LabTest) -> float:
     return float(np.sqrt(np.mean((np.asarray(P) - test.P) ** 2)) / test.scale)
 
 
+def _limit_warnings(tried, best_stopped: bool, max_evaluations: int) -> list[str]:
+    """The warnings for starts stopped at ``max_evaluations`` before converging
+    (:func:`~cfm_core.studies.calibrate.stopped_at_limit`):
+    the reported one (its intervals withheld), or others (the best start may then not be the best fit)."""
+    limited = sum(1 for t in tried if t.get("converged") is False)
+    limit = f"the limit of {max_evaluations} evaluations (--max-evaluations, per start)"
+    if best_stopped and len(tried) == 1:
+        return [f"the fit stopped at {limit} before converging: the values are where it stopped, not a minimum, "
+                f"and their intervals are withheld; raise --max-evaluations or start nearer (--param)."]
+    if best_stopped:
+        others = f" ({limited - 1} other start(s) stopped there too)" if limited > 1 else ""
+        return [f"the best of the {len(tried)} starts stopped at {limit} before converging{others}: the values are "
+                f"where it stopped, not a minimum, and their intervals are withheld; raise --max-evaluations."]
+    if limited:
+        return [f"{limited} of {len(tried)} starts stopped at {limit} before converging, so the best start may not "
+                f"be the best fit; raise --max-evaluations."]
+    return []
+
+
 @dataclass
 class LabFitResult:
     """What :func:`fit_lab` found.
@@ -444,13 +466,18 @@ class LabFitResult:
     status : str
         scipy's termination message of the best start.
     evaluations : int
-        Residual evaluations over all starts (Jacobian columns included).
+        The optimiser's evaluations (scipy's ``nfev``: what ``max_evaluations`` limits per start; the
+        finite-difference Jacobian's columns not included), summed over the starts that finished.
+    residual_evaluations : int
+        Every residual evaluation: the one at the starting values, the optimiser's and its
+        finite-difference Jacobian's columns, failed starts included (the length of ``history``).
     wall : float
         Optimisation wall time (s).
     history : list of float
         Cost of every evaluation (-).
     tried : list of dict
-        Start, result and cost of every start.
+        Start, result, cost, ``evaluations`` (the optimiser's), ``converged`` (False: stopped at
+        ``max_evaluations``) and ``residual_evaluations`` of every start; a failed one: the error.
     """
 
     material: str
@@ -472,6 +499,7 @@ class LabFitResult:
     wall: float
     history: list = field(default_factory=list)
     tried: list = field(default_factory=list)
+    residual_evaluations: int = 0
 
     def rel_rms(self, which: str = "fit") -> list[float]:
         """Relative RMS error per test.
@@ -602,14 +630,16 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         try:
             res = _trf(lambda y: residual(x0 + y), y0, (coords.lower - x0, coords.upper - x0), max_evaluations)
         except NumericalError as exc:  # a trial point of this start broke the model: the start is lost, not the fit
-            tried.append({"start": coords.to_params(x0 + y0), "failed": str(exc), "evaluations": len(history) - done})
+            tried.append({"start": coords.to_params(x0 + y0), "failed": str(exc),
+                          "residual_evaluations": len(history) - done})
             failed.append(exc)
             continue
         res.x = x0 + res.x
         for bound in (coords.lower, coords.upper):  # a value on a bound is reported as the bound (SNAP)
             res.x = np.where(np.abs(res.x - bound) <= SNAP * np.maximum(1.0, np.abs(bound)), bound, res.x)
         tried.append({"start": coords.to_params(x0 + y0), "fitted": coords.to_params(res.x),
-                      "cost": 0.5 * float(res.fun @ res.fun), "evaluations": int(res.nfev)})
+                      "cost": 0.5 * float(res.fun @ res.fun), "evaluations": int(res.nfev),
+                      "converged": not stopped_at_limit(res), "residual_evaluations": len(history) - done})
         if best is None or tried[-1]["cost"] < 0.5 * float(best.fun @ best.fun):
             best = res
     if best is None:
@@ -630,11 +660,9 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
         warnings.append(f"{len(failed)} of {len(tried)} start(s) ended where the model could not be evaluated "
                         f"(the first: {failed[0]}); the best of the other starts is reported, so a better fit may "
                         f"lie where those starts were heading.")
-    limited = [t for t in tried if t["evaluations"] >= max_evaluations]
-    if limited:  # scipy's status is the best start's; the others may have stopped anywhere
-        warnings.append(f"{len(limited)} of {len(tried)} start(s) stopped at the limit of {max_evaluations} evaluations "
-                        f"(max_evaluations, per start) before converging, so the best start may not be the best "
-                        f"fit; raise it (--max-evaluations).")
+    warnings += _limit_warnings(tried, stopped_at_limit(res), max_evaluations)
+    if stopped_at_limit(res):  # the intervals would be those of a point that is not the minimum
+        withheld |= set(coords.names)
     miss = misfit_warning({t.name: _rel_rms(s, t) for s, t in zip(fitted_stresses, tests)}, "relative RMS")
     if miss:
         warnings.append(miss)
@@ -646,4 +674,5 @@ def fit_lab(material: str, tests: list, names: list, start: dict | None = None, 
     fitted = dict(bind(res.x).values)
     return LabFitResult(material, moduli, bool(elastic), coords, tests, values, fitted, start_stresses,
                         fitted_stresses, 0.5 * float(r0 @ r0), 0.5 * float(res.fun @ res.fun), conf, warnings,
-                        withheld, str(res.message), len(history), wall, history, tried)
+                        withheld, str(res.message), sum(t.get("evaluations", 0) for t in tried), wall, history,
+                        tried, len(history))

@@ -5,7 +5,10 @@ fit.json: material, moduli convention, elastic flag; per fitted parameter the st
 unit, standard error, 95 % interval (null where withheld) and coordinate; the fixed values; the
 correlation matrix and condition number; identifiability warnings; per test the file, kind, rate
 (1/s), weight, rows, largest |stress| (Pa) and rel. RMS at the start and at the end; costs, status,
-evaluations, wall time (s) and every start tried.
+``evaluations`` (the optimiser's, summed over the starts: what ``max_evaluations`` limits per start),
+``residual_evaluations`` (every one: the start's and the finite-difference Jacobian's included), wall
+time (s) and every start tried (its ``evaluations``, ``converged``: false where it stopped at
+``max_evaluations``).
 """
 
 from __future__ import annotations
@@ -142,9 +145,11 @@ def write_lab_fit(out, result: LabFitResult, scene=None, settings: dict | None =
             "identifiability_warnings": result.warnings, "at_bound": result.confidence.get("at_bound", {}),
             "tests": tests, "cost_start": result.cost_start,
             "cost": result.cost, "status": result.status, "evaluations": result.evaluations,
-            "wall_time": result.wall, "dof": result.confidence["dof"], "starts": result.tried,
+            "residual_evaluations": result.residual_evaluations, "wall_time": result.wall,
+            "dof": result.confidence["dof"], "starts": result.tried,
             **(settings or {}),
             "units": {"rate": "1/s", "peak_stress": "Pa", "rel_rms": "-", "cost": "-", "wall_time": "s", "max_evaluations": "-",
+                      "evaluations": "-", "residual_evaluations": "-",
                       "parameters": "SI (see each parameter's unit)"}}
     files.append(write_json(out / "fit.json", data))
     return files

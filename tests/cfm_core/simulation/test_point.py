@@ -138,3 +138,30 @@ def test_point_help_names_the_default_material(capsys):
     with pytest.raises(SystemExit):
         main(["point", "--help"])
     assert "default: cfm" in " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("args, named", [
+    (["--steps", "50"], "--steps"),
+    (["--steps", "0"], "--steps"),  # refused as a flag of --uniaxial, not checked as a count of its ramp
+    (["--hold", "1"], "--hold"),
+    (["--hold", "0"], "--hold"),  # typed, even at its default
+    (["--rate", "100", "--stretch", "0.7"], "--rate, --stretch"),
+    (["--no-plot"], "--no-plot"),
+])
+def test_history_refuses_the_flags_of_uniaxial(tmp_path, capsys, args, named):
+    """--history silently ignored --steps and --hold (they shape the --uniaxial ramp) yet checked --steps 0
+    as "steps of the --uniaxial loading ramp"."""
+    write_history(tmp_path / "F.csv", np.array([0.0]), np.eye(3)[None])
+    out = tmp_path / "s.csv"
+    assert main(["point", "--history", str(tmp_path / "F.csv"), "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert f"{named}: only with --uniaxial" in err and "--history" in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_history_without_uniaxial_flags_and_uniaxial_defaults_still_work(tmp_path):
+    write_history(tmp_path / "F.csv", np.array([0.0, 1e-3]), np.stack([np.eye(3), np.diag([0.9, 1.05, 1.05])]))
+    assert main(["point", "--history", str(tmp_path / "F.csv"), "--out", str(tmp_path / "s.csv")]) == 0
+    out = tmp_path / "u.csv"
+    assert main(["point", "--uniaxial", "--rate", "100", "--stretch", "0.9", "--no-plot", "--out", str(out)]) == 0
+    assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (201, 4)  # --steps 200, --hold 0 by default

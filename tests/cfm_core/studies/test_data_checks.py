@@ -398,5 +398,12 @@ def test_starts_stopped_by_the_evaluation_limit_are_warned():
     t, lam, P, _ = point.uniaxial(m, 1.0, 0.6, steps=200)
     test = LabTest("u", "-", "uniaxial", 1.0, 1.0, t, lam, P)
     result = fit.fit_lab("cfm", [test], ["k1", "k2"], max_evaluations=3, starts=1)
-    assert any("1 of 1 start(s) stopped at the limit of 3 evaluations" in w for w in result.warnings)
+    assert any(w.startswith("the fit stopped at the limit of 3 evaluations") and "intervals are withheld" in w
+               for w in result.warnings)  # one start: not "the best start may not be the best fit"
+    assert all(result.confidence["parameters"][n]["ci"] is None for n in ("k1", "k2"))
+    other = fit.fit_lab("cfm", [test], ["k1", "k2"], max_evaluations=9, starts=4)  # the second start stops at 9
+    assert [t["converged"] for t in other.tried] == [True, False, True, True]
+    assert any("1 of 4 starts stopped at the limit of 9 evaluations" in w and "best start may not be the best fit" in w
+               for w in other.warnings)
+    assert other.confidence["parameters"]["k1"]["ci"] is not None  # the reported start converged
     assert not any("stopped at the limit" in w for w in fit.fit_lab("cfm", [test], ["k1"], starts=1).warnings)

@@ -442,3 +442,38 @@ def test_a_log_coordinate_maps_back_to_the_shortest_float_with_that_logarithm():
         p = from_log(float(v))
         spread = (math.ulp(float(v)) + 4 * math.ulp(1.0)) * math.exp(v)  # of the floats p whose log is v
         assert (math.log(p) == v or p == math.exp(v)) and abs(p - math.exp(v)) <= spread
+
+
+def test_a_fit_stopped_by_its_evaluation_limit_withholds_its_intervals_and_counts_honestly(tmp_path, capsys):
+    """--max-evaluations 1: the fit stops where it started, not at a minimum. It printed a 95 % interval
+    (fit.json "interval": "ok"), 3 evaluations against a limit of 1 and a start's count of 1, and a
+    warning about "the best start" of a single start; cfm calibrate withholds such intervals."""
+    m = make_material("cfm")
+    data = _write(tmp_path / "comp-1.csv", uniaxial(m, 1.0, 0.6))
+    out = tmp_path / "fit"
+    rc = main(["fit", "--material", "cfm", "--test", f"{data}:uniaxial:1", "--fit", "k1", "--param", "k1=1000",
+               "--max-evaluations", "1", "--quiet", "--out", str(out)])
+    assert rc == 0
+    text = capsys.readouterr().out
+    fit = json.loads((out / "fit.json").read_text())
+    k1 = fit["parameters"]["k1"]
+    assert k1["ci95"] is None and k1["interval"] != "ok"
+    assert "95 % CI withheld" in text and "CI [" not in text
+    assert fit["evaluations"] == fit["starts"][0]["evaluations"] == 1  # what --max-evaluations limits
+    assert fit["residual_evaluations"] > fit["evaluations"]  # the start's and the Jacobian's included
+    assert f"{fit['evaluations']} optimiser evaluation(s)" in text
+    assert f"{fit['residual_evaluations']} residual evaluations" in text
+    assert fit["starts"][0]["converged"] is False
+    (warning,) = [w for w in fit["identifiability_warnings"] if "limit" in w]
+    assert "best start" not in warning and "before converging" in warning and "--max-evaluations" in warning
+    assert "intervals are withheld" in warning
+
+
+def test_a_converged_fit_keeps_its_intervals_and_its_starts_say_so():
+    m = make_material("mooney-rivlin", elastic=True)
+    test = uniaxial(m, 1.0, 0.7, steps=40)
+    result = fit_lab("mooney-rivlin", [test], ["c10"], start={"c10": 150.0})
+    assert result.confidence["parameters"]["c10"]["ci"] is not None
+    assert [t["converged"] for t in result.tried] == [True]
+    assert result.evaluations == result.tried[0]["evaluations"] < result.residual_evaluations
+    assert not any("limit" in w for w in result.warnings)
