@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import math
-import numbers
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -173,9 +172,9 @@ class Specimen:
                                   note="The paper's specimens are 4.8e-3 to 8.3e-3 m thick." + src))
         if self.mesh is None:
             _set(self, element_size=_num(s, "element_size", self.element_size, "m", 0,
-                                         self.thickness, lo_open=True, note=f"The upper bound is the "
-                                         f"thickness, so that there is at least one layer of "
-                                         f"elements; use a smaller element_size."))
+                                         self.thickness, lo_open=True, note="The upper bound is the "
+                                         "thickness, so that there is at least one layer of "
+                                         "elements; use a smaller element_size."))
             n = self.n_elements
             if n > MAX_ELEMENTS:
                 raise InputError(f"[specimen] element_size = {self.element_size!r} m gives {n} "
