@@ -40,7 +40,8 @@ class ExplicitOptions(Options):
                                       none="at rest")
     frame_interval: float = option(None, "s", "store (t, displacement) frames this often", kind="float",
                                    low=0.0, low_open=True, none="no frames")
-    max_steps: int = option(50_000_000, "-", "stop with an error after this many steps (runaway guard)", low=1)
+    max_steps: int = option(50_000_000, "-", "stop with an error after this many steps (runaway guard)", low=1,
+                            high=1e12)
     renumber: str = option("morton", "-", "element order the solver uses internally for memory locality "
                            "(outputs stay in the mesh's numbering): 'morton' along a space-filling curve over the "
                            "element centroids, 'rcm' reverse Cuthill-McKee, 'none' the mesh's own; nodes follow "

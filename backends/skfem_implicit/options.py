@@ -77,7 +77,7 @@ class SkfemOptions(Options):
                                     low=0.0, low_open=True)
     frame_interval: float = option(None, "s", "store (t, displacement) frames this often", kind="float", low=0.0,
                                    low_open=True, none="no frames")
-    max_steps: int = option(1_000_000, "-", "guard against runaway runs", low=1)
+    max_steps: int = option(1_000_000, "-", "guard against runaway runs", low=1, high=1e12)
     record_newton: bool = option(False, "-", "keep every step's residual sequence in info['newton']")
 
 

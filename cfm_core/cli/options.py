@@ -69,6 +69,11 @@ def _option_value(text: str, spec):
             return text.strip().lower() == "true"
         return text
     if kind in ("float", "int"):
+        if kind == "int":
+            try:
+                return int(text.strip())   # exact: 10**26 through a float became 100000000000000004764729344
+            except ValueError:
+                pass
         try:
             value = float(text)
         except ValueError:
