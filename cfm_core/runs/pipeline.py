@@ -28,7 +28,7 @@ from ..simulation.registry import backend_for
 from .outcomes import DropTestOutcome, ReactionOutcome
 from .progress import FALLBACK_SIZE, _progress, bar_size  # noqa: F401 (bar_size, FALLBACK_SIZE: this module's API before)
 from .parts import describe_model, parts_info
-from .provenance import json_ready, provenance, scene_files
+from .provenance import json_ready, provenance, scene_files, scene_paths
 from .settings import RunPlan, plan_run, run_record
 
 #: Run statistics a backend may report that are copied into the summary.
@@ -182,6 +182,45 @@ def check_output_rate(scene: Scene, cfc: float = 600.0) -> None:
             f"Use output_rate >= {MIN_RATE_OVER_CFC * cfc:g} Hz (the paper's 50 000 Hz is the default).")
 
 
+def named_in_mesh_file(exc: NumericalError, scene: Scene, model) -> NumericalError:
+    """A run's error that names an element of the model, with that element also named as the user's
+    mesh file names it: the model counts elements from 0 in the file's order, an Abaqus file numbers
+    them itself ("element 22 is folded" was element 123, nodes 1001-, of the file).
+
+    Parameters
+    ----------
+    exc : NumericalError
+        The run's error (its ``element``: a 0-based element of the model, or None).
+    scene : Scene
+        The scene that was run (its [specimen] mesh file, if any).
+    model : Model
+        The model built from it.
+
+    Returns
+    -------
+    NumericalError
+        ``exc`` itself when the scene has no mesh file or the error names no element; else a new
+        error of the same time, element and quantity whose message ends "In FILE, element e of the
+        model is element 123 (the 23rd hexahedron of the file; nodes 1010, ...)."
+        (:meth:`cfm_core.scene.mesh.MeshNames.element`, corners in the order the message counts).
+    """
+    from ..scene.mesh import file_mesh_names
+
+    paths = scene_paths(scene)
+    e = exc.element
+    if not paths or e is None or not 0 <= int(e) < model.n_elements:
+        return exc
+    try:
+        names = file_mesh_names(paths[0])
+    except (InputError, OSError):
+        return exc
+    if len(names.corners) != model.n_elements:     # not the file's elements one for one
+        return exc
+    text = (f"{exc} In {Path(paths[0]).name}, element {int(e)} of the model is "
+            f"{names.element(int(e), with_nodes=True)}.")
+    return NumericalError(text, time=exc.time, element=exc.element, quantity=exc.quantity)
+
+
 def _run(scene: Scene, backend: str, progress, label: str, options: dict, say_model: bool = False):
     model = build_model(scene)
     if say_model and (model.multi_material or (model.meta or {}).get("symmetry", "quarter") != "quarter"
@@ -190,9 +229,13 @@ def _run(scene: Scene, backend: str, progress, label: str, options: dict, say_mo
     callback = _progress(progress, scene, label)
     try:
         result = run_model(model, backend, callback, **options)
-    except BaseException:
+    except BaseException as exc:
         if hasattr(callback, "close"):
             callback.close()
+        if isinstance(exc, NumericalError):
+            named = named_in_mesh_file(exc, scene, model)
+            if named is not exc:
+                raise named from exc
         raise
     if hasattr(callback, "close"):
         callback.close(float(result.t[-1]) if len(result.t) else None)

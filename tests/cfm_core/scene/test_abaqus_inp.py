@@ -376,3 +376,46 @@ def test_texts_about_a_mesh_file_say_which_reader_reads_it(tmp_path, capsys):
     with pytest.raises(InputError) as err:
         read_hex_mesh(junk)
     assert "meshio reads (.vtu, .msh, ...) or an Abaqus .inp file (read by cfm itself)" in str(err.value)
+
+
+def _labelled_block(path, n=3, layers=2, h=0.002):
+    """An n x n x layers block of C3D8 elements of edge h (m), nodes numbered from 1001 and elements
+    from 101 in the file, x fastest."""
+    label, lines = {}, ["*NODE"]
+    for k in range(layers + 1):
+        for j in range(n + 1):
+            for i in range(n + 1):
+                label[i, j, k] = 1001 + len(label)
+                lines.append(f"{label[i, j, k]}, {i * h}, {j * h}, {k * h}")
+    lines.append("*ELEMENT, TYPE=C3D8, ELSET=FAT")
+    e = 101
+    for k in range(layers):
+        for j in range(n):
+            for i in range(n):
+                corners = [label[i, j, k], label[i + 1, j, k], label[i + 1, j + 1, k], label[i, j + 1, k],
+                           label[i, j, k + 1], label[i + 1, j, k + 1], label[i + 1, j + 1, k + 1], label[i, j + 1, k + 1]]
+                lines.append(f"{e}, " + ", ".join(map(str, corners)))
+                e += 1
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_run_failure_names_the_element_as_the_mesh_file_numbers_it(tmp_path):
+    """A run-time failure named the model's 0-based element ("element 9 is folded"); with a mesh file
+    the message also gives the file's element number and nodes (element 110, the 10th hexahedron,
+    nodes from 1017), computed here from the file's own numbering."""
+    import cfm_core as cfm
+    from cfm_core.errors import NumericalError
+
+    mesh = _labelled_block(tmp_path / "block.inp")
+    scene = cfm.builtin_scene("drop-test").with_overrides(mesh=str(mesh), velocity=20.0)
+    with pytest.raises(NumericalError) as info:
+        cfm.drop_test(scene)
+    e = info.value.element
+    assert e is not None and "folded" in str(info.value)
+    rows = read_hex_mesh(mesh)[1][e]                   # the model's nodes are the file's, from 1001, in order
+    nodes = ", ".join(str(1001 + int(r)) for r in rows)
+    import re
+
+    assert re.search(rf"In block\.inp, element {e} of the model is element {101 + e} \(the {e + 1}(st|nd|rd|th) "
+                     rf"hexahedron of the file; nodes {nodes}\)\.$", str(info.value))
