@@ -349,7 +349,9 @@ def _loop(model, mod, prep: Prepared, o: NumbaOptions, progress, compile_time: f
         z = lambda: np.array([prep.sc[K.S_X], prep.sc[K.S_Y], prep.sc[K.S_Z]])   # noqa: E731
     start = time.perf_counter()
     while True:
-        rows, code = advance(mod, prep, hist, min(next_progress, next_frame, monitor.next))
+        left = o.max_steps - int(prep.sc[K.S_STEPS])      # a full history chunk stops it: at max_steps exactly
+        rows, code = advance(mod, prep, hist[:max(1, min(hist.shape[0], left))],
+                             min(next_progress, next_frame, monitor.next))
         chunks.append(hist[:rows].copy())
         if code >= K.R_INVERTED:
             raise _error(code, prep, model)

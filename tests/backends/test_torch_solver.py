@@ -189,3 +189,17 @@ def test_a_batch_stops_a_run_whose_pace_cannot_reach_the_end_time_and_finishes_t
     assert "more than option max_steps = 20000" in str(out[0])
     alone = TorchExplicitBackend().run(good)
     np.testing.assert_allclose(out[1].contact_force, alone.contact_force, rtol=1e-10, atol=1e-12)
+
+
+def test_max_steps_stops_numba_and_torch_at_the_same_step():
+    """max_steps = 10: numba stopped at 11 steps (it looked between history chunks), torch at 10."""
+    pytest.importorskip("numba")
+    from cfm_core.runs.pipeline import run_model
+
+    model = build_model(builtin_scene("single-element"))
+    text = {}
+    for backend in ("torch", "numba"):
+        with pytest.raises(NumericalError, match=r"^model 'single-element': 10 steps reached at t = ") as err:
+            run_model(model, backend, max_steps=10)
+        text[backend] = str(err.value)
+    assert text["torch"] == text["numba"]
