@@ -193,7 +193,7 @@ def nominal_uniaxial(stretch, tau11, tau22):
     return (tau11 - tau22) / stretch
 
 
-def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: float = 0.0):
+def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: float = 0.0, progress=None):
     """Uniaxial stress at constant engineering strain rate (1/s) to a final stretch (-).
 
     The lateral stretch solves sigma22 = sigma33 = 0 at each step (F = diag(l, lt, lt), isotropic
@@ -217,6 +217,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
         Steps of the loading ramp (>= 2).
     hold : float
         Hold time at the final stretch (s).
+    progress : callable, optional
+        Called after each step with (steps done, steps in all), e.g. to update a progress bar.
 
     Returns
     -------
@@ -283,6 +285,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
             P[n] = nominal_uniaxial(lam[n], lam[n] ** 2 * S[0, 0], lt**2 * S[1, 1])  # P11, pressure-free
             if unstable is None and n and not volumetric_convex(material, lam[n], lt):
                 unstable = n
+            if progress is not None:
+                progress(n + 1, t.size)
     bad = ~(np.isfinite(P) & np.isfinite(lat))
     if bad.any():
         k = int(np.argmax(bad))
