@@ -15,7 +15,7 @@ from ..material.registry import make_material
 from ..scene.scene import load_scene
 from ..studies import fit as lab_fit
 from ..studies.lab_tests import KINDS
-from ..post.staging import check_folder_target, published_files
+from ..post.staging import check_folder_target, published_files, refuse_inputs
 from ..tables import check_count
 from .options import EVALUATIONS_MAX, add_material_options, parse_params
 
@@ -68,6 +68,7 @@ def _cmd_fit(args) -> int:
     if args.scene:  # its errors, and fitted names no layer takes, before the work
         lab_fit.check_scene(load_scene(args.scene), names)
     tests = lab_fit.read_tests(args.test)
+    refuse_inputs(args.out, [args.scene, *(t.path for t in tests)])  # before the work is announced
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     if say:
         say(f"fitting {', '.join(names)} of '{args.material}' to {len(tests)} test(s)")

@@ -156,7 +156,7 @@ def refuse_inputs(out, inputs, what: str = "--out", names=(), keep: tuple[str, .
         hit = next((g for g in given if _same_file(path, g)), None)
         inner = None if hit is not None else next((g for g in given if _inside(g, path)), None)
         if hit is not None or inner is not None:
-            where = f"is {path.name}, a file {why}" if hit is not None else f"lies in {path.name}/, a folder {why}"
+            where = f"is a file {why}" if hit is not None else f"lies in {path.name}/, a folder {why}"
             raise InputError(f"{what} {out}: the input {hit or inner} {where}, so writing the output there would "
                              f"remove a file this command reads. Choose another {what} folder, or copy the file out "
                              f"of {out} and give the copy.")
@@ -326,7 +326,8 @@ def replaced_note(out: Path, earlier: list[Path], now: str | None) -> None:
     ``--out``: a sweep written into a run's folder), naming that kind and how many files go."""
     before = output_kind(p.name for p in earlier)
     if before is not None and now is not None and before != now:
-        print(f"note: {out} held the output of a {before} ({len([p for p in earlier if p.name != MANIFEST])} files); "
+        count = len([p for p in earlier if p.name != MANIFEST])
+        print(f"note: {out} held the output of a {before} ({count} file{'' if count == 1 else 's'}); "
               f"it is replaced by this {now}'s.", file=sys.stderr)
 
 

@@ -252,7 +252,7 @@ def test_an_output_never_removes_or_replaces_a_file_the_command_reads(tmp_path, 
         assert str(read) in str(err.value) and "a file this command reads" in str(err.value)
     assert "lies in runs/" in str(err.value)
     assert entered == [] and sorted(p.name for p in out.iterdir()) == before
-    with pytest.raises(InputError, match="data.csv is data.csv, a file of the same name as a file this command writes"):
+    with pytest.raises(InputError, match="data.csv is a file of the same name as a file this command writes"):
         with staged_folder(out, inputs=[out / "data.csv"]) as stage:  # known only once the output is written
             _write(stage, **{"fit.json": "fit", "data.csv": "fit"})
     assert sorted(p.name for p in out.iterdir()) == before and (out / "data.csv").read_text() == "mine"

@@ -194,7 +194,7 @@ def test_a_calibration_into_the_folder_of_its_inputs_is_refused_before_any_drop_
         rc = main(["calibrate", "--data", data, "--fit", "k1", "--serial", "--max-evaluations", "1", *extra,
                    "--out", str(out)])
         err = capsys.readouterr().err
-        assert rc == 2 and f"is {name}, a file of the earlier cfm output there" in err and "Traceback" not in err
+        assert rc == 2 and f"{name} is a file of the earlier cfm output there" in err and "Traceback" not in err
         assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 

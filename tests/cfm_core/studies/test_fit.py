@@ -276,8 +276,10 @@ def test_a_fit_into_an_earlier_runs_folder_never_removes_a_file_it_reads(tmp_pat
     base = ["fit", "--elastic", "--fit", "k1", "--test", f"{data}:uniaxial:1", "--quiet", "--out", str(run)]
     assert main(base + ["--scene", str(run / "scene.toml")]) == 2
     err = capsys.readouterr().err
-    assert f"the input {run / 'scene.toml'} is scene.toml, a file of the earlier cfm output there" in err
+    assert f"the input {run / 'scene.toml'} is a file of the earlier cfm output there" in err
     assert "Traceback" not in err
+    assert main([*base[:-3], "--out", str(run), "--scene", str(run / "scene.toml")]) == 2   # not --quiet
+    assert "fitting k1" not in capsys.readouterr().err   # refused before the work is announced
     assert {p.name: p.read_bytes() for p in run.iterdir()} == before  # nothing removed, nothing written
     assert main(base) == 0  # the run's output is replaced; the test file it read stays, and is not called stale
     out, err = capsys.readouterr()

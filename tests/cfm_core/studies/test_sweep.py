@@ -221,5 +221,5 @@ def test_a_sweep_never_removes_the_scene_file_it_reads(scene, tmp_path, capsys):
     rc = main(["sweep", "--scene", str(out / "scene.toml"), "--vary", "k1=1000,1320", "--serial", "--quiet",
                "--out", str(out)])
     err = capsys.readouterr().err
-    assert rc == 2 and "is scene.toml, a file of the earlier cfm output there" in err and "Traceback" not in err
+    assert rc == 2 and "scene.toml is a file of the earlier cfm output there" in err and "Traceback" not in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
