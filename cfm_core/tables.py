@@ -228,6 +228,26 @@ def shown(value) -> str:
     return repr(value)
 
 
+def overflowed_to_inf(text: str, value) -> bool:
+    """Whether ``value``, read from ``text``, is an infinity the user did not type: a finite number
+    beyond the float range (``1e400``, ``1`` followed by 400 zeros) that reads as inf, as opposed to
+    ``inf`` or ``-Infinity`` typed as such.
+
+    Parameters
+    ----------
+    text : str
+        What was typed.
+    value : float
+        What it was read as.
+
+    Returns
+    -------
+    bool
+    """
+    return (isinstance(value, float) and math.isinf(value)
+            and re.fullmatch(r"[+-]?inf(inity)?", str(text).strip(), re.IGNORECASE) is None)
+
+
 def check_count(name: str, value, low: int, high: int, meaning: str) -> int:
     """A count the user gives (steps, starts, evaluations, workers), checked against its range.
 

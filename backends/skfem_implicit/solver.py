@@ -339,7 +339,10 @@ class Overflows:
 
 def _overflow_cause(overflow) -> str:
     """The sentence naming the term that overflowed (the numba backend's wording, through
-    :func:`cfm_core.material.diagnose.describe_nonfinite` in the failure's message)."""
+    :func:`cfm_core.material.diagnose.describe_nonfinite` in the failure's message); the usual
+    suspects when none did (``overflow`` None)."""
+    if overflow is None:
+        return "an element folding, contact chattering, or a material far out of its range"
     n, t, dt, fail = overflow
     return (f"the material's energy overflows: {n} step(s) were rejected because a term is not finite, the "
             f"latest the step of {dt:.3g} s to t = {t:.6g} s: {str(fail).rstrip('.')}")
@@ -349,25 +352,21 @@ def _stall_error(model, t: float, advanced: float, dt: float, iterations: int, e
                  overflow=None) -> NumericalError:
     """The error of a run whose steps collapsed (:data:`STALL_STEPS`, :data:`STALL_FRACTION`); ``overflow``
     (:meth:`Overflows.since`) names the material term that overflowed as the cause."""
-    cause = ("an element folding, contact chattering, or a material far out of its range" if overflow is None
-             else _overflow_cause(overflow))
     return NumericalError(
         f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': the last "
         f"{STALL_STEPS} steps advanced {advanced:.3g} s in all (less than {STALL_FRACTION:g} of the end time "
         f"{end:g} s; last step {dt:.3g} s, {iterations} Newton iterations), so the run would take hours and "
-        f"no step follows the response ({cause}); the run cannot be trusted beyond this time.",
+        f"no step follows the response ({_overflow_cause(overflow)}); the run cannot be trusted beyond this time.",
         time=t, **_overflow_where(overflow, "time step"))
 
 
 def _collapse_error(model, t: float, dt: float, error: float, tol: float, overflow=None) -> NumericalError:
     """The error of a run whose local error stays above the tolerance at the smallest step; ``overflow``
     as for :func:`_stall_error`."""
-    cause = ("an element folding, contact chattering, or a material far out of its range" if overflow is None
-             else _overflow_cause(overflow))
     return NumericalError(
         f"skfem backend: the time step collapsed at t = {t:.6g} s in model '{model.name}': at the smallest "
         f"step dt_min = {dt:.3g} s the local error is {error:.3g}, above 3 x error_tol = {3.0 * tol:.3g}, so "
-        f"no step can follow the response ({cause}); the run cannot be trusted beyond this time.",
+        f"no step can follow the response ({_overflow_cause(overflow)}); the run cannot be trusted beyond this time.",
         time=t, **_overflow_where(overflow, "time step"))
 
 

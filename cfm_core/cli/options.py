@@ -5,14 +5,13 @@ is the run pipeline's, ``progress=True``)."""
 from __future__ import annotations
 
 import argparse
-import math
 import re
 from pathlib import Path
 
 from ..errors import InputError
 from ..runs.settings import RunPlan, plan_run
 from ..simulation.registry import backend_for
-from ..tables import shown
+from ..tables import overflowed_to_inf, shown
 
 #: Most optimiser evaluations ``--max-evaluations`` allows (``cfm fit`` per start, ``cfm calibrate``).
 EVALUATIONS_MAX = 100_000
@@ -82,10 +81,6 @@ def _option_value(text: str, spec):
     return text
 
 
-#: How ``float()`` spells infinity: a value typed so means inf; any other that reads as inf overflowed.
-_INF_TEXT = re.compile(r"[+-]?inf(inity)?", re.IGNORECASE)
-
-
 def typed(text: str) -> str:
     """What the user typed, for a message: an integer of more than 20 digits shortened as
     :func:`cfm_core.tables.shown` shortens it, other text of more than 40 characters cut in the middle."""
@@ -102,7 +97,7 @@ def _overflowed(name: str, text: str, value, spec, backend: str) -> None:
     """InputError naming what was typed when a finite number beyond the float range (``1e400``,
     ``1`` followed by 400 zeros) read as inf and the option does not take inf; the declaration's
     own message would show only "inf"."""
-    if not (isinstance(value, float) and math.isinf(value)) or _INF_TEXT.fullmatch(text.strip()):
+    if not overflowed_to_inf(text, value):
         return
     try:
         spec.check(name, value, backend)  # inf allowed where the range is open to it (dt_max)

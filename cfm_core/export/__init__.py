@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..post.staging import staged_folder
+from ..tables import overflowed_to_inf
 from .targets import TARGETS
 
 __all__ = ["TARGETS", "check_density", "export"]
@@ -54,8 +55,7 @@ def check_density(density, shown: str | None = None) -> float:
 
     text = shown if shown is not None else repr(density)
     overflow = ""
-    typed_inf = text.strip().lstrip("+-").lower() in ("inf", "infinity")
-    if isinstance(density, float) and math.isinf(density) and not typed_inf:
+    if overflowed_to_inf(text, density):
         overflow = f" (beyond the float range, about 1.8e308, so it reads as {'-' if density < 0 else ''}inf)"
     # the hint proposes a density usual for tissue: 9.2e-10 tonne/mm^3, 9.2e-7 kg/mm^3, 0.92 g/cm^3 are 920 kg/m^3
     hint = unit_hint("density", density, "kg/m^3", *DENSITY_USUAL, option="--density") if finite else ""

@@ -104,7 +104,8 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
     lo, hi : float
         The allowed or plausible range (SI); the corrected value must fall inside it.
     fix : str, optional
-        What to do instead of writing the corrected value (e.g. for a value taken from a mesh file).
+        What to do instead of writing the corrected value (e.g. for a value taken from a mesh file);
+        ``{value}`` in it is replaced by the corrected value (SI) of the unit that matched.
     flag : bool
         Name the command-line flag that sets the field (default); False for a layer's or part's field,
         which no flag sets (``--element-size`` sets [specimen]'s).
@@ -125,8 +126,8 @@ def unit_hint(key: str, value: float, unit: str, lo: float = 0.0, hi: float = fl
     for alt, factor in UNIT_SLIPS[unit]:
         if lo <= value * factor <= hi:
             flagged = f" ({_FLAGS[key]} {value * factor:g})" if key in _FLAGS and flag else ""
-            todo = (fix or (f"Give {option} {value * factor:g}" if option else
-                            f"Write {key} = {value * factor:g}{flagged}"))
+            todo = (fix.format(value=value * factor) if fix else f"Give {option} {value * factor:g}" if option else
+                    f"Write {key} = {value * factor:g}{flagged}")
             return (f"{value:g} {unit}: did you mean {value * factor:g} {unit} ({value:g} {alt})? "
                     f"{todo}; every value is in SI units.")
     for alt, factor in UNIT_SLIPS[unit]:
@@ -254,7 +255,7 @@ def _density_warnings(scene) -> list[str]:
     (:func:`density_warning`)."""
     warnings = []
     for where, rho in _densities(scene):
-        fix = None if where.startswith("[specimen]") else f"Write density = {rho * 1e3:g} in {where.split(' density')[0]}"
+        fix = None if where.startswith("[specimen]") else f"Write density = {{value:g}} in {where.split(' density')[0]}"
         text = density_warning(where, rho, fix=fix)  # --density sets [specimen]'s only
         if text:
             warnings.append(text)

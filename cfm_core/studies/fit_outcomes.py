@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..post.staging import staged_folder
-from ..runs.provenance import input_files, json_ready, provenance, scene_files
+from ..runs.provenance import input_files, json_ready, provenance, scene_files, scene_paths
 from .outcomes import _interval_rows, _parameter_frame
 
 if TYPE_CHECKING:
@@ -36,8 +36,7 @@ def files_read(data, scene=None, extra=()) -> list:
     list of str
         The paths (a test made in memory has the path "-", matching no file).
     """
-    mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
-    return [str(p) for p in (*(d.path for d in data), mesh, *extra) if p]
+    return [str(p) for p in (*(d.path for d in data), *scene_paths(scene), *extra) if p]
 
 
 # ----------------------------------------------------------------------------- calibration
