@@ -7,7 +7,8 @@ the backend passes the module it uses.
 
 Without a count from the user, a run takes the cores actually free to this process
 (:func:`free_cores`): the cores it may run on (affinity), less those other processes keep busy
-(measured over a few milliseconds from /proc/stat), and inside a Dask worker its share of the
+(measured over a few milliseconds from /proc/stat; this process's own figure process does not
+count), and inside a Dask worker its share of the
 worker's cores. A parallel step waits for its slowest thread at every barrier: one thread on a
 core that another process holds makes every step wait for the scheduler, so on a shared machine
 more threads than free cores made runs several times slower than one thread.
@@ -56,17 +57,35 @@ def _cpu_times(cpus: list[int]) -> tuple[float, float] | None:
     return (idle, total) if total > 0 else None
 
 
+def _helper_ticks() -> float:
+    """CPU time so far (user + system, in /proc/stat's ticks) of this process's own helper that
+    is about to go idle: the figure process of :mod:`cfm_core.post.figure_process`, which imports
+    matplotlib while the run starts and then waits for the figure. 0 when none runs."""
+    module = sys.modules.get("cfm_core.post.figure_process")
+    pid = module.pid() if module is not None else None
+    if pid is None:
+        return 0.0
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+            fields = f.read().rpartition(")")[2].split()
+        return float(fields[11]) + float(fields[12])  # utime, stime (fields 14 and 15 of proc(5))
+    except (OSError, IndexError, ValueError):
+        return 0.0
+
+
 def idle_cores(cpus: list[int], sample: float = SAMPLE_S) -> float | None:
-    """Cores of ``cpus`` left idle by every process over ``sample`` seconds (None where /proc/stat
-    cannot be read); this process sleeps meanwhile."""
-    a = _cpu_times(cpus)
+    """Cores of ``cpus`` left idle by every other process over ``sample`` seconds (None where
+    /proc/stat cannot be read); this process sleeps meanwhile. The time of this process's own
+    figure process (:func:`_helper_ticks`) counts as idle: it is done before the run needs the
+    cores."""
+    a, ha = _cpu_times(cpus), _helper_ticks()
     if a is None:
         return None
     time.sleep(sample)
-    b = _cpu_times(cpus)
+    b, hb = _cpu_times(cpus), _helper_ticks()
     if b is None or b[1] <= a[1]:
         return None
-    return len(cpus) * (b[0] - a[0]) / (b[1] - a[1])
+    return min(float(len(cpus)), len(cpus) * (b[0] - a[0] + max(0.0, hb - ha)) / (b[1] - a[1]))
 
 
 def dask_worker_threads() -> int | None:

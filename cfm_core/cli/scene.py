@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
+from ..post import figure_process
 from ..post.staging import staged_folder
 from ..runs.provenance import scene_paths
 from ..runs import pipeline
@@ -149,7 +150,7 @@ def _run_and_write(args, scene) -> tuple:
               f"{', mirrored into the whole specimen' if full else ''}, as by --vtu", file=sys.stderr)
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite,
-                       inputs=scene_paths(scene)) as stage:
+                       inputs=scene_paths(scene)) as stage, figure_process.started(plot):
         outcome = pipeline.run_planned(scene, plan, progress=not args.quiet)
         try:
             names = (outcome.write(stage, plot=plot, vtu=vtu, fields=fields, full=full) if scene.type == "drop-test"

@@ -1,13 +1,15 @@
 """Figures of drop-test histories (matplotlib, Agg canvas; no pyplot state, no global backend switch).
 
 Inputs are SI (times in s, accelerations in m/s^2); the axes show time in ms and acceleration in
-g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename).
+g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename). A run's figure is drawn by the process that
+:mod:`cfm_core.post.figure_process` started ahead of the run, when one runs.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import figure_process
 from .histories import G0
 from .writers import _finite_array, atomic_write
 
@@ -154,6 +156,8 @@ def plot_acceleration(path, t, a_raw, a_cfc, title: str) -> None:
     t = _finite_array("t", t, ndim=1)
     a_raw = _finite_array("a_raw", a_raw, ndim=1)
     a_cfc = _finite_array("a_cfc", a_cfc, ndim=1)
+    if figure_process.draw("plot_acceleration", path, t, a_raw, a_cfc, title):
+        return
     fig, ax = _figure(title)
     ms = 1e3 * t
     k = int(np.argmax(a_cfc))
@@ -247,6 +251,8 @@ def plot_reaction(path, t, force, title: str) -> None:
     """
     t = _finite_array("t", t, ndim=1)
     force = _finite_array("reaction_force", force, ndim=1)
+    if figure_process.draw("plot_reaction", path, t, force, title):
+        return
     fig, ax = _figure(title)
     ax.set_ylabel("Reaction force (N)")
     ms = 1e3 * t

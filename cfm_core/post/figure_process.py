@@ -1,0 +1,184 @@
+"""A second process that imports matplotlib while a run computes, then draws the run's figure.
+
+Importing matplotlib takes 0.3-0.5 s, a fifth of a warm ``cfm drop-test`` end to end, and the
+command needs it only after the solve. :func:`started` forks the process before the run: the child
+imports matplotlib on the machine's other core while the parent loads its kernels and solves, and
+draws the figure when :mod:`cfm_core.post.plots` sends it the arrays (pickled through a pipe). The
+file is the one the same function draws in the parent: the child runs that function, writing the
+PNG atomically into the same (staged) folder, and the parent waits for its answer before it goes
+on. The child is only an accelerator: when it cannot start, fails, dies or does not answer within
+:data:`ANSWER_S`, the parent draws the figure itself, as without it (and an error of the drawing
+is then raised in the parent, as always).
+
+The process is forked only where that is safe and can pay: Linux (``fork`` start method), a
+process running one thread (forking a process with other threads can leave the child holding
+their locks: a process whose numba threads have started or that imported torch, pytest-xdist
+and Dask workers and notebooks draw inline), at least two cores in
+the process's affinity, matplotlib not imported yet, and ``CFM_FIGURE_PROCESS`` not ``0``. The
+child runs at a lower priority (nice 10), and the default thread count of a run does not count
+its CPU time as load (:func:`cfm_backends.threads.free_cores`).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+
+#: Seconds the parent waits for the child's answer to one figure before drawing it itself.
+ANSWER_S = 60.0
+
+#: Environment variable that turns the figure process off when set to ``0``.
+ENV = "CFM_FIGURE_PROCESS"
+
+_worker = None  # (process, parent end of the pipe) while a figure process runs
+
+
+def _threads() -> str | None:
+    """Which threads besides this one run in the process (a phrase), or None: Python threads,
+    numba's worker threads once launched, torch's pools once torch is imported. (numpy's
+    OpenBLAS pool is fork-safe: it stops itself around a fork.)"""
+    if threading.active_count() != 1:
+        return f"{threading.active_count()} Python threads run in this process"
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    if parallel is not None and getattr(parallel, "_is_initialized", False):
+        return "numba's threads run in this process"
+    if "torch" in sys.modules:
+        return "torch is imported (its thread pools)"
+    return None
+
+
+def usable() -> str | None:
+    """Why a figure process would not start in this process now (a short phrase), or None when it
+    would."""
+    if os.environ.get(ENV, "").strip() == "0":
+        return f"{ENV}=0"
+    if not sys.platform.startswith("linux"):
+        return f"not on Linux ({sys.platform})"
+    threads = _threads()
+    if threads is not None:
+        return threads
+    if "matplotlib" in sys.modules:
+        return "matplotlib is imported already"
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    if cores < 2:
+        return "one core"
+    return None
+
+
+def _serve(conn, other_end) -> None:
+    """The child: ignore Ctrl-C (the parent ends it), import matplotlib, draw what comes."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        os.nice(10)  # the run's threads go first when both want a core
+    except OSError:
+        pass
+    other_end.close()  # so that the parent's death reads as the end of the pipe here
+    global _worker
+    _worker = None  # the plot functions draw in this process
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401 (the slow part)
+        from matplotlib.figure import Figure  # noqa: F401
+        from matplotlib.image import imsave  # noqa: F401
+
+        from . import plots
+    except BaseException as exc:  # noqa: BLE001 (any failure: the parent draws)
+        conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+        return
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        name, args = job
+        try:
+            getattr(plots, name)(*args)
+            conn.send(("drawn", None))
+        except BaseException as exc:  # noqa: BLE001
+            conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+
+
+def pid() -> int | None:
+    """The process id of the figure process, None when none runs."""
+    return _worker[0].pid if _worker is not None else None
+
+
+def start() -> bool:
+    """Fork the figure process when :func:`usable` allows it; True if one runs (now or already)."""
+    global _worker
+    if _worker is not None:
+        return True
+    if usable() is not None:
+        return False
+    import multiprocessing
+
+    try:
+        context = multiprocessing.get_context("fork")
+        parent_end, child_end = context.Pipe()
+        process = context.Process(target=_serve, args=(child_end, parent_end), daemon=True,
+                                  name="cfm-figures")
+        process.start()
+    except (OSError, ValueError):
+        return False
+    child_end.close()
+    _worker = (process, parent_end)
+    return True
+
+
+def stop() -> None:
+    """End the figure process (if one runs) and wait for it."""
+    global _worker
+    if _worker is None:
+        return
+    process, conn = _worker
+    _worker = None
+    try:
+        conn.send(None)
+    except (OSError, ValueError):
+        pass
+    conn.close()
+    process.join(timeout=5.0)
+    if process.is_alive():
+        process.kill()
+        process.join()
+
+
+def draw(name: str, *args) -> bool:
+    """Have the figure process call ``plots.<name>(*args)``; True when it drew the figure, False
+    when no process runs or it failed (then it is ended and the caller draws the figure)."""
+    if _worker is None:
+        return False
+    process, conn = _worker
+    try:
+        conn.send((name, args))
+        if conn.poll(ANSWER_S):
+            answer, _ = conn.recv()
+            if answer == "drawn":
+                return True
+    except (OSError, EOFError, ValueError):
+        pass
+    stop()
+    return False
+
+
+class started:
+    """``with started(wanted):`` a figure process runs inside the block when ``wanted`` and
+    :func:`usable`; it is ended on leaving the block, also on an error."""
+
+    def __init__(self, wanted: bool = True):
+        self.wanted = wanted
+
+    def __enter__(self):
+        if self.wanted:
+            start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        stop()
