@@ -82,10 +82,10 @@ def _serve(conn, other_end) -> None:
     global _worker
     _worker = None  # the plot functions draw in this process
     try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401 (the slow part)
-        from matplotlib.figure import Figure  # noqa: F401
-        from matplotlib.image import imsave  # noqa: F401
+        import importlib
 
+        for name in ("matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.image"):
+            importlib.import_module(name)  # the slow part, ahead of the figure
         from . import plots
     except BaseException as exc:  # noqa: BLE001 (any failure: the parent draws)
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
