@@ -70,3 +70,11 @@ def test_the_command_exits_nonzero_with_one_line():
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and "error: --against 'no-such-rev-y'" in proc.stderr
+
+
+def test_a_layout_differing_only_in_comments_fits():
+    """Only the layout's constants decide: a comment changed at the other revision is no refusal."""
+    text = (Path(codegen.KERNELS_DIR) / "layout.py").read_text()
+    assert against._constants(text + "\n# a note of another revision\n") == against._constants(text)
+    changed = text.replace("BLOCK = 32\n", "BLOCK = 16\n", 1)
+    assert changed != text and against._constants(changed) != against._constants(text)

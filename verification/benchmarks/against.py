@@ -12,8 +12,9 @@ the process). Printed per version: the best round and the mean of the best third
 element, one thread), their ratio to this tree's, and whether one pass gives the same bits (the
 stress work, the force buffer and the element state).
 
-The two versions must share ``kernels/layout.py``: the state arrays are prepared by this tree's
-solver, and a revision whose layout differs would read them wrongly, so it is refused.
+The two versions must share the constants of ``kernels/layout.py`` (its comments may differ): the
+state arrays are prepared by this tree's solver, and a revision whose layout differs would read
+them wrongly, so it is refused.
 """
 
 from __future__ import annotations
@@ -50,11 +51,19 @@ def revision_files(rev: str) -> dict:
                              f"({proc.stderr.strip() or 'no output'}); give a commit, tag or branch of this "
                              f"repository whose numba kernels have that file.")
         files[name] = proc.stdout
-    if files["layout.py"] != (root / "layout.py").read_text():
+    if _constants(files["layout.py"]) != _constants((root / "layout.py").read_text()):
         raise InputError(f"--against {rev!r}: kernels/layout.py differs at that revision; the state arrays "
                          f"this tree prepares do not fit its kernels, so its element pass cannot be timed "
                          f"here (compare whole runs of the two checkouts instead).")
     return files
+
+
+def _constants(text: str) -> dict:
+    """The upper-case names a ``layout.py`` text defines and their values (its comments and
+    docstrings aside: two layouts that differ only there fit the same arrays)."""
+    names: dict = {}
+    exec(compile(text, "layout.py", "exec"), names)
+    return {k: v for k, v in names.items() if k.isupper()}
 
 
 def compare(rev: str, size: float = 1e-3, repeat: int = 15, say=print) -> dict:

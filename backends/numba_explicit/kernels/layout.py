@@ -153,10 +153,10 @@ R_STATE = 13        # non-finite kinematic state
 # its loads and vectorises the loops over the columns (with 2-D arrays or one array per quantity
 # it would need a run-time overlap check per pair and gives up).
 BLOCK = 32
-# From this many blocks on (20 480 elements, ~12 MB of block state) each block prefetches the next
-# block's ed and eh during its corner stage (element.element_block). Below, the state stays in the
-# caches and the prefetches only cost instructions: measured 5 % slower at 5 000 elements, 1-9 %
-# faster at 40 000 and 13-15 % at 138 624 (docs/user/performance.md).
+# From this many blocks on (20 480 elements, ~12 MB of block state) each block prefetches the ed and
+# eh of the block after the next during its corner stage (element.element_block). Below, the state
+# stays in the caches and the prefetches only cost instructions: measured 5 % slower at 5 000
+# elements, 1-9 % faster at 40 000 and 13-15 % at 138 624 (docs/user/performance.md).
 PREFETCH_BLOCKS = 640
 ED_B = 0            # B_a,k (1/m), 24 rows, row 3 a + k
 ED_HX = 24          # h_alpha . X_k (m), 12 rows, row 3 alpha + k: the hourglass vectors are
