@@ -11,8 +11,21 @@ def test_busy_core_rows_print_the_default_threads_for_numba_torch_and_a_torch_ba
     scale.busy_rows(tiny, 1, True, say=lines.append, small=tiny)
     assert [ln.split(":")[0].split(", ")[-1] for ln in lines] == ["numba", "torch single run", "torch batch of 4"]
     for ln in lines:
-        m = re.search(r"default \((\d+) threads\) ([\d.]+) s, 1 thread ([\d.]+) s, 2 threads ([\d.]+) s", ln)
+        m = re.search(r"default \((\d+) threads?\) ([\d.]+) s, 1 thread ([\d.]+) s, 2 threads ([\d.]+) s", ln)
         assert m and 1 <= int(m[1]) <= 2 and all(float(v) >= 0 for v in m.groups()[1:])
+        assert "never slower: met" in ln or "never slower: not met" in ln
+
+
+def test_the_busy_verdict():
+    """Where the default took one thread the rows are the same run (met, the ratio called noise);
+    with two threads it is met only when not slower than one."""
+    same = scale.busy_verdict({"best": {None: 0.84, 1: 0.77, 2: 0.82}, "used": {None: 1, 1: 1, 2: 2}})
+    assert "default (1 thread) 0.84 s" in same and "1 thread / default 0.92" in same
+    assert "met: the default chose one thread" in same and "noise, 8 %" in same
+    slower = scale.busy_verdict({"best": {None: 2.0, 1: 1.0, 2: 2.0}, "used": {None: 2, 1: 1, 2: 2}})
+    assert "not met: the default's 2 threads are slower than one" in slower
+    faster = scale.busy_verdict({"best": {None: 0.6, 1: 1.0, 2: 0.6}, "used": {None: 2, 1: 1, 2: 2}})
+    assert faster.endswith("never slower: met)")
 
 
 def test_per_cycle_and_memory_of_a_small_block():
