@@ -11,8 +11,8 @@ solver time, ns per element-cycle, host syncs per step and device memory per run
 configuration runs twice: its step captured as a CUDA graph and replayed (``cuda_graph=True``),
 then the same step eagerly (``cuda_graph=False``); the eager row says how many times faster the
 graph was (the graph's time includes its three warm-up steps and the capture). Results go to
-DIR/gpu_check.json and DIR/gpu_check.txt. A configuration whose estimated time (the cost per
-element-cycle measured so far in the same mode, times its size) would end it after ``--budget``
+DIR/gpu_check.json and DIR/gpu_check.txt. Each configuration first runs a probe of 0.5 ms (about
+4 % of the steps); one whose time estimated from it would end the check after ``--budget``
 seconds is skipped, and said so. Without a usable CUDA device it exits with status 2 and says
 why; ``--device cpu`` (with ``--sizes 3 --element-size 0.002``) is a dry run of the script on the
 CPU (about a minute: the sync-free step is slow on the CPU).
@@ -20,7 +20,9 @@ CPU (about a minute: the sync-free step is slow on the CPU).
 Measured on an NVIDIA H200 (torch 2.11, 2026-12-04): the CPU references 31 s, then per run
 B = 1 graph 7.9 s (eager 53 s), B = 64 graph 0.30 s (eager 1.13 s) in float64; float32 about
 12 % faster; that first run, with batches of 64 and 1024, spent 336 s before reaching 1024,
-whence the default sizes 64 and 256 and the estimate-based skipping.
+whence the default sizes 64 and 256 and the skipping by estimate. A second run estimated a
+batch from the cost per element-cycle of one run and skipped every batch (B = 64 "about 504 s",
+which took 19 s before): the estimate now comes from a probe of the configuration itself.
 """
 
 from __future__ import annotations
@@ -101,17 +103,28 @@ def _check(be, models, refs, b: int, dtype: str, graph: bool, device: str, ne: i
     return rec
 
 
-def _estimate(records, b: int, dtype: str, graph: bool, cycles_per_run: int) -> float:
-    """Seconds a configuration of ``b`` runs will take (0 when nothing measured says): the cost
-    per element-cycle of the largest batch measured so far in the same mode (graph or eager;
-    smaller batches cost more per element-cycle, so the estimate errs long), float32 taken at
-    the float64 cost when it has no measurement of its own."""
-    done = [r for r in records if "ns_per_element_cycle" in r and r["cuda_graph"] == graph and r["batch"] <= b]
-    same = [r for r in done if r["dtype"] == dtype] or done
-    if not same:
-        return 0.0
-    best = max(same, key=lambda r: r["batch"])
-    return best["ns_per_element_cycle"] * 1e-9 * cycles_per_run * b
+#: End time of a configuration's probe (s): 0.5 ms of the drop test's ~12 ms, about 4 % of its steps.
+PROBE_END_S = 5e-4
+
+
+def _probe(be, models, b: int, dtype: str, graph: bool, device: str) -> tuple[float, int]:
+    """A short run of one configuration (the same batch to ``PROBE_END_S``): (wall time s,
+    steps of its longest run); its results are not checked."""
+    from dataclasses import replace
+
+    batch = [replace(models[i % 2], end_time=PROBE_END_S) for i in range(b)]
+    t0 = time.perf_counter()
+    res = be.run_batch(batch, device=device, dtype=dtype, raise_errors=False, sync_free=True, cuda_graph=graph)
+    return time.perf_counter() - t0, max((r.steps for r in res if not isinstance(r, Exception)), default=0)
+
+
+def _estimate(probe_s: float, probe_steps: int, steps: int) -> float:
+    """Seconds the whole configuration will take from its probe: the probe's wall time scaled by
+    the steps (its fixed costs, the graph's capture and the batch's set-up, scaled too, so the
+    estimate errs long); infinite when the probe took no step. A batch on a GPU costs far less per
+    run than one run (a B = 64 graph on an H200 took 2.5 times one run's time, not 64 times), so
+    only a run of the configuration itself says what it costs."""
+    return probe_s * steps / probe_steps if probe_steps > 0 else float("inf")
 
 
 def main(argv=None) -> int:
@@ -167,11 +180,21 @@ def main(argv=None) -> int:
         for graph in modes:
             elapsed = time.perf_counter() - start
             label = f"B = {b:4d} {dtype} {'graph' if graph else 'eager'}"
-            guess = _estimate(records, b, dtype, graph, steps * ne)
-            if elapsed + guess > args.budget:
-                say(f"  {label}: skipped ({elapsed:.0f} s elapsed + about {guess:.0f} s estimated > budget "
-                    f"{args.budget:g} s)")
+            if elapsed >= args.budget:
+                say(f"  {label}: skipped ({elapsed:.0f} s elapsed >= budget {args.budget:g} s)")
                 records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True})
+                continue
+            try:
+                probe_s, probe_steps = _probe(be, models, b, dtype, graph, args.device)
+            except Exception:  # the full run would fail alike: it reports the error
+                probe_s, probe_steps = 0.0, 1
+            guess = _estimate(probe_s, probe_steps, steps)
+            elapsed = time.perf_counter() - start
+            if elapsed + guess > args.budget:
+                say(f"  {label}: skipped ({elapsed:.0f} s elapsed + about {guess:.0f} s estimated by a "
+                    f"{1e3 * PROBE_END_S:g} ms probe of {probe_s:.1f} s > budget {args.budget:g} s)")
+                records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True,
+                                "estimate_s": guess})
                 continue
             records.append(_check(be, models, refs, b, dtype, graph, args.device, ne, say, records))
     say(f"gpu_check took {time.perf_counter() - start:.0f} s")

@@ -132,19 +132,23 @@ def test_gpu_check_dry_run_on_the_cpu(tmp_path):
     assert all(r["passed"] and r["host_syncs_per_step"] < 0.1 for r in records)
 
 
-def test_gpu_check_estimate_errs_long_and_keeps_modes_apart():
-    """The budget's estimate: the cost per element-cycle of the largest batch measured so far in the
-    same mode, scaled to the configuration's size (an H200's B = 64 graph at 34.6 ns per
-    element-cycle, 1787 steps of 5000 hexahedra: 0.31 s per run, 79 s for 256 runs)."""
+def test_gpu_check_estimate_scales_the_probe_by_the_steps():
+    """The budget's estimate: a configuration's own 0.5 ms probe scaled to the whole run's steps
+    (an H200's B = 64 graph: 19 s for the batch, where scaling one run's 7.9 s by 64 said 504 s
+    and skipped it); a probe that took no step estimates infinity (skipped)."""
     from cfm_backends.torch_explicit.gpu_check import _estimate
 
-    records = [{"batch": 1, "dtype": "float64", "cuda_graph": True, "ns_per_element_cycle": 880.0},
-               {"batch": 1, "dtype": "float64", "cuda_graph": False, "ns_per_element_cycle": 5963.0},
-               {"batch": 64, "dtype": "float64", "cuda_graph": True, "ns_per_element_cycle": 34.6},
-               {"batch": 64, "dtype": "float64", "cuda_graph": False, "skipped": True}]
-    cycles = 1787 * 5000
-    assert _estimate(records, 256, "float64", True, cycles) == pytest.approx(34.6e-9 * cycles * 256)
-    assert _estimate(records, 256, "float32", True, cycles) == pytest.approx(34.6e-9 * cycles * 256)
-    assert _estimate(records, 64, "float64", False, cycles) == pytest.approx(5963e-9 * cycles * 64)
-    assert _estimate(records, 1, "float32", False, cycles) == pytest.approx(5963e-9 * cycles)
-    assert _estimate([], 64, "float64", True, cycles) == 0.0
+    assert _estimate(0.8, 75, 1787) == pytest.approx(0.8 * 1787 / 75)
+    assert _estimate(0.8, 0, 1787) == float("inf")
+
+
+def test_gpu_check_probe_runs_the_configuration_briefly():
+    """The probe runs the batch to PROBE_END_S on the given device and reports its steps."""
+    pytest.importorskip("torch")
+    from cfm_backends.torch_explicit import TorchExplicitBackend
+    from cfm_backends.torch_explicit.gpu_check import _models, _probe
+
+    models = _models(0.004)
+    seconds, steps = _probe(TorchExplicitBackend(), models, 2, "float64", False, "cpu")
+    full = TorchExplicitBackend().run(models[0], device="cpu", dtype="float64")
+    assert seconds > 0 and 0 < steps < full.steps / 4   # 0.5 ms of a contact lasting ~10 ms
