@@ -12,8 +12,8 @@ configuration runs twice: its step captured as a CUDA graph and replayed (``cuda
 then the same step eagerly (``cuda_graph=False``); the eager row says how many times faster the
 graph was (the graph's time includes its three warm-up steps and the capture). Results go to
 DIR/gpu_check.json and DIR/gpu_check.txt. Each configuration first runs a probe of 0.5 ms (about
-4 % of the steps); one whose time estimated from it would end the check after ``--budget``
-seconds is skipped, and said so. Without a usable CUDA device it exits with status 2 and says
+4 % of the steps); one whose time estimated from it (set-up once, the time loop scaled by the
+steps) would end the check after ``--budget`` seconds is skipped, and said so. Without a usable CUDA device it exits with status 2 and says
 why; ``--device cpu`` (with ``--sizes 3 --element-size 0.002``) is a dry run of the script on the
 CPU (about a minute: the sync-free step is slow on the CPU).
 
@@ -22,7 +22,9 @@ B = 1 graph 7.9 s (eager 53 s), B = 64 graph 0.30 s (eager 1.13 s) in float64; f
 12 % faster; that first run, with batches of 64 and 1024, spent 336 s before reaching 1024,
 whence the default sizes 64 and 256 and the skipping by estimate. A second run estimated a
 batch from the cost per element-cycle of one run and skipped every batch (B = 64 "about 504 s",
-which took 19 s before): the estimate now comes from a probe of the configuration itself.
+which took 19 s before): the estimate now comes from a probe of the configuration itself. A third
+run (float64 B = 64: graph 0.306 s, eager 1.18 s per run; float32 graph 0.291 s) scaled the whole
+probe and skipped B = 256 (a 4.9 s probe, mostly set-up, said 272 s): the set-up now counts once.
 """
 
 from __future__ import annotations
@@ -107,24 +109,30 @@ def _check(be, models, refs, b: int, dtype: str, graph: bool, device: str, ne: i
 PROBE_END_S = 5e-4
 
 
-def _probe(be, models, b: int, dtype: str, graph: bool, device: str) -> tuple[float, int]:
-    """A short run of one configuration (the same batch to ``PROBE_END_S``): (wall time s,
-    steps of its longest run); its results are not checked."""
+def _probe(be, models, b: int, dtype: str, graph: bool, device: str) -> tuple[float, float, int]:
+    """A short run of one configuration (the same batch to ``PROBE_END_S``), its results not
+    checked: (wall time of the whole call s, of its time loop s (``batch_wall_time``: the steps,
+    the graph's warm-up and capture), steps of the loop)."""
     from dataclasses import replace
 
     batch = [replace(models[i % 2], end_time=PROBE_END_S) for i in range(b)]
     t0 = time.perf_counter()
     res = be.run_batch(batch, device=device, dtype=dtype, raise_errors=False, sync_free=True, cuda_graph=graph)
-    return time.perf_counter() - t0, max((r.steps for r in res if not isinstance(r, Exception)), default=0)
+    total = time.perf_counter() - t0
+    info = next((r.info for r in res if not isinstance(r, Exception)), {})
+    return total, float(info.get("batch_wall_time", total)), int(info.get("batch_steps", 0))
 
 
-def _estimate(probe_s: float, probe_steps: int, steps: int) -> float:
-    """Seconds the whole configuration will take from its probe: the probe's wall time scaled by
-    the steps (its fixed costs, the graph's capture and the batch's set-up, scaled too, so the
-    estimate errs long); infinite when the probe took no step. A batch on a GPU costs far less per
-    run than one run (a B = 64 graph on an H200 took 2.5 times one run's time, not 64 times), so
-    only a run of the configuration itself says what it costs."""
-    return probe_s * steps / probe_steps if probe_steps > 0 else float("inf")
+def _estimate(total_s: float, loop_s: float, probe_steps: int, steps: int) -> float:
+    """Seconds the whole configuration will take from its probe: the probe's set-up and results
+    (``total_s - loop_s``) once, its time loop scaled by the steps (the graph's capture scaled
+    too, so the estimate errs long); infinite when the probe took no step. A batch on a GPU costs
+    far less per run than one run (a B = 64 graph on an H200 took 2.5 times one run's time, not
+    64 times), and the set-up of a batch of 256 takes seconds: only a run of the configuration
+    itself, split so, says what it costs."""
+    if probe_steps <= 0:
+        return float("inf")
+    return max(total_s - loop_s, 0.0) + loop_s * steps / probe_steps
 
 
 def main(argv=None) -> int:
@@ -185,10 +193,10 @@ def main(argv=None) -> int:
                 records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True})
                 continue
             try:
-                probe_s, probe_steps = _probe(be, models, b, dtype, graph, args.device)
+                probe_s, loop_s, probe_steps = _probe(be, models, b, dtype, graph, args.device)
             except Exception:  # the full run would fail alike: it reports the error
-                probe_s, probe_steps = 0.0, 1
-            guess = _estimate(probe_s, probe_steps, steps)
+                probe_s, loop_s, probe_steps = 0.0, 0.0, 1
+            guess = _estimate(probe_s, loop_s, probe_steps, steps)
             elapsed = time.perf_counter() - start
             if elapsed + guess > args.budget:
                 say(f"  {label}: skipped ({elapsed:.0f} s elapsed + about {guess:.0f} s estimated by a "

@@ -132,14 +132,15 @@ def test_gpu_check_dry_run_on_the_cpu(tmp_path):
     assert all(r["passed"] and r["host_syncs_per_step"] < 0.1 for r in records)
 
 
-def test_gpu_check_estimate_scales_the_probe_by_the_steps():
-    """The budget's estimate: a configuration's own 0.5 ms probe scaled to the whole run's steps
-    (an H200's B = 64 graph: 19 s for the batch, where scaling one run's 7.9 s by 64 said 504 s
-    and skipped it); a probe that took no step estimates infinity (skipped)."""
+def test_gpu_check_estimate_scales_the_probes_loop_by_the_steps():
+    """The budget's estimate: a configuration's own 0.5 ms probe, its set-up once and its time loop
+    scaled to the whole run's steps (an H200's B = 256 graph probe: 4.9 s, most of it set-up; the
+    whole probe scaled said 272 s); a probe that took no step estimates infinity (skipped)."""
     from cfm_backends.torch_explicit.gpu_check import _estimate
 
-    assert _estimate(0.8, 75, 1787) == pytest.approx(0.8 * 1787 / 75)
-    assert _estimate(0.8, 0, 1787) == float("inf")
+    assert _estimate(4.9, 1.2, 75, 1787) == pytest.approx(3.7 + 1.2 * 1787 / 75)
+    assert _estimate(0.8, 0.8, 75, 1787) == pytest.approx(0.8 * 1787 / 75)
+    assert _estimate(0.8, 0.5, 0, 1787) == float("inf")
 
 
 def test_gpu_check_probe_runs_the_configuration_briefly():
@@ -149,6 +150,6 @@ def test_gpu_check_probe_runs_the_configuration_briefly():
     from cfm_backends.torch_explicit.gpu_check import _models, _probe
 
     models = _models(0.004)
-    seconds, steps = _probe(TorchExplicitBackend(), models, 2, "float64", False, "cpu")
+    seconds, loop, steps = _probe(TorchExplicitBackend(), models, 2, "float64", False, "cpu")
     full = TorchExplicitBackend().run(models[0], device="cpu", dtype="float64")
-    assert seconds > 0 and 0 < steps < full.steps / 4   # 0.5 ms of a contact lasting ~10 ms
+    assert 0 < loop <= seconds and 0 < steps < full.steps / 4   # 0.5 ms of a contact lasting ~10 ms
