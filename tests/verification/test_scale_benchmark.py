@@ -28,6 +28,15 @@ def test_the_busy_verdict():
     assert faster.endswith("never slower: met)")
 
 
+def test_rows_measured_in_turns():
+    """per_cycle_rounds gives one row per model, in order, each from its own prepared run."""
+    small, block = scale.drop_model(2.5e-3, end_time=5e-5), scale.block_model(6)
+    rows = scale.per_cycle_rounds([(small, None, None), (block, None, scale.prestrain(None))], rounds=2,
+                                  segments=1, budget=0.02)
+    assert [r["ne"] for r in rows] == [small.n_elements, 216]
+    assert all(r["ns"] > 0 and 300 < r["bytes"] < 3000 for r in rows)
+
+
 def test_per_cycle_and_memory_of_a_small_block():
     r = scale.per_cycle(scale.block_model(6), None, deform=scale.prestrain(None), segments=1, budget=0.05)
     assert r["ne"] == 216 and r["ns"] > 0 and 300 < r["bytes"] < 3000

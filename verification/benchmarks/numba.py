@@ -207,7 +207,8 @@ def main(argv=None) -> None:
     ap.add_argument("--size", type=float, default=1e-3, help="element size (m)")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (fresh cache) run")
     ap.add_argument("--repeat", type=int, default=None, help="warm runs per thread count (best is kept; "
-                    "default 2), or --against's rounds (default 15)")
+                    "default 2; --scale's per-size rows take one round more, the sizes in turns), or --against's "
+                    "rounds (default 15)")
     ap.add_argument("--no-end-to-end", action="store_true", help="skip the warm cfm drop-test phases")
     ap.add_argument("--scale", action="store_true", help="only the cost against mesh size, threads and a busy "
                     "core (module scale)")
