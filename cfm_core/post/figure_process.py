@@ -151,8 +151,9 @@ def stop() -> None:
 
 
 def draw(name: str, *args) -> bool:
-    """Have the figure process call ``plots.<name>(*args)``; True when it drew the figure, False
-    when no process runs or it failed (then it is ended and the caller draws the figure)."""
+    """Have the figure process call ``plots.<name>(*args)`` (``args[0]``: the figure's path); True
+    when it drew the figure, False when no process runs or it failed (then it is ended, a
+    temporary file it left beside the figure removed, and the caller draws the figure)."""
     if _worker is None:
         return False
     process, conn = _worker
@@ -165,6 +166,12 @@ def draw(name: str, *args) -> bool:
     except (OSError, EOFError, ValueError):
         pass
     stop()
+    if args:  # a child ended while writing leaves its temporary file (writers.atomic_write) beside the figure
+        from pathlib import Path
+
+        target = Path(args[0])
+        for leftover in target.parent.glob(f".{target.name}.{process.pid}.*.tmp"):
+            leftover.unlink(missing_ok=True)
     return False
 
 

@@ -78,6 +78,32 @@ def test_a_broken_process_falls_back_to_drawing_inline(tmp_path, mode):
     assert png == _inline_png(tmp_path)
 
 
+@linux
+def test_a_child_ended_mid_figure_leaves_no_temporary_file(tmp_path):
+    """A child that does not answer in time is ended; the temporary file it was writing goes too."""
+    script = r"""
+import json, sys, time
+from pathlib import Path
+from cfm_core.post import figure_process, plots
+out = Path(sys.argv[1])
+def stuck(path):  # writes its temporary file, then never answers
+    Path(path).parent.joinpath(f".{Path(path).name}.{__import__('os').getpid()}.abc123.tmp").write_bytes(b"x")
+    time.sleep(60)
+plots.stuck = stuck
+figure_process.ANSWER_S = 2.0
+started = figure_process.start()
+drawn = figure_process.draw("stuck", out / "figure.png")
+print(json.dumps({"started": started, "drawn": drawn, "left": sorted(p.name for p in out.iterdir())}))
+"""
+    proc = subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, figure_process.ENV: ""})
+    assert proc.returncode == 0, proc.stderr
+    record = json.loads(proc.stdout.strip().splitlines()[-1])
+    if not record["started"]:
+        pytest.skip("no figure process on this machine")
+    assert record == {"started": True, "drawn": False, "left": []}
+
+
 def test_switched_off_by_the_environment(tmp_path, monkeypatch):
     monkeypatch.setenv(figure_process.ENV, "0")
     assert figure_process.usable() == "CFM_FIGURE_PROCESS=0"
