@@ -146,6 +146,10 @@ def main(argv=None) -> int:
                     "script itself)")
     ap.add_argument("--element-size", type=float, default=0.001, help="hexahedron edge, m (default 0.001)")
     args = ap.parse_args(argv)
+    if any(b < 1 for b in args.sizes):
+        ap.error(f"--sizes {' '.join(map(str, args.sizes))}: every batch size must be at least 1 run")
+    if not args.budget > 0:
+        ap.error(f"--budget {args.budget:g}: give the seconds the check may take, more than 0 (default 420)")
     import torch
 
     if args.device.startswith("cuda") and not torch.cuda.is_available():
@@ -204,12 +208,17 @@ def main(argv=None) -> int:
                 records.append({"batch": b, "dtype": dtype, "cuda_graph": graph, "skipped": True,
                                 "estimate_s": guess})
                 continue
-            records.append(_check(be, models, refs, b, dtype, graph, args.device, ne, say, records))
+            records.append({**_check(be, models, refs, b, dtype, graph, args.device, ne, say, records),
+                            "estimate_s": guess})
     say(f"gpu_check took {time.perf_counter() - start:.0f} s")
+    ran = [r for r in records if not r.get("skipped")]
+    if not ran:
+        say(f"gpu_check: no configuration ran within the budget of {args.budget:g} s: nothing was checked "
+            f"(give a larger --budget)")
     (out / "gpu_check.json").write_text(json.dumps({"device": name,
                                                     "elements": ne, "records": records}, indent=2))
     (out / "gpu_check.txt").write_text("\n".join(lines) + "\n")
-    return 0 if all(r.get("passed", False) for r in records if not r.get("skipped")) else 1
+    return 0 if ran and all(r.get("passed", False) for r in ran) else 1
 
 
 if __name__ == "__main__":

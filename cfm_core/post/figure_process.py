@@ -14,8 +14,11 @@ The process is forked only where that is safe and can pay: Linux (``fork`` start
 process running one thread (forking a process with other threads can leave the child holding
 their locks: a process whose numba threads have started or that imported torch, pytest-xdist
 and Dask workers and notebooks draw inline), at least two cores in
-the process's affinity, matplotlib not imported yet, and ``CFM_FIGURE_PROCESS`` not ``0``. The
-child runs at a lower priority (nice 10), and the default thread count of a run does not count
+the process's affinity, matplotlib not imported yet, not a daemonic process (a multiprocessing
+pool's worker may have no children), and ``CFM_FIGURE_PROCESS`` not ``0``. Ctrl-C and SIGTERM
+never make the child print: it ignores SIGINT (the parent ends it), dies quietly on SIGTERM,
+both blocked around the fork until it has set that up, and it stops when the parent closes the
+pipe. The child runs at a lower priority (nice 10), and the default thread count of a run does not count
 its CPU time as load (:func:`cfm_backends.threads.free_cores`).
 """
 
@@ -60,6 +63,9 @@ def usable() -> str | None:
         return threads
     if "matplotlib" in sys.modules:
         return "matplotlib is imported already"
+    mp = sys.modules.get("multiprocessing")
+    if mp is not None and mp.current_process().daemon:
+        return "a daemonic process (a multiprocessing pool's worker) may not start one"
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
@@ -69,11 +75,28 @@ def usable() -> str | None:
     return None
 
 
+#: Signals blocked around the fork, so that none reaches the child before it has set its own
+#: handlers (it would run the parent's: a traceback instead of the parent's one-line message).
+_SIGNALS = ("SIGINT", "SIGTERM")
+
+
+def _send(conn, message) -> bool:
+    """Send to the parent; False when it is gone (it closed the pipe: Ctrl-C, an error)."""
+    try:
+        conn.send(message)
+        return True
+    except (OSError, ValueError):
+        return False
+
+
 def _serve(conn, other_end) -> None:
-    """The child: ignore Ctrl-C (the parent ends it), import matplotlib, draw what comes."""
+    """The child: ignore Ctrl-C (the parent ends it), end quietly on SIGTERM, import matplotlib,
+    draw what comes, and stop when the parent is gone."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, [getattr(signal, n) for n in _SIGNALS])
     try:
         os.nice(10)  # the run's threads go first when both want a core
     except OSError:
@@ -88,7 +111,7 @@ def _serve(conn, other_end) -> None:
             importlib.import_module(name)  # the slow part, ahead of the figure
         from . import plots
     except BaseException as exc:  # noqa: BLE001 (any failure: the parent draws)
-        conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+        _send(conn, ("failed", f"{type(exc).__name__}: {exc}"))
         return
     while True:
         try:
@@ -100,9 +123,11 @@ def _serve(conn, other_end) -> None:
         name, args = job
         try:
             getattr(plots, name)(*args)
-            conn.send(("drawn", None))
+            answer = ("drawn", None)
         except BaseException as exc:  # noqa: BLE001
-            conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+            answer = ("failed", f"{type(exc).__name__}: {exc}")
+        if not _send(conn, answer):
+            return
 
 
 def pid() -> int | None:
@@ -118,36 +143,41 @@ def start() -> bool:
     if usable() is not None:
         return False
     import multiprocessing
+    import signal
 
+    blocked = [getattr(signal, n) for n in _SIGNALS]
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
     try:
         context = multiprocessing.get_context("fork")
         parent_end, child_end = context.Pipe()
         process = context.Process(target=_serve, args=(child_end, parent_end), daemon=True,
                                   name="cfm-figures")
         process.start()
-    except (OSError, ValueError):
+    except (OSError, ValueError, AssertionError):  # AssertionError: multiprocessing's own refusals
         return False
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
     child_end.close()
     _worker = (process, parent_end)
     return True
 
 
-def stop() -> None:
-    """End the figure process (if one runs) and wait for it."""
+def stop(wait: bool = True) -> None:
+    """End the figure process (if one runs): ask it to stop and wait up to 5 s for it (``wait``),
+    or kill it at once (an interrupted or failed command: nothing it draws will be used)."""
     global _worker
     if _worker is None:
         return
     process, conn = _worker
     _worker = None
-    try:
-        conn.send(None)
-    except (OSError, ValueError):
-        pass
+    if wait:
+        _send(conn, None)
     conn.close()
-    process.join(timeout=5.0)
+    if wait:
+        process.join(timeout=5.0)
     if process.is_alive():
         process.kill()
-        process.join()
+    process.join()
 
 
 def draw(name: str, *args) -> bool:
@@ -177,7 +207,8 @@ def draw(name: str, *args) -> bool:
 
 class started:
     """``with started(wanted):`` a figure process runs inside the block when ``wanted`` and
-    :func:`usable`; it is ended on leaving the block, also on an error."""
+    :func:`usable`; it is ended on leaving the block, killed at once when the block raised
+    (Ctrl-C, a failed run: the figure it may be drawing is not wanted)."""
 
     def __init__(self, wanted: bool = True):
         self.wanted = wanted
@@ -187,5 +218,5 @@ class started:
             start()
         return self
 
-    def __exit__(self, *exc) -> None:
-        stop()
+    def __exit__(self, kind, value, traceback) -> None:
+        stop(wait=kind is None)

@@ -130,6 +130,19 @@ def test_gpu_check_dry_run_on_the_cpu(tmp_path):
     assert [(r["batch"], r["dtype"]) for r in records] == [(1, "float64"), (2, "float64"), (2, "float32"),
                                                            (1, "float32")]
     assert all(r["passed"] and r["host_syncs_per_step"] < 0.1 for r in records)
+    assert all(r["estimate_s"] > 0 for r in records)   # the probe's estimate, beside what the run took
+
+
+def test_gpu_check_that_checked_nothing_fails(tmp_path):
+    """A budget spent before any configuration ran is no success (exit 1, said so); a batch of 0
+    runs is refused before any work (exit 2)."""
+    pytest.importorskip("torch")
+    command = [sys.executable, "-m", "cfm_backends.torch_explicit.gpu_check", "--out", str(tmp_path),
+               "--device", "cpu", "--element-size", "0.004"]
+    out = subprocess.run([*command, "--sizes", "2", "--budget", "0.001"], capture_output=True, text=True)
+    assert out.returncode == 1 and "nothing was checked" in out.stdout, out.stdout + out.stderr
+    out = subprocess.run([*command, "--sizes", "2", "0"], capture_output=True, text=True)
+    assert out.returncode == 2 and "--sizes 2 0: every batch size must be at least 1 run" in out.stderr
 
 
 def test_gpu_check_estimate_scales_the_probes_loop_by_the_steps():

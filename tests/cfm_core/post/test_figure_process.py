@@ -191,3 +191,72 @@ def test_cfm_drop_test_draws_its_figure_in_the_second_process(tmp_path):
     assert imported["0"]
     if len(os.sched_getaffinity(0)) >= 2:  # a fresh command on this machine forks one
         assert not imported[""]
+
+
+@linux
+def test_not_in_a_daemonic_pool_worker():
+    """A multiprocessing pool's worker may not have children: cfm run there draws inline."""
+    script = ("import multiprocessing as mp\nfrom cfm_core.post import figure_process\n"
+              "if __name__ == '__main__':\n"
+              "    with mp.get_context('fork').Pool(1) as pool:\n"
+              "        print(pool.apply(figure_process.usable))\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, figure_process.ENV: ""})
+    assert proc.returncode == 0, proc.stderr
+    assert "daemonic process" in proc.stdout
+
+
+@linux
+def test_sigterm_to_the_group_prints_one_line_and_leaves_no_process(tmp_path):
+    """timeout(1) and batch systems signal the whole process group: the command says it was
+    terminated in one line, the figure process prints nothing and does not outlive it."""
+    import signal
+    import time
+
+    pytest.importorskip("numba")
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "cfm_core.cli", "drop-test", "--element-size", "0.0007",
+                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, env={**os.environ, figure_process.ENV: ""})
+    time.sleep(4.0)  # past the fork (the run of about 15 000 elements takes longer)
+    os.killpg(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the run ended before the signal")
+    assert proc.returncode == 143 and "Traceback" not in err and "terminated (SIGTERM)" in err, err
+    assert not out.exists()
+    time.sleep(0.5)
+    alive = subprocess.run(["pgrep", "-s", str(proc.pid)], capture_output=True, text=True)
+    assert alive.stdout.strip() == ""
+
+
+@linux
+def test_a_parent_gone_mid_figure_leaves_the_child_silent(tmp_path):
+    """Ctrl-C while the child draws: the parent kills it at once, no figure is written and the
+    child prints nothing (its answer to a closed pipe used to raise BrokenPipeError twice)."""
+    script = r"""
+import os, signal, sys, time
+import numpy as np
+from cfm_core.post import figure_process as fp, plots
+out = sys.argv[1]
+draw = plots._save
+plots._save = lambda fig, path: (time.sleep(1.0), draw(fig, path))
+t = np.linspace(0.0, 1e-3, 50)
+signal.signal(signal.SIGALRM, lambda *a: (_ for _ in ()).throw(KeyboardInterrupt()))
+started = False
+try:
+    with fp.started():
+        started = fp.pid() is not None
+        time.sleep(1.0)
+        signal.setitimer(signal.ITIMER_REAL, 0.3)
+        plots.plot_acceleration(os.path.join(out, "x.png"), t, t, t, "title")
+except KeyboardInterrupt:
+    print("interrupted", started, sorted(os.listdir(out)))
+"""
+    proc = subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, figure_process.ENV: ""})
+    assert proc.returncode == 0, proc.stderr
+    if proc.stdout.strip() == "interrupted False []":
+        pytest.skip("no figure process on this machine")
+    assert proc.stdout.strip() == "interrupted True []"
+    assert "Traceback" not in proc.stderr and "Error" not in proc.stderr, proc.stderr
