@@ -8,10 +8,10 @@ the backend passes the module it uses.
 Without a count from the user, a run takes the cores actually free to this process
 (:func:`free_cores`): the cores it may run on (affinity), less those other processes keep busy
 (measured over a few milliseconds from /proc/stat; this process's own figure process does not
-count), and inside a Dask worker its share of the
-worker's cores. A parallel step waits for its slowest thread at every barrier: one thread on a
-core that another process holds makes every step wait for the scheduler, so on a shared machine
-more threads than free cores made runs several times slower than one thread.
+count), and inside a Dask worker its share of the worker's cores. A parallel step waits for its
+slowest thread at every barrier: one thread on a core that another process holds makes every step
+wait for the scheduler, so on a shared machine more threads than free cores made runs several
+times slower than one thread.
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """Figures of drop-test histories (matplotlib, Agg canvas; no pyplot state, no global backend switch).
 
 Inputs are SI (times in s, accelerations in m/s^2); the axes show time in ms and acceleration in
-g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename). A run's figure is drawn by the process that
-:mod:`cfm_core.post.figure_process` started ahead of the run, when one runs.
+g = 9.80665 m/s^2, as the paper's Figure 3. PNG files are written atomically (temp, then rename).
+A run's figure is drawn by the process :mod:`cfm_core.post.figure_process` started ahead of the
+run, when one runs.
 """
 
 from __future__ import annotations
