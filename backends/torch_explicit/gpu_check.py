@@ -13,7 +13,8 @@ then the same step eagerly (``cuda_graph=False``); the eager row says how many t
 graph was (the graph's time includes its three warm-up steps and the capture). Results go to
 DIR/gpu_check.json and DIR/gpu_check.txt. Each configuration first runs a probe of 0.5 ms (about
 4 % of the steps); one whose time estimated from it (set-up once, the time loop scaled by the
-steps) would end the check after ``--budget`` seconds is skipped, and said so. Without a usable CUDA device it exits with status 2 and says
+steps) would end the check after ``--budget`` seconds is skipped, and said so; a check that ran
+no configuration exits with status 1. Without a usable CUDA device it exits with status 2 and says
 why; ``--device cpu`` (with ``--sizes 3 --element-size 0.002``) is a dry run of the script on the
 CPU (about a minute: the sync-free step is slow on the CPU).
 
