@@ -313,7 +313,11 @@ def run_model(model, progress=None, **options) -> Result:
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     import numba
 
-    with num_threads(numba, o.threads, serial=model.n_elements < PARALLEL_MIN):
+    # The thread count is chosen after the kernels are loaded and the state prepared, just before
+    # the time loop: the cores free then are the ones the loop gets (a figure process importing
+    # matplotlib meanwhile, cfm_core.post.figure_process, is done by then). The warm-up's small
+    # parallel calls run on one thread.
+    with num_threads(numba, 1):
         t0 = time.perf_counter()
         material = model.material if not model.multi_material else tuple(p.material for p in model.parts)
         with codegen.announce(material):
@@ -321,7 +325,8 @@ def run_model(model, progress=None, **options) -> Result:
             if o.warm_up:
                 warm_up(mod, material)
         compile_time = time.perf_counter() - t0
-        prep = prepare(model, o)
+    prep = prepare(model, o)
+    with num_threads(numba, o.threads, serial=model.n_elements < PARALLEL_MIN):
         return _loop(model, mod, prep, o, progress, compile_time, numba.get_num_threads())
 
 
