@@ -136,6 +136,22 @@ def free_cores() -> int:
     return n
 
 
+def check_count(threads: int | None) -> None:
+    """Refuse a thread count above the cores this process may use (None: the default, allowed).
+
+    Raises
+    ------
+    InputError
+        ``threads`` is more than the allowed cores: more threads than cores never runs faster,
+        and waits at every barrier.
+    """
+    cores = len(allowed_cpus())
+    if threads is not None and threads > cores:
+        raise InputError(f"option threads = {threads} is more than the {cores} core{'s' if cores > 1 else ''} this "
+                         f"process may use; give at most {cores}, or leave threads out (default: the cores free "
+                         f"now).")
+
+
 @contextmanager
 def num_threads(lib, threads: int | None, serial: bool = False):
     """Run a block with ``threads`` threads of ``lib``; the previous count is restored after it.
@@ -159,11 +175,7 @@ def num_threads(lib, threads: int | None, serial: bool = False):
     old = lib.get_num_threads()
     if threads is None:
         threads = 1 if serial else min(free_cores(), max(old, 1))
-    cores = len(allowed_cpus())
-    if threads > cores:  # more threads than cores never runs faster, and waits at every barrier
-        raise InputError(f"option threads = {threads} is more than the {cores} core{'s' if cores > 1 else ''} this "
-                         f"process may use; give at most {cores}, or leave threads out (default: the cores free "
-                         f"now).")
+    check_count(threads)
     lib.set_num_threads(int(threads))
     try:
         yield

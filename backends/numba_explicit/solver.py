@@ -39,7 +39,7 @@ from cfm_backends.explicit import errors, geometry, history, renumber
 from cfm_backends.explicit.checks import check_model
 from cfm_backends.explicit.options import initial_velocity, step_cap
 from cfm_backends import numba_target
-from cfm_backends.threads import num_threads
+from cfm_backends.threads import check_count, num_threads
 from cfm_core.errors import InputError
 from cfm_core.material.prony import gamma_inf
 from cfm_core.simulation.checks import Monitor
@@ -317,6 +317,7 @@ def run_model(model, progress=None, **options) -> Result:
     # the time loop: the cores free then are the ones the loop gets (a figure process importing
     # matplotlib meanwhile, cfm_core.post.figure_process, is done by then). The warm-up's small
     # parallel calls run on one thread.
+    check_count(o.threads)  # a count above the cores is refused before any kernel is loaded
     with num_threads(numba, 1):
         t0 = time.perf_counter()
         material = model.material if not model.multi_material else tuple(p.material for p in model.parts)

@@ -103,3 +103,24 @@ def test_idle_cores_on_this_machine():
     cpus = T.allowed_cpus()
     idle = T.idle_cores(cpus, 0.02)
     assert idle is None or 0.0 <= idle <= len(cpus) + 1e-9
+
+
+def test_numba_refuses_too_many_threads_before_loading_any_kernel(monkeypatch):
+    """The count is chosen just before the time loop, but a count above the cores is refused before
+    the kernels are loaded (a cold compile takes minutes)."""
+    pytest.importorskip("numba")
+    from dataclasses import replace
+
+    from cfm_backends.numba_explicit import codegen, solver
+    from cfm_core.errors import InputError
+    from cfm_core.scene.builder import build_model
+    from cfm_core.scene.scene import builtin_scene
+
+    model = replace(build_model(builtin_scene("drop-test").with_overrides(element_size=0.004)), end_time=1e-5)
+
+    def no_load(*args, **kwargs):
+        raise AssertionError("kernels loaded before the thread count was checked")
+
+    monkeypatch.setattr(codegen, "load", no_load)
+    with pytest.raises(InputError, match="option threads = 4096 is more than the"):
+        solver.run_model(model, threads=4096)
