@@ -147,11 +147,12 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
     budget = min(budget, 0.7 / max(rounds * segments, 1))
     with contextlib.ExitStack() as stack:
         runs = [stack.enter_context(one_thread_run(m, t, deform)) for m, t, deform in cases]
+        counts = [m.n_elements for m, _, _ in cases]
         best = [math.inf] * len(runs)
         steps = [1] * len(runs)
         for _ in range(rounds):
             for i, (mod, prep, hist) in enumerate(runs):
-                ne = cases[i][0].n_elements
+                ne = counts[i]
                 for _ in range(segments):
                     s0 = prep.sc[K.S_STEPS]
                     c0 = time.process_time()
@@ -162,8 +163,8 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
                         raise RuntimeError(f"scale benchmark: the run failed (code {code})")
                     best[i] = min(best[i], dt / n / ne * 1e9)
                     steps[i] = int(max(1, min(4000, budget / max(dt / n, 1e-9))))
-        return [{"ns": best[i], "bytes": memory_per_element(prep, c[0].n_elements), "ne": c[0].n_elements}
-                for i, ((_, prep, _), c) in enumerate(zip(runs, cases))]
+        return [{"ns": b, "bytes": memory_per_element(prep, ne), "ne": ne}
+                for b, (_, prep, _), ne in zip(best, runs, counts)]
 
 
 def prestrain(model):

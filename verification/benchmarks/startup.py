@@ -77,8 +77,9 @@ class TimedBackend:
 def timed_plot(*args, **kwargs):
     now("plot0")
     from cfm_core.post import figure_process
-    R["figures"] = "a second process" if figure_process._worker is not None else "this process"
-    if figure_process._worker is None:  # the plot's first lines import them; timed apart
+    ahead = figure_process.pid() is not None
+    R["figures"] = "a second process" if ahead else "this process"
+    if not ahead:  # the plot's first lines import them; timed apart
         import matplotlib.figure, matplotlib.backends.backend_agg
     now("mpl")
     try:
