@@ -29,7 +29,8 @@ def machine(monkeypatch):
     state = types.SimpleNamespace(cpus=list(range(8)), idle=8.0, load=0.0)
     monkeypatch.setattr(T, "_last", None)
     monkeypatch.setattr(T, "allowed_cpus", lambda: state.cpus)
-    monkeypatch.setattr(T, "idle_cores", lambda cpus, sample=T.SAMPLE_S: state.idle)
+    monkeypatch.setattr(T, "idle_cores", lambda cpus, sample=T.SAMPLE_S, with_resolution=False: (
+        state.idle if not with_resolution or state.idle is None else (state.idle, 0.0)))
     monkeypatch.setattr(T.os, "getloadavg", lambda: (state.load, state.load, state.load))
     return state
 
@@ -124,3 +125,31 @@ def test_numba_refuses_too_many_threads_before_loading_any_kernel(monkeypatch):
     monkeypatch.setattr(codegen, "load", no_load)
     with pytest.raises(InputError, match="option threads = 4096 is more than the"):
         solver.run_model(model, threads=4096)
+
+
+@pytest.mark.parametrize("idle_ticks, total_ticks, expect", [
+    (6, 6, 2),      # idle
+    (5, 6, 2),      # one tick of 6 busy: the resolution of the sample, not a busy core
+    (4, 6, 1),      # two ticks: a core busy a third of the time or more is not free
+    (3, 6, 1),      # the other core held by another process for the whole sample
+    (17, 20, 1),    # a longer sample: 3 of 20 ticks (0.3 cores) is more than one tick and 15 %
+    (19, 20, 2),
+])
+def test_one_tick_of_proc_stat_is_not_a_busy_core(monkeypatch, idle_ticks, total_ticks, expect):
+    """On 2 cores, a 30 ms sample counts about 6 ticks of /proc/stat: one busy tick is within its
+    resolution (3 % of the measurements on an idle machine), more is load."""
+    monkeypatch.setattr(T, "_last", None)
+    monkeypatch.setattr(T, "allowed_cpus", lambda: [0, 1])
+    monkeypatch.setattr(T.time, "sleep", lambda s: None)
+    monkeypatch.setattr(T, "_helper_ticks", lambda: 0.0)
+    stat = iter([(100.0, 200.0), (100.0 + idle_ticks, 200.0 + total_ticks)])
+    monkeypatch.setattr(T, "_cpu_times", lambda cpus: next(stat))
+    assert T.free_cores() == expect
+
+
+def test_idle_cores_with_its_resolution(monkeypatch):
+    monkeypatch.setattr(T.time, "sleep", lambda s: None)
+    monkeypatch.setattr(T, "_helper_ticks", lambda: 0.0)
+    stat = iter([(0.0, 0.0), (5.0, 8.0)])
+    monkeypatch.setattr(T, "_cpu_times", lambda cpus: next(stat))
+    assert T.idle_cores([0, 1], with_resolution=True) == (1.25, 0.25)

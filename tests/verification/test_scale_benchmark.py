@@ -60,3 +60,22 @@ def test_the_torch_ratio_leaves_out_the_periodic_scans_on_both_sides_and_restore
     from dataclasses import replace
     NumbaExplicitBackend().run(replace(tiny, end_time=2e-4), threads=1)
     assert len(calls) > 3 + 3 and min(calls[3:]) < 1e-4   # outside, the periodic checks run
+
+
+def test_each_rounds_rows_and_the_copy_rate_are_reported():
+    """The best of each round is kept per case (the overall best is their minimum) with the probe
+    run at each round's start; round_lines prints one line per round with every case."""
+    small = scale.drop_model(2.5e-3, end_time=5e-5)
+    calls = []
+    rows = scale.per_cycle_rounds([(small, None, None), (small, None, None)], rounds=3, segments=1, budget=0.01,
+                                  on_round=lambda: calls.append(1) or 7.5 * len(calls))
+    assert len(calls) == 3
+    for r in rows:
+        assert len(r["rounds"]) == 3 and r["ns"] == min(r["rounds"]) and r["probe"] == [7.5, 15.0, 22.5]
+    lines = scale.round_lines(rows).splitlines()
+    assert len(lines) == 4 and lines[3].startswith("    round 3:") and lines[3].endswith("copy  22.5 GB/s")
+    assert len(re.findall(r"\d+", lines[1].split(":")[1].split("copy")[0])) == 2
+
+
+def test_the_copy_rate_is_a_plausible_bandwidth():
+    assert 0.1 < scale.copy_rate(8, 1) < 1000.0

@@ -13,7 +13,11 @@ machine are not meaningful: compare rows of one run, not runs of different days)
    hexahedra (1 000 000 for 100) under a homogeneous finite strain with a velocity field (every
    element deformed, so every element takes the vectorised eigen path), a few steps. Then the
    largest / smallest ratio and the solver's memory per element (float64; every array of the
-   run, nodes included, divided by the elements).
+   run, nodes included, divided by the elements). Each round's rows are printed too, with the
+   machine's memory copy rate measured at the start of that round (:func:`copy_rate`): the
+   larger meshes stream their element state from memory, so a round in which another tenant of
+   a shared host holds the memory bandwidth is slower at 40 000 elements and up and not at
+   5 000, and the copy rate says so.
 2. torch (eager float64, one thread) / numba at each drop-test size, both run end to end for
    the same short end time (few steps: torch eager is slow), wall time per element-cycle, the
    run monitor's periodic scans left out on both sides (:func:`without_periodic_checks`).
@@ -116,7 +120,7 @@ def per_cycle(model, t_state: float | None, segments: int = 3, budget: float = 0
     return per_cycle_rounds([(model, t_state, deform)], rounds=1, segments=segments, budget=budget)[0]
 
 
-def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 0.3) -> list[dict]:
+def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 0.3, on_round=None) -> list[dict]:
     """ns per element-cycle (CPU time, one thread) of several models' compiled loops, measured in
     turns: every model prepared (and advanced to its t_state) first, then ``rounds`` rounds in
     which each model runs ``segments`` timed segments of about ``budget`` s; the best segment of
@@ -124,17 +128,25 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
     measured one after the other can land in different spells; in turns, each row's best comes
     from the same spells as the others'. The segments of one model add up to at most 0.7 s of CPU
     time (``budget`` shrinks with more rounds), so that a drop test measured from 0.8 ms is still
-    in contact at its last segment (the 1 mm mesh: about 1 100 steps, to about 7.5 ms).
+    in contact at its last segment (the 1 mm mesh: about 1 100 steps, to about 7.5 ms). Two
+    untimed steps of each model set its segment length first, so that the first round's
+    segments are as long as the others' (each round's best is reported too).
 
     Parameters
     ----------
     cases : list of (model, t_state (s) or None, deform hook or None)
         As for :func:`one_thread_run`.
 
+    on_round : callable, optional
+        Called with no argument at the start of each round (a probe of the machine, e.g.
+        :func:`copy_rate`); its results are returned under ``probe``.
+
     Returns
     -------
     list of dict
-        Per case: ``ns`` (best ns per element-cycle), ``bytes`` (per element), ``ne``.
+        Per case: ``ns`` (best ns per element-cycle), ``bytes`` (per element), ``ne``,
+        ``rounds`` (the best of each round, ns per element-cycle) and ``probe`` (the results of
+        ``on_round`` per round; empty without it).
 
     Raises
     ------
@@ -149,9 +161,18 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
         runs = [stack.enter_context(one_thread_run(m, t, deform)) for m, t, deform in cases]
         counts = [m.n_elements for m, _, _ in cases]
         best = [math.inf] * len(runs)
+        each = [[] for _ in runs]
+        probe = []
         steps = [1] * len(runs)
+        for i, (mod, prep, hist) in enumerate(runs):   # the segment length from 2 untimed steps
+            c0 = time.process_time()
+            solver.advance(mod, prep, hist[:2], math.inf)
+            steps[i] = int(max(1, min(4000, budget / max((time.process_time() - c0) / 2, 1e-9))))
         for _ in range(rounds):
+            if on_round is not None:
+                probe.append(on_round())
             for i, (mod, prep, hist) in enumerate(runs):
+                each[i].append(math.inf)
                 ne = counts[i]
                 for _ in range(segments):
                     s0 = prep.sc[K.S_STEPS]
@@ -161,10 +182,29 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
                     n = prep.sc[K.S_STEPS] - s0
                     if code >= K.R_INVERTED or n < 1:
                         raise RuntimeError(f"scale benchmark: the run failed (code {code})")
-                    best[i] = min(best[i], dt / n / ne * 1e9)
+                    each[i][-1] = min(each[i][-1], dt / n / ne * 1e9)
+                    best[i] = min(best[i], each[i][-1])
                     steps[i] = int(max(1, min(4000, budget / max(dt / n, 1e-9))))
-        return [{"ns": b, "bytes": memory_per_element(prep, ne), "ne": ne}
-                for b, (_, prep, _), ne in zip(best, runs, counts)]
+        return [{"ns": b, "bytes": memory_per_element(prep, ne), "ne": ne, "rounds": r, "probe": probe}
+                for b, (_, prep, _), ne, r in zip(best, runs, counts, each)]
+
+
+def copy_rate(megabytes: int = 64, repeat: int = 3) -> float:
+    """The machine's memory copy rate now (GB/s, one thread): bytes read plus bytes written per
+    second of ``numpy.copyto`` between two arrays of ``megabytes`` MB each (far larger than the
+    caches), the best of ``repeat``. A probe of the memory bandwidth this process gets at the
+    moment, for rows that stream their state from memory; not a peak figure (the write-allocate
+    traffic of the destination is not counted)."""
+    n = megabytes * (1 << 20) // 8
+    a = np.ones(n)
+    b = np.empty(n)
+    np.copyto(b, a)                  # the pages touched before the timing
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        np.copyto(b, a)
+        best = min(best, time.perf_counter() - t0)
+    return 2 * n * 8 / best / 1e9
 
 
 def prestrain(model):
@@ -338,6 +378,17 @@ def ceiling(seconds: float = 1.0) -> float:
     return best[1] / best[2]
 
 
+def round_lines(rows: list[dict]) -> str:
+    """The rows of each round of :func:`per_cycle_rounds` (ns per element-cycle, the cases in
+    order) with that round's memory copy rate (:func:`copy_rate`, GB/s), one line per round."""
+    out = ["  per round, ns per element-cycle in the order above, and the memory copy rate at the round's start "
+           "(GB/s, one thread, read + written):"]
+    for k, rate in enumerate(rows[0]["probe"]):
+        ns = "  ".join(f"{r['rounds'][k]:5.0f}" for r in rows)
+        out.append(f"    round {k + 1}: {ns}   copy {rate:5.1f} GB/s")
+    return "\n".join(out)
+
+
 def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: bool, say=print) -> None:
     rounds = repeat + 1
     say(f"numba, one thread, CPU time per element-cycle, best of {rounds} rounds with the sizes in turns ({load()}):")
@@ -347,10 +398,12 @@ def report(sizes, block: int, repeat: int, torch: bool, threads: bool, busy: boo
         cases.append((block_model(block), None, prestrain(None)))
         labels.append(f"block {block}^3:     ")
     rows = {}
-    for label, r in zip(labels, per_cycle_rounds(cases, rounds=rounds)):
+    got = per_cycle_rounds(cases, rounds=rounds, on_round=copy_rate)
+    for label, r in zip(labels, got):
         rows[r["ne"]] = r
         say(f"  {label} {r['ne']:>8} hexahedra  {r['ns']:6.0f} ns  {r['bytes']:6.0f} B/element")
     say(f"  ({load()} after the rounds)")
+    say(round_lines(got))
     ns = [r["ns"] for r in rows.values()]
     say(f"  largest / smallest: {max(ns) / min(ns):.2f} (target <= 1.3); at most {max(ns):.0f} ns (target <= 150); "
         f"memory at most {max(r['bytes'] for r in rows.values()):.0f} B/element (target <= 1000)")
