@@ -111,9 +111,8 @@ def free_cores() -> int:
     The allowed cores (affinity) less those busy with other processes (idle time over
     ``SAMPLE_S`` from /proc/stat, a core free when at least 85 % idle or busy for no more than
     one tick of the sample; the 1-minute load average where /proc/stat is unreadable), divided
-    among the task threads of a Dask worker (each of its
-    concurrent tasks gets an equal share, never more than one core's worth less). A measurement
-    is reused for ``REUSE_S`` seconds.
+    among the task threads of a Dask worker (each of its concurrent tasks gets an equal share,
+    never more than one core's worth less). A measurement is reused for ``REUSE_S`` seconds.
 
     Returns
     -------

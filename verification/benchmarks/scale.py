@@ -165,9 +165,10 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
         probe = []
         steps = [1] * len(runs)
         for i, (mod, prep, hist) in enumerate(runs):   # the segment length from 2 untimed steps
-            c0 = time.process_time()
+            s0, c0 = prep.sc[K.S_STEPS], time.process_time()
             solver.advance(mod, prep, hist[:2], math.inf)
-            steps[i] = int(max(1, min(4000, budget / max((time.process_time() - c0) / 2, 1e-9))))
+            per_step = (time.process_time() - c0) / max(prep.sc[K.S_STEPS] - s0, 1)
+            steps[i] = int(max(1, min(4000, budget / max(per_step, 1e-9))))
         for _ in range(rounds):
             if on_round is not None:
                 probe.append(on_round())
