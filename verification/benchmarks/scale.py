@@ -160,15 +160,17 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
     with contextlib.ExitStack() as stack:
         runs = [stack.enter_context(one_thread_run(m, t, deform)) for m, t, deform in cases]
         counts = [m.n_elements for m, _, _ in cases]
-        best = [math.inf] * len(runs)
         each = [[] for _ in runs]
         probe = []
-        steps = [1] * len(runs)
-        for i, (mod, prep, hist) in enumerate(runs):   # the segment length from 2 untimed steps
+
+        def segment(per_step: float) -> int:   # steps of about ``budget`` s of CPU time, 1 to 4000
+            return int(max(1, min(4000, budget / max(per_step, 1e-9))))
+
+        steps = []
+        for mod, prep, hist in runs:   # the segment length from 2 untimed steps
             s0, c0 = prep.sc[K.S_STEPS], time.process_time()
             solver.advance(mod, prep, hist[:2], math.inf)
-            per_step = (time.process_time() - c0) / max(prep.sc[K.S_STEPS] - s0, 1)
-            steps[i] = int(max(1, min(4000, budget / max(per_step, 1e-9))))
+            steps.append(segment((time.process_time() - c0) / max(prep.sc[K.S_STEPS] - s0, 1)))
         for _ in range(rounds):
             if on_round is not None:
                 probe.append(on_round())
@@ -184,10 +186,9 @@ def per_cycle_rounds(cases, rounds: int = 3, segments: int = 2, budget: float = 
                     if code >= K.R_INVERTED or n < 1:
                         raise RuntimeError(f"scale benchmark: the run failed (code {code})")
                     each[i][-1] = min(each[i][-1], dt / n / ne * 1e9)
-                    best[i] = min(best[i], each[i][-1])
-                    steps[i] = int(max(1, min(4000, budget / max(dt / n, 1e-9))))
-        return [{"ns": b, "bytes": memory_per_element(prep, ne), "ne": ne, "rounds": r, "probe": probe}
-                for b, (_, prep, _), ne, r in zip(best, runs, counts, each)]
+                    steps[i] = segment(dt / n)
+        return [{"ns": min(r), "bytes": memory_per_element(prep, ne), "ne": ne, "rounds": r, "probe": probe}
+                for (_, prep, _), ne, r in zip(runs, counts, each)]
 
 
 def copy_rate(megabytes: int = 64, repeat: int = 3) -> float:
