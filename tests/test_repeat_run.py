@@ -13,6 +13,7 @@ import pytest
 import cfm_core as cfm
 from cfm_core.cli import main
 from cfm_core.scene.mesh import structured_hex_mesh
+from fixtures.inp_meshes import write_inp_with_included_nodes
 
 # a small quarter specimen (5 x 5 x 2 elements of 2 mm): a run takes about a second
 SMALL = ["--element-size", "0.002", "--width", "0.02", "--thickness", "0.004", "--quiet", "--no-plot"]
@@ -109,6 +110,27 @@ def test_a_changed_mesh_is_named_with_both_digests_when_repeating(tmp_path, caps
     err = capsys.readouterr().err
     assert f"mesh file {mesh} changed since the run" in err and recorded in err and now in err
     assert any("changed since" in w for w in _summary(tmp_path / "again")["warnings"])
+
+
+def test_a_changed_file_that_an_inp_mesh_includes_is_named_when_repeating(tmp_path, capsys):
+    """The included file is part of the mesh: recorded with its digest, compared on the repeat."""
+    mesh = write_inp_with_included_nodes(tmp_path, 0.004)
+    first = tmp_path / "first"
+    assert main(["drop-test", "--mesh", str(mesh), "--quiet", "--no-plot", "--out", str(first)]) == 0
+    nodes = tmp_path / "nodes.inp"
+    recorded = "sha256:" + cfm.fingerprint.file_digest(nodes)
+    assert _summary(first)["provenance"]["input_files"] == {
+        str(mesh): "sha256:" + cfm.fingerprint.file_digest(mesh), str(nodes): recorded}
+    main_bytes = mesh.read_bytes()
+    write_inp_with_included_nodes(tmp_path, 0.005)
+    assert mesh.read_bytes() == main_bytes          # only the included file changed
+    now = "sha256:" + cfm.fingerprint.file_digest(nodes)
+    assert main(["run", "--scene", str(first / "scene.toml"), "--quiet", "--no-plot",
+                 "--out", str(tmp_path / "again")]) == 0
+    err = capsys.readouterr().err
+    assert f"file {nodes} (included by the mesh {mesh}) changed since the run" in err
+    assert recorded in err and now in err
+    assert _summary(tmp_path / "again")["peak_g"] != _summary(first)["peak_g"]
 
 
 def test_a_changed_material_definition_is_named_with_both_digests_when_repeating(tmp_path, capsys):

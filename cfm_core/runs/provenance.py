@@ -202,8 +202,11 @@ def scene_files(scene) -> dict:
 
 
 def scene_paths(scene) -> list:
-    """The files a scene reads (its [specimen] mesh), as given; empty for built-in meshes. An output
-    written where one of them lies must not remove it (:func:`cfm_core.post.staging.refuse_inputs`).
+    """The files a scene reads: its [specimen] mesh as given, then, for an Abaqus .inp mesh, the
+    files it includes (``*INCLUDE, INPUT=`` and ``INPUT=`` on ``*NODE``, ``*ELEMENT``, ``*ELSET``:
+    :func:`cfm_core.scene.abaqus_inp.input_files`), whose content is part of the mesh; empty for
+    built-in meshes. An output written where one of them lies must not remove it
+    (:func:`cfm_core.post.staging.refuse_inputs`).
 
     Parameters
     ----------
@@ -215,7 +218,13 @@ def scene_paths(scene) -> list:
     list of str or path-like
     """
     mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
-    return [mesh] if mesh else []
+    if not mesh:
+        return []
+    if Path(mesh).suffix.lower() == ".inp" and Path(mesh).is_file():
+        from ..scene.abaqus_inp import input_files as included
+
+        return [mesh, *(str(p) for p in included(mesh))]
+    return [mesh]
 
 
 def provenance(backend: str | None = None, options: dict | None = None, material=None, files: dict | None = None,

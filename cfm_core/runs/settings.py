@@ -131,8 +131,8 @@ def changed_inputs(scene: Scene, where: str = "the scene's [run]") -> list[str]:
     """Warnings for input files of the scene whose content differs from the digest in ``[run]``, and
     for materials whose definition differs from the digest in ``[run.materials]``.
 
-    Only files the scene still reads are checked (a mesh replaced by an override is not), and only
-    materials it still runs.
+    Only files the scene still reads are checked (a mesh replaced by an override is not; an .inp
+    mesh's included files are), and only materials it still runs.
 
     Parameters
     ----------
@@ -159,14 +159,14 @@ def changed_inputs(scene: Scene, where: str = "the scene's [run]") -> list[str]:
     mesh = getattr(getattr(scene, "specimen", None), "mesh", None)
     if not scene.run.input_files or not mesh or not Path(mesh).is_file():
         return out
-    here = Path(mesh).resolve()
+    now = {Path(p).resolve(): (p, d) for p, d in scene_files(scene).items()}   # the mesh and what it includes
     for path, recorded in scene.run.input_files:
-        if Path(path).resolve() != here:
-            continue
-        now = scene_files(scene).get(mesh)
-        if now is not None and now != recorded:
-            out.append(f"mesh file {mesh} changed since the run that wrote this scene ({where} input_files: "
-                       f"{recorded}; now: {now}), so this is not a repeat of that run")
+        p, digest = now.get(Path(path).resolve(), (None, None))
+        if digest is not None and digest != recorded:
+            what = (f"mesh file {p}" if Path(p).resolve() == Path(mesh).resolve()
+                    else f"file {p} (included by the mesh {mesh})")
+            out.append(f"{what} changed since the run that wrote this scene ({where} input_files: "
+                       f"{recorded}; now: {digest}), so this is not a repeat of that run")
     return out
 
 

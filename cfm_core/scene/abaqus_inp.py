@@ -106,8 +106,10 @@ class _Line:
 class _Lines:
     """The lines of an .inp file with ``*INCLUDE`` expanded in place, with one line of look-ahead."""
 
-    def __init__(self, path: Path, main: Path, named_at: _Line | None = None, keyword: str = "*INCLUDE"):
+    def __init__(self, path: Path, main: Path, named_at: _Line | None = None, keyword: str = "*INCLUDE",
+                 read: list | None = None):
         self.main = main
+        self.read = [] if read is None else read   # every file opened, in order (shared with the reader)
         self._stack: list[tuple[Path, object]] = []
         self._ahead: _Line | None = None
         self._open(path, named_at, keyword)
@@ -117,6 +119,7 @@ class _Lines:
             raise InputError(f"{_where(self.main, named_at)}: {keyword}, INPUT={path.name} includes a file that is "
                              f"already being read ('{path}'), which would repeat for ever; include each file once.")
         self._stack.append((path, enumerate(_split_lines(_read_text(path, self.main, named_at, keyword)), 1)))
+        self.read.append(path)
 
     def next(self) -> _Line | None:
         """The next line (None at the end), ``*INCLUDE`` lines replaced by the lines of their file."""
@@ -365,6 +368,7 @@ class _Reader:
         self.parts: dict[str, _Body] = {}
         self.instances: dict[str, _Body] = {}
         self.lines = _Lines(main, main)
+        self.files = self.lines.read     # the files read: the main one, then those INPUT= names
 
     def fail(self, line: _Line | None, text: str) -> InputError:
         quoted = f" ({_quote(line)})" if line is not None else ""
@@ -420,7 +424,7 @@ class _Reader:
         """The data lines of a keyword: those of its INPUT= file, then those that follow it."""
         path = _input_file(params, line, self.main, keyword)
         if path is not None:
-            inner = _Lines(path, self.main, line, f"{keyword}")
+            inner = _Lines(path, self.main, line, f"{keyword}", self.files)
             while (item := inner.next()) is not None:
                 if item.is_keyword:
                     raise self.fail(item, f"the file INPUT={params['INPUT']} of {keyword} (line {line.number}) "
@@ -809,3 +813,35 @@ def read_inp(path) -> object:
     reader = _Reader(Path(path))
     reader.read()
     return reader.mesh()
+
+
+def input_files(path) -> list[Path]:
+    """The files an .inp file reads besides itself: those named by ``*INCLUDE, INPUT=`` and by
+    ``INPUT=`` on ``*NODE``, ``*ELEMENT`` and ``*ELSET``, included ones' included files too, each
+    once, in the order read. Their content is part of the mesh, so a run's provenance and a
+    sweep's cache key digest them along with the main file
+    (:func:`cfm_core.runs.provenance.scene_paths`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The .inp file.
+
+    Returns
+    -------
+    list of Path
+        Paths as the reader resolved them (beside the naming file, else beside ``path``).
+
+    Raises
+    ------
+    InputError
+        As :func:`read_inp`: the file or one it names cannot be read, or is malformed.
+    """
+    reader = _Reader(Path(path))
+    reader.read()
+    seen, out = {Path(path).resolve()}, []
+    for f in reader.files:
+        if f.resolve() not in seen:
+            seen.add(f.resolve())
+            out.append(f)
+    return out

@@ -336,7 +336,8 @@ def run_key(scene, backend: str, options: dict | None = None) -> dict:
     Returns
     -------
     dict
-        ``scene`` (its dict with the mesh path replaced by the file's content digest),
+        ``scene`` (its dict with the mesh path replaced by the file's content digest, or by the
+        list of the digests of the file and of those it includes, for an .inp file with ``INPUT=``),
         ``material`` (definition digest, :func:`cfm_core.material.cache.definition_digest`),
         ``materials`` (the same of every material a layer or part names),
         ``backend`` and ``options`` (every option resolved,
@@ -352,7 +353,8 @@ def run_key(scene, backend: str, options: dict | None = None) -> dict:
     mesh = d.get("specimen", {}).get("mesh")
     if mesh:
         digests = scene_files(scene)
-        d["specimen"] = dict(d["specimen"], mesh=next(iter(digests.values()), None))
+        found = list(digests.values())   # the mesh first, then the files an .inp includes
+        d["specimen"] = dict(d["specimen"], mesh=found[0] if len(found) == 1 else found)
     return {"scene": d, "material": definition_digest(get_material(scene.material.name)),
             "materials": {n: definition_digest(get_material(n))
                           for n in sorted({r.material for _, r in regions(scene) if r.material})}, "backend": backend,

@@ -85,6 +85,21 @@ def test_run_id_changes_with_each_ingredient_and_only_then(scene, tmp_path, monk
     assert sweep.run_id(sweep.run_key(base, "numba"), case) != ref
 
 
+def test_run_id_changes_with_a_file_that_an_inp_mesh_includes(tmp_path):
+    """main.inp the same bytes, its *NODE, INPUT= file another specimen: another run (not a stale reuse)."""
+    from fixtures.inp_meshes import write_inp_with_included_nodes
+
+    mesh = write_inp_with_included_nodes(tmp_path, 0.004)
+    toml = tmp_path / "scene.toml"
+    toml.write_text(f'[scene]\ntype = "drop-test"\n[specimen]\nmesh = "{mesh.name}"\n')
+    case = {"k2": 1.8}
+    ref = sweep.run_id(sweep.run_key(cfm.load_scene(toml), "numba"), case)
+    write_inp_with_included_nodes(tmp_path, 0.005)
+    assert sweep.run_id(sweep.run_key(cfm.load_scene(toml), "numba"), case) != ref
+    write_inp_with_included_nodes(tmp_path, 0.004)
+    assert sweep.run_id(sweep.run_key(cfm.load_scene(toml), "numba"), case) == ref
+
+
 def test_rerun_after_the_mesh_file_changed_recomputes(tmp_path):
     """The issue's case: replace the mesh by another specimen under the same path and rerun."""
     mesh = tmp_path / "specimen.vtu"
