@@ -435,6 +435,8 @@ class VolumeWatch:
         self.extreme = None      # (t, element, J): the J farthest from 1 (in |ln J|) seen where U'' < 0
         self.last_t = 0.0        # time of the previous check (s)
         self.range = [1.0, 1.0]  # smallest and largest J seen (-)
+        self.crushed = None      # (t, element, J): the first check that found J below point.CRUSHED_J
+        self.smallest = None     # (t, element, J): the smallest J seen
 
     def _centre_det(self, X):
         """8 det(dx/dxi) at the centre of each element, X (e, 8, 3) its corner positions (m^3)."""
@@ -453,12 +455,17 @@ class VolumeWatch:
             position(x, node) -> (3,) position (m) of the user's node (the scan's: a backend may
             pass its own numbering).
         """
-        from .point import volumetric_convex_at  # deferred: only the homogeneous scenes need it
+        from .point import CRUSHED_J as crushed_below, volumetric_convex_at  # deferred: only these scenes need it
 
         xu = np.array([position(x, i) for i in range(self.n)], dtype=np.float64)
         J = self._centre_det(xu[self.hexes]) / self.ref
         if np.isfinite(J).all():
             self.range = [min(self.range[0], float(J.min())), max(self.range[1], float(J.max()))]
+            k = int(np.argmin(J))
+            if self.smallest is None or J[k] < self.smallest[2]:
+                self.smallest = (float(t), k, float(J[k]))
+            if self.crushed is None and J[k] < crushed_below:
+                self.crushed = self.smallest
         for material, elements in self.parts:
             if not elements.size:
                 continue
@@ -483,14 +490,39 @@ class VolumeWatch:
             ``min`` and ``max``: the smallest and largest J seen (-); ``nonconvex``: None, or where
             U'' < 0 was first found: ``t`` (s, the check that found it), ``t_before`` (s, the check
             before), ``element``, ``J`` (-), ``material`` (name), ``text`` (the warning,
-            :func:`nonconvex_warning`).
+            :func:`nonconvex_warning`); ``crushed``: None, or the warning (text) for a J below
+            :data:`cfm_core.simulation.point.CRUSHED_J` (:func:`crushed_warning`).
         """
-        out = {"min": self.range[0], "max": self.range[1], "nonconvex": None}
+        out = {"min": self.range[0], "max": self.range[1], "nonconvex": None,
+               "crushed": crushed_warning(self.crushed, self.smallest) if self.crushed is not None else None}
         if self.first is not None:
             t0, t1, e, Je, material = self.first
             out["nonconvex"] = {"t_before": t0, "t": t1, "element": e, "J": Je, "material": material.name,
                                 "text": nonconvex_warning(self.first, self.extreme)}
         return out
+
+
+def crushed_warning(first, smallest) -> str:
+    """The warning of a homogeneous scene whose element's J fell below
+    :data:`cfm_core.simulation.point.CRUSHED_J` (the point driver's words,
+    :func:`cfm_core.simulation.point.crushed_volume`).
+
+    Parameters
+    ----------
+    first, smallest : tuple
+        (time (s), element, J (-)) of the first check below the limit and of the smallest J seen.
+
+    Returns
+    -------
+    str
+        Names the element and time of both.
+    """
+    from .point import CRUSHED_J, crushed_volume
+
+    t0, e0, J0 = first
+    ts, es, Js = smallest
+    return (f"element {e0} reached J = {J0:.4g} by t = {t0:.4g} s (below {CRUSHED_J:g}); the smallest, in element "
+            f"{es} at t = {ts:.4g} s, is {crushed_volume(Js)}")
 
 
 def nonconvex_warning(first, extreme) -> str:
@@ -597,6 +629,8 @@ def check_result(model, result) -> list[str]:
     volume = ((result.info or {}).get("checks") or {}).get("volume_ratio") or {}
     if volume.get("nonconvex"):
         warnings.append(volume["nonconvex"]["text"])
+    if volume.get("crushed"):
+        warnings.append(volume["crushed"])
     if model.meta.get("scene_type") == "single-element" and result.energies and t.size:
         ke = float(np.max(np.abs(result.energies["kinetic"])))
         ie = float(np.max(np.abs(result.energies["internal"])))

@@ -28,6 +28,12 @@ UNIAXIAL_UNITS = {"t": "s", "stretch": "-", "nominal_stress": "Pa", "lateral_str
 #: Smallest diagonal entry of C = F^T F a history may give (-): the smallest normal float64, 2.2e-308
 #: (a stretch of 1.5e-154); below it the squared stretch is subnormal or has underflowed to zero.
 C_DIAGONAL_MIN = float(np.finfo(np.float64).tiny)
+#: Volume ratio J (-) below which a state is called crushed (:func:`crushed_volume`): half the volume
+#: gone. A nearly incompressible tissue (kappa / c ~ 10^3 in Table 1) keeps J near 1 under any
+#: load it survives; below this J the Ogden term alone sets the stress (at J = 0.5 its pressure is
+#: kappa (2^10 - 2) / 9, 114 kappa), and uniaxial compression to a stretch of 0.05 came out at
+#: J = 0.02 and -7e21 Pa with exit 0 and no word.
+CRUSHED_J = 0.5
 
 
 def read_history(path) -> tuple[np.ndarray, np.ndarray]:
@@ -118,6 +124,11 @@ def run_history(material, t, F, backend=None) -> np.ndarray:
     NumericalError
         A non-finite stress, naming the row, its time (s) and the material's term that failed
         (:mod:`cfm_core.material.diagnose`); no numpy RuntimeWarning is shown.
+
+    Warns
+    -----
+    RuntimeWarning
+        A row with det F below :data:`CRUSHED_J` (:func:`crushed_volume`), naming the first.
     """
     t = np.asarray(t, dtype=np.float64)
     try:
@@ -137,6 +148,11 @@ def run_history(material, t, F, backend=None) -> np.ndarray:
         m = np.linalg.eigvalsh(np.einsum("ki,kj->ij", kin.as_batch(F)[i], kin.as_batch(F)[i]))
         raise NumericalError(f"stress is not finite at row {i} (t = {t[i]:.6g} s): {describe_nonfinite(material, m)}.",
                              time=float(t[i]), element=i, quantity="stress")
+    J = np.linalg.det(kin.as_batch(F))
+    if J.min() < CRUSHED_J:
+        i = int(np.argmax(J < CRUSHED_J))
+        warnings.warn(f"history: row {i} (t = {t[i]:.6g} s) has J = det F below {CRUSHED_J:g} ({J[i]:.4g}); the smallest "
+                      f"is {crushed_volume(float(J.min()))}", RuntimeWarning, stacklevel=2)
     return out
 
 
@@ -241,7 +257,8 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
     Warns
     -----
     RuntimeWarning
-        The continued lateral stretch gives a J where the volumetric energy is not convex.
+        The continued lateral stretch gives a J where the volumetric energy is not convex, or a J
+        below :data:`CRUSHED_J` (:func:`crushed_volume`).
     """
     if not (math.isfinite(rate) and rate > 0):
         raise InputError(f"rate = {rate!r} 1/s must be a positive engineering strain rate.")
@@ -292,8 +309,14 @@ def uniaxial(material, rate: float, stretch: float, steps: int = 200, hold: floa
         k = int(np.argmax(bad))
         raise NumericalError(f"uniaxial: the stress is not finite at step {k} (t = {t[k]:g} s, stretch {lam[k]:g}).",
                              time=float(t[k]), element=k, quantity="stress")
+    J = lam * lat**2
+    if J.min() < CRUSHED_J:
+        k = int(np.argmax(J < CRUSHED_J))
+        warnings.warn(f"uniaxial: from stretch {lam[k]:.4g} (t = {t[k]:.4g} s) on, the lateral stretch that gives zero "
+                      f"lateral stress ({lat[k]:.4g}) leaves J below {CRUSHED_J:g} ({J[k]:.4g}), down to "
+                      f"{crushed_volume(float(J.min()))}",
+                      RuntimeWarning, stacklevel=2)
     if unstable is not None:
-        J = lam * lat**2
         k = int(np.argmax(np.abs(J - 1.0)))
         warnings.warn(f"uniaxial: from stretch {lam[unstable]:.4g} (t = {t[unstable]:.4g} s) on, the lateral stretch "
                       f"{lat[unstable]:.4g} that gives zero lateral stress makes J = {J[unstable]:.4g}, where "
@@ -426,6 +449,27 @@ def volumetric_convex_at(material, J, h: float = 1e-6) -> np.ndarray:
     drop = p[1] - p[0]
     out[ok] = ~((drop < 0.0) & (np.abs(drop) > 1e-12 * np.maximum(np.abs(p[0]), 1e-300)))
     return out
+
+
+def crushed_volume(J: float) -> str:
+    """The words every driver uses for a state below :data:`CRUSHED_J`.
+
+    Parameters
+    ----------
+    J : float
+        The smallest volume ratio reached (-).
+
+    Returns
+    -------
+    str
+        "J = ... (... % of the volume gone): ..." saying that the stresses there are the volumetric
+        term's, outside what any test of the tissue measured.
+    """
+    return (f"J = {J:.4g} ({100 * (1 - J):.3g} % of the volume gone): a nearly "
+            f"incompressible tissue does not lose that much volume, so the state is crushed beyond the "
+            f"model's range; the stresses there come from the volumetric term alone and no test of the tissue "
+            f"measured them (check the stretch, the units of the moduli, or a fibre stiffness that holds the "
+            f"lateral expansion back).")
 
 
 def nonconvex_volumetric(material) -> str:

@@ -161,6 +161,24 @@ def test_a_collapsing_implicit_step_stops_the_run_with_its_time(monkeypatch):
     assert err.value.quantity == "time step" and err.value.time > 0.0
 
 
+def test_a_relaxation_crushed_to_two_percent_of_its_volume_warns_with_the_point_drivers_j():
+    """Compression to a stretch of 0.05: the circular fibres hold the lateral expansion back and the volume
+    goes instead (J = 0.02, 7e15 N on a 1 mm element), which finished with exit 0 and no warning. Now the
+    run warns, and its smallest J is the point driver's (independent: the reference's uniaxial solution)."""
+    from cfm_core.simulation.point import uniaxial
+
+    _available("skfem")
+    sc = builtin_scene("relaxation").with_overrides(stretch=0.05, hold=0.005)
+    res = run_model(build_model(sc), "skfem")
+    (w,) = [w for w in res.info["warnings"] if "volume gone" in w]
+    with pytest.warns(RuntimeWarning, match="volume gone"):
+        _, lam, _, lat = uniaxial(build_model(sc).material, 100.0, 0.05, steps=200)
+    J_truth = float((lam * lat**2).min())
+    J_min = res.info["checks"]["volume_ratio"]["min"]
+    assert J_min == pytest.approx(J_truth, rel=1e-2), (J_min, J_truth)
+    assert "element 0 reached J = 0.4" in w and "below 0.5" in w
+
+
 @pytest.mark.parametrize("scene, backend", [("relaxation", "skfem"), ("single-element", "numba"),
                                             ("single-element", "torch")])
 def test_a_homogeneous_scene_pulled_into_the_nonconvex_volumetric_range_warns(scene, backend):

@@ -85,3 +85,22 @@ def test_volumetric_convexity_at_j_is_the_ogden_terms_analytic_limit():
     J = np.array([0.09, 0.5, 1.0, 0.999 * J_LIMIT, 1.001 * J_LIMIT, 2.6, 18.0])
     np.testing.assert_array_equal(volumetric_convex_at(mat, J), 10.0 / J**11 - 1.0 / J**2 >= 0.0)
     assert volumetric_convex_at(mat, [0.0, np.nan]).all()   # nothing to judge
+
+
+def test_uniaxial_compression_that_crushes_the_volume_warns_and_moderate_compression_does_not():
+    """Stretch 0.05 at 100/s: the lateral stretch that frees the sides leaves J = 0.02 and a nominal stress of
+    -7e21 Pa, written with exit 0 and no word. Below J = 0.5 the driver warns, naming the stretch."""
+    from cfm_core.simulation.point import CRUSHED_J, run_history
+
+    mat = make_material("cfm")
+    with pytest.warns(RuntimeWarning, match=r"uniaxial: from stretch 0\.2\d+ .* leaves J below 0\.5 .*volume gone"):
+        _, lam, _, lat = uniaxial(mat, 100.0, 0.05, steps=200)
+    J = lam * lat**2
+    assert J.min() < 0.03 and J[0] == 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, lam, _, lat = uniaxial(mat, 100.0, 0.5, steps=50)
+    assert (lam * lat**2).min() > CRUSHED_J
+    F = np.array([np.eye(3), np.diag([0.3, 1.0, 1.0])])
+    with pytest.warns(RuntimeWarning, match=r"history: row 1 \(t = 0\.002 s\) has J = det F below 0\.5 \(0\.3\)"):
+        run_history(mat, np.array([0.001, 0.002]), F)
