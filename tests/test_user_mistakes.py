@@ -250,3 +250,28 @@ def test_more_input_slips_get_a_clear_word(tmp_path):
     assert "np.float64" not in str(e.value)
     notes = check_plausible(builtin_scene("drop-test").with_overrides(element_size=0.002, width=0.001))
     assert any("larger than half the width" in n for n in notes)
+
+
+def test_a_parameter_or_option_given_twice_is_refused_and_repeated_fits_add_up(tmp_path):
+    """`--param k1=1e3 --param k1=2e3` ran with the last value, `--dtype float32 --option dtype=float64`
+    ran in float32, and `cfm fit --fit k1 --fit k2` fitted k2 alone, each with exit 0 and no word."""
+    from cfm_core.cli import main
+
+    out = str(tmp_path / "o")
+    for args, said in [
+        (["--param", "k1=1e3", "--param", "k1=2e3"], "--param k1 is given twice, as 1000.0 and 2000.0"),
+        (["--option", "hourglass=0.1", "--option", "hourglass=0.05"], "--option hourglass is given twice"),
+        (["--backend", "torch", "--dtype", "float32", "--option", "dtype=float64"],
+         "--dtype float32 and --option dtype=float64 disagree"),
+    ]:
+        code, _, err, _ = cfm("drop-test", "--element-size", "0.002", *args, "--no-plot", "--quiet", "--out", out)
+        assert code == 2 and said in err, err
+        _one_paragraph(err)
+    lab = tmp_path / "comp.csv"
+    assert main(["point", "--uniaxial", "--rate", "100", "--stretch", "0.7", "--steps", "20", "--no-plot",
+                 "--out", str(lab)]) == 0
+    assert main(["fit", "--test", f"{lab}:uniaxial:100", "--fit", "k1", "--fit", "k2", "--max-evaluations", "3",
+                 "--quiet", "--out", str(tmp_path / "fit")]) == 0
+    import json
+
+    assert json.loads((tmp_path / "fit" / "fit.json").read_text())["names"] == ["k1", "k2"]

@@ -36,8 +36,8 @@ def add_parser(sub) -> None:
     p.add_argument("--test", action="extend", nargs="+", metavar="FILE:KIND:RATE[:WEIGHT]", required=True,
                    help="a test curve: CSV file, kind (" + ", ".join(KINDS) + "), the loading's engineering "
                         "strain (or shear) rate in 1/s, optional weight (-, default 1); repeatable")
-    p.add_argument("--fit", required=True, metavar="NAME,...",
-                   help="parameters to fit, e.g. c,k1,k2 or k1,k2,prony (prony = every g_i, tau_i); "
+    p.add_argument("--fit", required=True, action="append", metavar="NAME,...",
+                   help="parameters to fit, e.g. c,k1,k2 or k1,k2,prony (prony = every g_i, tau_i); repeatable; "
                         "--param sets the start of these and the value of the others (SI units)")
     p.add_argument("--scene", help="drop-test scene TOML that fitted-scene.toml is based on (default: built-in)")
     p.add_argument("--max-evaluations", type=int, default=400,
@@ -59,7 +59,7 @@ def _cmd_fit(args) -> int:
     if args.starts is not None:
         check_count("--starts", args.starts, 1, STARTS_MAX, "starting points of the optimiser")
     check_folder_target(args.out)
-    names = lab_fit.fit_names(args.fit, args.material)
+    names = lab_fit.fit_names(",".join(args.fit), args.material)
     given = parse_params(args.param)
     start = {k: v for k, v in given.items() if k in names}
     fixed = {k: v for k, v in given.items() if k not in names}

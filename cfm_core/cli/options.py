@@ -25,9 +25,13 @@ def parse_params(items) -> dict:
         if not sep or not name.strip():
             raise InputError(f"--param expects NAME=VALUE (SI units), got {item!r}.")
         try:
-            out[name.strip()] = float(value)
+            number = float(value)
         except ValueError:
             raise InputError(f"--param {name.strip()}: value {value!r} is not a number.") from None
+        if name.strip() in out and out[name.strip()] != number:
+            raise InputError(f"--param {name.strip()} is given twice, as {shown(out[name.strip()])} and {shown(number)}; "
+                             f"give each parameter once.")
+        out[name.strip()] = number
     return out
 
 
@@ -123,6 +127,9 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
         if name not in specs:
             raise InputError(f"--option {name}: backend '{backend}' has no option of that name; its options are "
                              f"{', '.join(specs) or 'none'} ('cfm backends --options' gives units and ranges).")
+        if name in options and options[name] != _option_value(value, specs[name]):
+            raise InputError(f"--option {name} is given twice ({given_as[name]} and --option {name}={value.strip()}); "
+                             f"give each option once.")
         options[name] = _option_value(value, specs[name])
         _overflowed(name, value, options[name], specs[name], backend)
         given_as[name] = f"--option {name}={value.strip()}"
@@ -135,6 +142,8 @@ def backend_options(args, backend: str) -> tuple[dict, dict]:
             if flag not in specs:
                 raise InputError(f"--{flag} {value}: backend '{backend}' has no choice of {flag} (only torch has: "
                                  f"--backend torch --{flag} {value}).")
+            if flag in options and options[flag] != value:
+                raise InputError(f"--{flag} {value} and {given_as[flag]} disagree; give the {flag} once (--{flag}).")
             options[flag] = value
             given_as[flag] = f"--{flag} {value}"
     return options, given_as

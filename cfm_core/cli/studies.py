@@ -68,8 +68,8 @@ def add_parser(sub) -> None:
     c.add_argument("--data", action="extend", nargs="+", metavar="FILE[:THICKNESS]", required=True,
                    help="measured curve, with the specimen thickness in m (e.g. drop5.csv:0.005); "
                         "without it the --scene file's thickness applies")
-    c.add_argument("--fit", required=True, metavar="NAME,...",
-                   help="parameters to fit, e.g. k1,k2 or k1,k2,prony (prony = g1,tau1)")
+    c.add_argument("--fit", required=True, action="append", metavar="NAME,...",
+                   help="parameters to fit, e.g. k1,k2 or k1,k2,prony (prony = g1,tau1); repeatable")
     c.add_argument("--scene", help="drop-test scene TOML file: impactor, velocity, mesh, fixed parameters "
                                    "(default: the built-in drop-test scene)")
     c.add_argument("--param", action="append", metavar="NAME=VALUE",
@@ -181,7 +181,7 @@ def _cmd_calibrate(args) -> int:
                 "most objective evaluations of the optimiser")
     check_runner_options(*_runner_args(args))  # --workers, --worker-timeout: before any work
     scene, backend, options = _planned(args, _scene(args.scene))
-    names = calibrate.fit_names(args.fit, scene)
+    names = calibrate.fit_names(",".join(args.fit), scene)
     start = parse_params(args.param)
     extra = sorted(set(start) - set(names))
     if extra:
