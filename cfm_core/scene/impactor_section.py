@@ -46,8 +46,8 @@ def _vector(section, key, value, n, unit):
 class Impactor:
     """[impactor]: rigid impactor translating without rotation (SI units, angles in degrees).
 
-    radius (m, 0.055, 1e-4..1: sphere radius, or the cylinder radius of "flat"; unused for
-    "plane"); mass (kg, 0.220, the full impactor); velocity (m/s: a speed, positive, moving down,
+    radius (m, 0.055, 1e-4..1: sphere radius, or the cylinder radius of "flat"; "plane" has none,
+    and another value with it is an InputError); mass (kg, 0.220, the full impactor); velocity (m/s: a speed, positive, moving down,
     default 1.0; or a vector [vx, vy, vz] with vz < 0, speed at most 1e3); shape ("hemisphere":
     the paper's, only its lower half touches | "sphere" | "flat": a cylinder with axis z, its
     flat bottom face down, the rim rounded with edge_radius | "plane": an infinite rigid plane);
@@ -72,6 +72,11 @@ class Impactor:
         s = "impactor"
         _choice(s, "shape", self.shape, IMPACTOR_SHAPES)
         _set(self, radius=_num(s, "radius", self.radius, "m", 1e-4, 1.0))  # larger: mm typed as m
+        if self.shape == "plane" and self.radius != Impactor.radius:
+            raise InputError(f"[impactor] radius = {self.radius!r} m has no effect for shape = 'plane' (an infinite "
+                             f"rigid plane: no radius); remove it, or give shape = 'hemisphere', 'sphere' or 'flat' "
+                             f"for an impactor of that radius. (A study of the radius would give the same run for "
+                             f"every value.)")
         _set(self, mass=_num(s, "mass", self.mass, "kg", 0, 1e4, lo_open=True))
         self._check_velocity()
         if self.edge_radius is not None:

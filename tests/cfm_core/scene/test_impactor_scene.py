@@ -69,7 +69,7 @@ def test_paper_variant_is_unchanged():
                                        ("flat", {"edge_radius": 0.0}), ("plane", {})])
 @pytest.mark.parametrize("offset", [None, [0.003, 0.0], [0.002, -0.004]])
 def test_impactor_starts_just_touching_the_top(shape, kw, offset):
-    s = small(shape=shape, radius=0.008, offset=offset, **kw)
+    s = small(shape=shape, offset=offset, **kw, **({} if shape == "plane" else {"radius": 0.008}))  # a plane has none
     m = build_model(s)
     imp = m.sphere
     assert imp.shape == shape and imp.edge_radius == kw.get("edge_radius", 0.0)
@@ -162,6 +162,7 @@ def test_requested_symmetry_that_holds_and_none():
     ({"shape": "flat", "radius": 0.01, "edge_radius": 0.01}, r"edge_radius = 0.01 m is out of range; .*< 0.01 m"),
     ({"shape": "flat", "edge_radius": -0.001}, r"edge_radius = -0.001 m is out of range"),
     ({"shape": "sphere", "edge_radius": 0.001}, r"edge_radius = 0.001 m is only for shape = 'flat'"),
+    ({"shape": "plane", "radius": 0.02}, r"radius = 0.02 m has no effect for shape = 'plane'"),  # a sweep over it: equal rows
     ({"velocity": 1.0, "angle": 90.0}, r"angle = 90.0 deg is out of range; .*0 <= angle <= 89 deg"),
     ({"velocity": 1.0, "azimuth": 45.0}, r"azimuth = 45.0 deg .* no angle"),
     ({"velocity": 1.0, "angle": 10.0, "azimuth": 400.0}, r"azimuth = 400.0 deg is out of range"),
