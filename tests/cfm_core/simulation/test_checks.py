@@ -145,6 +145,22 @@ def test_ending_in_contact_stops_with_an_automatic_end_time_and_warns_with_a_cho
     assert checks.check_result(quarter_block(end_time_automatic=True), separated) == []
 
 
+def test_an_impact_whose_contact_spans_too_few_time_steps_is_warned():
+    """A 10 ug impactor on a 4 mm specimen: 17 steps of 35 us for the whole run, and a contact of 0.42 ms
+    (0.20 ms with 1 us steps) reported with exit 0. Fewer than 20 steps over the contact warn, naming both."""
+    t = np.linspace(0.0, 6e-4, 31)                 # output samples, 20 us apart
+    force = np.where(t <= 4.2e-4, 1.0 + t, 0.0)
+    ke = np.full(t.size, 0.1)
+    few = _result(t, force, ke, np.zeros(t.size))
+    few.steps = 17                                 # 35.3 us per step: 11.9 steps over 0.42 ms of contact
+    (w,) = checks.check_result(quarter_block(), few)
+    assert "the impact is not resolved in time: its contact (0.42 ms) spans about 11.9 time steps of 3.53e-05 s" in w
+    assert "dt_max" in w and "4.2e-06 s" in w
+    fine = _result(t, force, ke, np.zeros(t.size))
+    fine.steps = 600                               # 1 us per step
+    assert checks.check_result(quarter_block(), fine) == []
+
+
 def test_the_impactor_history_reaching_the_plate_stops_the_run():
     m = quarter_block()
     t = np.linspace(0.0, 5e-3, 51)
