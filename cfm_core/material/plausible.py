@@ -136,6 +136,11 @@ def check_material(material, above: bool = True) -> list[str]:
     return out
 
 
+#: Relative round-off of J = det F in float64 (-): about the machine epsilon; times a volumetric modulus,
+#: the noise in the pressure (kappa = 6.7e20 Pa: rotations gave +-1.5e5 Pa of pressure, each backend its own).
+ROUNDOFF_J = float(np.finfo(np.float64).eps)
+
+
 def _scale_warning(material, p, above: bool = True) -> str:
     """The warning for a modulus more than SCALE_FACTOR times away from its typical value (below it
     only, unless ``above``), or ""."""
@@ -158,6 +163,11 @@ def _scale_warning(material, p, above: bool = True) -> str:
         if abs(math.log10(value / factor / scale)) <= 1.0:
             hint = (f" Was it converted from {unit} to Pa twice? Then write {p.name} = {value / factor:g}; every "
                     f"value is in SI units.")
+        vol = material.spec.volumetric
+        if vol is not None and p in vol.parameters:
+            noise = value * ROUNDOFF_J
+            hint += (f" The pressure it gives carries the round-off of J in float64 times {p.name}: about {noise:.2g} "
+                     f"Pa, so stresses below that are noise, even under a pure rotation.")
         return f"[material] {p.name} = {value:g} Pa is {_times(1.0 / ratio)}x above {where}.{hint} It runs as given."
     return ""
 
