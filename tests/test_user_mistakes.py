@@ -275,3 +275,27 @@ def test_a_parameter_or_option_given_twice_is_refused_and_repeated_fits_add_up(t
     import json
 
     assert json.loads((tmp_path / "fit" / "fit.json").read_text())["names"] == ["k1", "k2"]
+
+
+def test_built_in_scene_names_work_wherever_a_drop_test_scene_is_taken(tmp_path):
+    """`cfm drop-test --scene flat-impactor` (and sweep, calibrate) said "cannot be read: No such file"
+    while `cfm run --scene flat-impactor` ran; and `cfm fit --scene` took a single-element scene for the
+    drop-test scene its fitted-scene.toml is based on."""
+    import json
+
+    from cfm_core.cli import main
+    from cfm_core.cli.options import scene_named
+
+    assert main(["drop-test", "--scene", "flat-impactor", "--element-size", "0.002", "--width", "0.02",
+                 "--thickness", "0.004", "--quiet", "--no-plot", "--out", str(tmp_path / "o")]) == 0
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["scene"]["impactor"]["shape"] == "flat"
+    assert scene_named("layered-tissue").specimen.layers
+    code, _, err, _ = cfm("sweep", "--scene", "nope", "--vary", "k1=1000", "--serial", "--out", str(tmp_path / "s"))
+    assert code == 2 and "not a built-in scene (built-in: drop-test, flat-impactor, layered-tissue" in err
+    _one_paragraph(err)
+    (tmp_path / "one.toml").write_text('[scene]\ntype = "single-element"\n')
+    (tmp_path / "c.csv").write_text("t,stretch,nominal_stress\n0,1,0\n0.001,0.9,-100\n")
+    code, _, err, _ = cfm("fit", "--test", f"{tmp_path / 'c.csv'}:uniaxial:100", "--fit", "k1", "--scene",
+                          str(tmp_path / "one.toml"), "--out", str(tmp_path / "f"))
+    assert code == 2 and "a 'single-element' scene; fitted-scene.toml is a drop-test scene" in err
+    _one_paragraph(err)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 
+from ..errors import InputError
 from ..material.plausible import check_material
 from ..material.registry import make_material
 from ..scene.scene import load_scene
@@ -66,7 +67,12 @@ def _cmd_fit(args) -> int:
     for text in check_material(make_material(args.material, given, args.moduli, args.elastic)):
         print(f"warning: {text}", file=sys.stderr)  # unit slips of the fixed values and the starting point
     if args.scene:  # its errors, and fitted names no layer takes, before the work
-        lab_fit.check_scene(load_scene(args.scene), names)
+        based_on = load_scene(args.scene)
+        if based_on.type != "drop-test":
+            raise InputError(f"--scene {args.scene}: a '{based_on.type}' scene; fitted-scene.toml is a drop-test scene "
+                             f"with the fitted material, so --scene must be a drop-test scene file (or left out for "
+                             f"the built-in drop test).")
+        lab_fit.check_scene(based_on, names)
     tests = lab_fit.read_tests(args.test)
     refuse_inputs(args.out, [args.scene, *(t.path for t in tests)])  # before the work is announced
     say = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))

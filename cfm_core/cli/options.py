@@ -10,11 +10,29 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..runs.settings import RunPlan, plan_run
+from ..scene.scene import builtin_scene, builtin_scenes, load_scene
 from ..simulation.registry import backend_for
 from ..tables import overflowed_to_inf, shown
 
 #: Most optimiser evaluations ``--max-evaluations`` allows (``cfm fit`` per start, ``cfm calibrate``).
 EVALUATIONS_MAX = 100_000
+
+
+def scene_named(name: str):
+    """The scene of a ``--scene`` value: a scene file, else a built-in scene's name (``cfm run``,
+    ``cfm drop-test``, ``cfm sweep`` and ``cfm calibrate`` alike; a file of that name wins).
+
+    Raises
+    ------
+    InputError
+        Neither a file nor a built-in name (the built-in names listed), or a malformed file.
+    """
+    if not Path(name).exists() and name in builtin_scenes():
+        return builtin_scene(name)
+    if not Path(name).exists():
+        raise InputError(f"--scene {name!r}: no such file, and not a built-in scene "
+                         f"(built-in: {', '.join(builtin_scenes())}).")
+    return load_scene(name)
 
 
 def parse_params(items) -> dict:

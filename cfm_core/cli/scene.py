@@ -12,10 +12,10 @@ from ..runs.provenance import scene_paths
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
 from ..scene.layers import refuse_unused
-from ..scene.scene import builtin_scene, builtin_scenes, load_scene
+from ..scene.scene import builtin_scene, builtin_scenes
 from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
-from .options import add_material_options, parse_params, plan_from_args
+from .options import add_material_options, parse_params, plan_from_args, scene_named
 
 
 def add_parser(sub) -> None:
@@ -23,7 +23,8 @@ def add_parser(sub) -> None:
                        description="Rigid hemispherical impactor on a fat specimen on a rigid plate (SI units). "
                                    "Writes acceleration.csv (t s, a_raw and a_cfc600 m/s^2), summary.json and "
                                    "acceleration.png into --out.")
-    p.add_argument("--scene", help="scene TOML file (default: the built-in drop-test scene)")
+    p.add_argument("--scene", help="drop-test scene TOML file, or a built-in drop-test scene's name (drop-test, "
+                                   "flat-impactor, layered-tissue; default: drop-test)")
     p.add_argument("--backend", default=None, help="backend name (default: the scene's [run] backend, else numba; "
                                                    "see 'cfm backends')")
     p.add_argument("--device", help="device for backends that have a choice (torch: cpu, cuda or cuda:N; default cpu)")
@@ -64,7 +65,7 @@ def _add_output_options(p) -> None:
 
 def scene_from_args(args):
     """The scene of ``cfm drop-test`` with the command-line overrides applied."""
-    scene = load_scene(args.scene) if args.scene else builtin_scene("drop-test")
+    scene = scene_named(args.scene) if args.scene else builtin_scene("drop-test")
     if scene.type != "drop-test":
         raise InputError(f"--scene {args.scene}: a '{scene.type}' scene; cfm drop-test runs drop-test scenes. Run "
                          f"this one with 'cfm run --scene {args.scene} --out DIR'.")
@@ -199,15 +200,7 @@ def add_run_parser(sub) -> None:
 
 
 def _scene_for_run(args):
-    name = args.scene
-    if not Path(name).exists() and name in builtin_scenes():
-        scene = builtin_scene(name)
-    elif not Path(name).exists():
-        raise InputError(f"--scene {name!r}: no such file, and not a built-in scene "
-                         f"(built-in: {', '.join(builtin_scenes())}).")
-    else:
-        scene = load_scene(name)
-    return _apply_overrides(scene, args)
+    return _apply_overrides(scene_named(args.scene), args)
 
 
 def _cmd_run(args) -> int:

@@ -12,13 +12,13 @@ import time
 
 from ..errors import InputError
 from ..post.staging import check_folder_target, published_files
-from ..scene.scene import builtin_scene, load_scene
+from ..scene.scene import builtin_scene
 from ..runs.pipeline import is_material_warning, warnings_once
 from ..scene.plausible import check_plausible
 from ..studies import calibrate, measured, sweep
 from ..studies.dask_runner import WORKERS_PER_CORE, check_runner_options, max_local_workers, open_runner
 from ..tables import check_count
-from .options import EVALUATIONS_MAX, parse_params, plan_from_args
+from .options import EVALUATIONS_MAX, parse_params, plan_from_args, scene_named
 
 
 def _runner_options(p) -> None:
@@ -49,7 +49,8 @@ def add_parser(sub) -> None:
                                    "and material parameters, SI units) and writes sweep.csv (+ sweep.parquet), "
                                    "runs/<id>/acceleration.csv and summary.json, and peaks.png into --out. "
                                    "Rerunning skips the runs already complete.")
-    p.add_argument("--scene", help="drop-test scene TOML file (default: the built-in drop-test scene)")
+    p.add_argument("--scene", help="drop-test scene TOML file, or a built-in drop-test scene's name (drop-test, "
+                                   "flat-impactor, layered-tissue; default: drop-test)")
     p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...", required=True,
                    help="a scene value (thickness, velocity, element_size, width, mass, radius, density, "
                         "friction) or material parameter (c, k1, k2, kappa, g1, tau1, ...) and its values, "
@@ -70,8 +71,8 @@ def add_parser(sub) -> None:
                         "without it the --scene file's thickness applies")
     c.add_argument("--fit", required=True, action="append", metavar="NAME,...",
                    help="parameters to fit, e.g. k1,k2 or k1,k2,prony (prony = g1,tau1); repeatable")
-    c.add_argument("--scene", help="drop-test scene TOML file: impactor, velocity, mesh, fixed parameters "
-                                   "(default: the built-in drop-test scene)")
+    c.add_argument("--scene", help="drop-test scene TOML file: impactor, velocity, mesh, fixed parameters; or a "
+                                   "built-in drop-test scene's name (default: drop-test)")
     c.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="starting value of a fitted parameter, SI units (default: the scene's); repeatable")
     c.add_argument("--rel-step", type=float, default=None,
@@ -84,7 +85,7 @@ def add_parser(sub) -> None:
 
 
 def _scene(path):
-    return load_scene(path) if path else builtin_scene("drop-test")
+    return scene_named(path) if path else builtin_scene("drop-test")
 
 
 def _progress(args):
