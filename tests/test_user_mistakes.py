@@ -299,3 +299,9 @@ def test_built_in_scene_names_work_wherever_a_drop_test_scene_is_taken(tmp_path)
                           str(tmp_path / "one.toml"), "--out", str(tmp_path / "f"))
     assert code == 2 and "a 'single-element' scene; fitted-scene.toml is a drop-test scene" in err
     _one_paragraph(err)
+
+
+def test_an_empty_backend_name_is_refused_not_taken_for_the_default(tmp_path):
+    code, _, err, _ = cfm("drop-test", "--element-size", "0.002", "--backend", "", "--out", str(tmp_path / "o"))
+    assert code == 2 and "--backend '' is empty; give a backend name" in err and not (tmp_path / "o").exists()
+    _one_paragraph(err)

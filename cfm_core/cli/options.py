@@ -194,6 +194,9 @@ def plan_from_args(args, scene, default: str | None = None) -> RunPlan:
     """
     from ..runs import pipeline
 
+    if args.backend is not None and not args.backend.strip():
+        raise InputError(f"--backend {args.backend!r} is empty; give a backend name ('cfm backends' lists them) or "
+                         f"leave --backend out for the scene's [run] backend, else numba.")
     default = default or pipeline.default_backend(scene)
     run = scene.run
     name = args.backend or (run.backend if run is not None else None) or default

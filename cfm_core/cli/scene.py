@@ -166,7 +166,8 @@ def _drop_test(args, scene) -> int:
     """Run a drop-test scene and write acceleration.csv, scene.toml, the plot and summary.json (last)."""
     outcome, out, names = _run_and_write(args, scene)
     s = outcome.summary
-    hourglass = "n/a" if s.get("hourglass_ratio") is None else f"{100 * s['hourglass_ratio']:.2f} %"
+    hourglass = "n/a" if s.get("hourglass_ratio") is None else f"{100 * s['hourglass_ratio'] + 0.0:.2f} %"
+    hourglass = hourglass.replace("-0.00 %", "0.00 %")   # a round-off below zero (hourglass = 0) shown as 0
     energy = (f"energy error {100 * s['energy_error']:.2f} %" if "energy_error" in s
               else f"energy balance: not available ({s.get('energy_error_note', 'no energies recorded')})")
     print(f"peak {s['peak_g']:.1f} g at {1e3 * s['t_peak']:.2f} ms, contact {1e3 * s['duration']:.2f} ms, "

@@ -59,7 +59,8 @@ def parse_data_spec(spec: str, default_thickness: float | None) -> tuple[str, fl
         try:
             thickness = float(tail)
         except ValueError:
-            path = spec  # a ':' that is part of the path
+            path = spec  # a ':' that is part of the path, or a malformed thickness after the file
+            _refuse_malformed_suffix(spec)
     else:
         path = spec
     if thickness is None:
@@ -72,6 +73,21 @@ def parse_data_spec(spec: str, default_thickness: float | None) -> tuple[str, fl
         raise InputError(f"--data {spec}: thickness {thickness!r} m is not allowed; it must be a number "
                          f"with 1e-4 <= thickness <= 0.1 m, the specimen's thickness{hint}.")
     return path, thickness
+
+
+def _refuse_malformed_suffix(spec: str) -> None:
+    """InputError when ``spec`` is no file but begins with one followed by ':' and something that is
+    not one thickness (``d8.csv:abc``, ``d8.csv:``, ``d8.csv:0.008:x``): the file exists, the
+    thickness is what is wrong, and "the file does not exist" would send the user the wrong way."""
+    if Path(spec).exists():
+        return
+    head = spec
+    while ":" in head:
+        head = head.rpartition(":")[0]
+        if head and Path(head).is_file():
+            raise InputError(f"--data {spec}: after the file {head} comes {spec[len(head):]!r}, which is not "
+                             f"':THICKNESS' (one number in m, e.g. {head}:0.005 for 5 mm); or leave it out for the "
+                             f"--scene file's thickness.")
 
 
 def read_measured(path) -> tuple[np.ndarray, np.ndarray]:

@@ -407,3 +407,18 @@ def test_starts_stopped_by_the_evaluation_limit_are_warned():
                for w in other.warnings)
     assert other.confidence["parameters"]["k1"]["ci"] is not None  # the reported start converged
     assert not any("stopped at the limit" in w for w in fit.fit_lab("cfm", [test], ["k1"], starts=1).warnings)
+
+
+@pytest.mark.parametrize("suffix", [":abc", ":", ":0.008:x"])
+def test_a_malformed_thickness_after_an_existing_file_is_named_not_the_file(tmp_path, suffix):
+    """`--data d8.csv:abc` said "cannot be read: it does not exist" of a file that exists."""
+    from cfm_core.studies.measured import parse_data_spec
+
+    f = tmp_path / "d8.csv"
+    f.write_text("t,a\n0,0\n")
+    with pytest.raises(InputError, match=f"after the file {f} comes '{suffix}', which is not ':THICKNESS'"):
+        parse_data_spec(f"{f}{suffix}", None)
+    colon = tmp_path / "run:1.csv"          # a ':' that is part of an existing file's name stays a file
+    colon.write_text("t,a\n0,0\n")
+    assert parse_data_spec(str(colon), 0.008) == (str(colon), 0.008)
+    assert parse_data_spec(f"{f}:0.005", None) == (str(f), 0.005)
