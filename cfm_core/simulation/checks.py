@@ -397,9 +397,15 @@ class Monitor:
             cause = ("The specimen is crushed through: the impactor is too heavy or too fast for this specimen "
                      "(check the units: mass in kg, velocity in m/s) or the material too soft.")
             if x is not None and _uncrushed(m, x, self.scan.position):
-                cause = ("The specimen is not crushed (its top surface is still above half its thickness): the "
-                         "impactor came down beside it. An oblique impact at this angle slides off the specimen; "
-                         "give a smaller angle, a wider specimen or an earlier end time.")
+                if any(float(v) != 0.0 for v in m.sphere.velocity_xy):
+                    cause = ("The specimen is not crushed (its top surface is still above half its thickness): the "
+                             "impactor came down beside it. An oblique impact at this angle slides off the specimen; "
+                             "give a smaller angle, a wider specimen or an earlier end time.")
+                else:
+                    cause = (f"The specimen is not crushed (its top surface is still above half its thickness), and "
+                             f"the impact is straight down: the impactor passed between the specimen's nodes, where "
+                             f"contact is checked (top-surface nodes up to {_mm(_top_spacing(m))} apart against "
+                             f"an impactor radius of {_mm(m.sphere.radius)}); refine the mesh.")
             raise NumericalError(
                 f"the impactor reached the rigid plate at t = {t:.6g} s: its lowest point is {_mm(gap)} above "
                 f"the plate z = {m.plane.z:g} m (bottoming out) in model '{m.name}'. {cause}", time=t,
@@ -697,6 +703,20 @@ def _ringing(force: np.ndarray) -> float:
     rest = force[w // 2: n - w // 2] - trend
     return float(np.sqrt(np.mean(rest ** 2)) / peak)
 
+
+
+def _top_spacing(model) -> float:
+    """The longest element edge (m) in the specimen's top surface (reference configuration)."""
+    ref = np.asarray(model.nodes)
+    hexes = np.asarray(model.hexes)
+    top = ref[:, 2].max()
+    on_top = np.abs(ref[:, 2] - top) <= 1e-9 * max(top - ref[:, 2].min(), 1e-12)
+    longest = 0.0
+    for a, b in ((4, 5), (5, 6), (6, 7), (7, 4), (0, 1), (1, 2), (2, 3), (3, 0)):
+        both = on_top[hexes[:, a]] & on_top[hexes[:, b]]
+        if both.any():
+            longest = max(longest, float(np.linalg.norm(ref[hexes[both, a]] - ref[hexes[both, b]], axis=1).max()))
+    return longest
 
 
 def _uncrushed(model, x, position) -> bool:

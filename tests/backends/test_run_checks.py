@@ -199,3 +199,22 @@ def test_a_homogeneous_scene_pulled_into_the_nonconvex_volumetric_range_warns(sc
     assert "element 0 reached J = 1.3" in w and "volumetric energy of material 'cfm' is not convex" in w
     J_end = res.info["checks"]["volume_ratio"]["max"]
     assert J_end == pytest.approx(J_truth, rel=2e-3), (J_end, J_truth)
+
+
+def test_a_straight_impact_through_a_coarse_mesh_is_told_to_refine_not_to_lower_an_angle(tmp_path, capsys):
+    """A 0.4 mm specimen of 10 mm elements: the hemisphere passed between the top nodes to the plate, and the
+    stop said "an oblique impact at this angle slides off the specimen; give a smaller angle" with no angle
+    given. A straight impact names the node spacing against the radius."""
+    import meshio
+
+    from cfm_core.scene.mesh import structured_hex_mesh
+
+    nodes, hexes = structured_hex_mesh(0.05, 0.05, 0.0004, 5, 5, 1)
+    nodes[:, :2] -= 0.025
+    meshio.write(tmp_path / "thin.vtu", meshio.Mesh(nodes, [("hexahedron", hexes)]))
+    assert main(["drop-test", "--mesh", str(tmp_path / "thin.vtu"), "--no-plot", "--quiet",
+                 "--out", str(tmp_path / "o")]) == 3
+    err = capsys.readouterr().err
+    assert "the impactor passed between the specimen's nodes" in err
+    assert "top-surface nodes up to 10 mm apart against an impactor radius of 55 mm); refine the mesh" in err
+    assert "angle" not in err
