@@ -251,7 +251,7 @@ def _error(code: int, prep: Prepared, model):
     sc = prep.sc
     t, e = float(sc[K.S_T]), prep.ren.user_element(int(sc[K.S_ERRE]))
     if code == K.R_INVERTED:
-        return errors.inverted(model, e, t, sc[K.S_ERRV])
+        return errors.inverted(model, e, t, sc[K.S_ERRV], sc[K.S_DT0])
     if code == K.R_NONFINITE:
         m = (sc[K.S_ERRM0], sc[K.S_ERRM1], sc[K.S_ERRM2])
         material = model.part_list()[int(model.element_part()[e])].material

@@ -64,7 +64,7 @@ def run_error(b: int, model, c: int, e, ren, dtype, collapse: float, general: bo
         el = ren.user_element(el)
     where = f"batch run {b} ('{model.name}')"
     if c == INVERTED:
-        err = errors.inverted(model, el, t, val)
+        err = errors.inverted(model, el, t, val, e[6])
     elif c == NONFINITE:
         material = model.part_list()[int(model.element_part()[el])].material
         err = errors.nonfinite(material, f"element {el} at t = {t:.6g} s", m, val, t, el,

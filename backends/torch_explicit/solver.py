@@ -206,7 +206,7 @@ class _Run:
             # 1. elements at x^n (Prony factors of the previous step)
             kin, resp, (dmin, emin, nfailed, work, _) = self._element_pass(dtp)
             if nfailed > 0:
-                raise self._element_error(resp, kin, t)
+                raise self._element_error(resp, kin, t, DT0)
             IE += work
             # 2. stable step
             dtc = o.safety * dmin
@@ -362,7 +362,7 @@ class _Run:
         return self.ren.frame_state_to_user(frame_state(v, self.state, dt, self.a.ne))
 
     # ---- errors ----
-    def _element_error(self, resp, kin, t: float):
+    def _element_error(self, resp, kin, t: float, dt0: float):
         import torch
 
         from .element import inverted
@@ -372,7 +372,7 @@ class _Run:
         m = [float(x) for x in kin.m[:, e].tolist()]
         eu = self.ren.user_element(e)
         if bool(inverted(kin.J[e])):
-            return errors.inverted(self.user, eu, t, J)
+            return errors.inverted(self.user, eu, t, J, dt0)
         material = self.user.part_list()[int(self.user.element_part()[eu])].material
         return errors.nonfinite(material, f"element {eu} at t = {t:.6g} s", m, J, t, eu,
                                 float32=self.dtype == torch.float32)

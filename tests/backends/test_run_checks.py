@@ -218,3 +218,20 @@ def test_a_straight_impact_through_a_coarse_mesh_is_told_to_refine_not_to_lower_
     assert "the impactor passed between the specimen's nodes" in err
     assert "top-surface nodes up to 10 mm apart against an impactor radius of 55 mm); refine the mesh" in err
     assert "angle" not in err
+
+
+def test_a_failure_in_a_run_whose_steps_move_the_impactor_far_advises_a_smaller_step(tmp_path, capsys):
+    """30 m/s on 2 mm elements: the first stable step (3.8e-5 s, from the wave speed) moves the impactor 1.1 mm,
+    an element inverted at 41 us, and the message said only to refine the mesh."""
+    from cfm_backends.explicit.errors import fast_impact
+
+    args = ["drop-test", "--thickness", "0.004", "--element-size", "0.002", "--width", "0.02", "--no-plot",
+            "--quiet"]
+    assert main([*args, "--velocity", "30", "--out", str(tmp_path / "o")]) == 3
+    err = capsys.readouterr().err
+    assert "At 30 m/s the impactor moves 1.1" in err and "% of the smallest element (2 mm" in err
+    assert "--option dt_max=1.3e-06" in err
+    model = build_model(builtin_scene("drop-test").with_overrides(element_size=0.002, thickness=0.004, width=0.02))
+    assert fast_impact(model, 1e-5) == ""             # 1 m/s: 10 um per step, 0.5 % of an element
+    assert "a fiftieth of an element per step" in fast_impact(model, 2e-4)
+    assert fast_impact(model, 0.0) == ""               # the first step not known
