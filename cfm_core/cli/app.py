@@ -68,6 +68,27 @@ def _after_signal(exc: BaseException) -> str:
     return "no result written."
 
 
+#: Options naming a file or folder a command writes (argparse dest, flag): an empty one is refused.
+OUTPUT_OPTIONS = (("out", "--out"), ("plot", "--plot"), ("json", "--json"), ("png", "--png"))
+
+
+def refuse_empty_outputs(args) -> None:
+    """Refuse an output option given as empty text (``--out ''``, an unset shell variable): it names no
+    path, and was taken as the current folder (replacing an earlier cfm output there) or skipped.
+
+    Raises
+    ------
+    InputError
+        Naming the option.
+    """
+    for dest, flag in OUTPUT_OPTIONS:
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and not value:
+            kind = "folder" if dest == "out" and args.command != "point" else "file"
+            raise InputError(f"{flag} is empty; give a {kind} (an empty {flag}, e.g. from an unset shell "
+                             f"variable, names no path).")
+
+
 def main(argv=None) -> int:
     """Run the ``cfm`` command line; returns the exit status (0 ok, 1 a check failed, 2 input
     error, 3 numerical failure, 130 interrupted, 141 its output's reader stopped, 143 terminated)."""
@@ -78,6 +99,7 @@ def main(argv=None) -> int:
         refuse_unknown(parser, args.command, extra)
     handlers = {name: fn for module in modules for name, fn in module.COMMANDS.items()}
     try:
+        refuse_empty_outputs(args)
         return handlers[args.command](args)
     except InputError as exc:
         print(f"cfm {args.command}: error: {exc}", file=sys.stderr)

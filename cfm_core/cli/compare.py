@@ -8,7 +8,7 @@ from ..post.compare import SIGNALS, Run, compare_runs, read_run
 from ..post.histories import G0
 from ..post.compare_plot import plot_comparison
 from ..post.plots import subtitled
-from ..post.staging import check_file_target
+from ..post.staging import adopt, check_file_target
 from ..post.writers import write_json
 from ..runs.provenance import describe_differences
 
@@ -52,6 +52,8 @@ def cmd_compare(args) -> int:
     if args.plot:
         _plot(args.plot, [ref] + runs, scale, shown, differences)
         written.append(str(args.plot))
+    for path in written:  # into a compared run's folder: it goes with that run when a later output replaces it
+        adopt(path, [args.reference, *args.runs])
     if written:
         print(f"wrote {', '.join(written)}")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..errors import InputError
 from ..post.cutview import SCALARS, render_cut
 from ..post.fields import FIELDS, parse_fields
-from ..post.staging import check_file_target
+from ..post.staging import adopt, check_file_target
 
 
 def add_vtu_options(p) -> None:
@@ -61,6 +61,7 @@ def add_parser(sub) -> None:
 def cmd_fields(args) -> int:
     check_file_target(args.png, "--png", suffix=".png")
     info = render_cut(args.run_dir, args.at, args.field, args.png, y_cut=args.y)
+    adopt(args.png, [args.run_dir])  # into the run's folder: it goes with the run when a later output replaces it
     print(f"{args.field} at t = {1e3 * info['t']:.3f} ms ({info['file']}): {info['min']:.4g} .. {info['max']:.4g} "
           f"{info['unit']}; wrote {args.png}")
     return 0

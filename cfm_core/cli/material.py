@@ -4,18 +4,16 @@ from __future__ import annotations
 
 import sys
 import warnings
-from pathlib import Path
 
 from .. import plugins
 from ..errors import InputError
 from ..material.plausible import check_material
 from ..material.registry import make_material
 from ..post.plots import plot_uniaxial
-from ..post.staging import check_file_target
 from ..post.writers import write_csv
 from ..simulation import point
 from ..simulation.registry import backend_for
-from ..studies.outcomes import uniaxial_title
+from ..studies.outcomes import point_targets, stale_plot, uniaxial_title
 from ..tables import check_count, unit_header
 from .options import add_material_options, parse_params
 
@@ -103,8 +101,10 @@ def _cmd_point(args) -> int:
     material = make_material(args.material, parse_params(args.param), args.moduli, args.elastic)
     for text in check_material(material):  # unit slips (k1 = 1.32 for 1.32 kPa), Poisson ratio far from 0.5
         print(f"warning: {text}", file=sys.stderr)
-    check_file_target(args.out, "--out", suffix=".csv",  # before the work: a directory, a file as parent, unwritable,
-                      inputs=[args.history] if args.history else [])  # the input itself
+    plot = bool(args.uniaxial and not args.no_plot)
+    # Every file, before the work and before any is written: a directory, a file as parent, unwritable, a file
+    # that cannot be replaced, the input itself, a PNG of that name cfm did not write.
+    _, png = point_targets(args.out, plot, "--out", suffix=".csv", inputs=[args.history] if args.history else [])
     if args.uniaxial:
         if args.rate is None or args.stretch is None:
             raise InputError("--uniaxial needs --rate (engineering strain rate, 1/s) and --stretch (final stretch, -).")
@@ -119,14 +119,11 @@ def _cmd_point(args) -> int:
         if args.backend not in (None, "numpy"):
             P, residual = point.uniaxial_on_backend(material, backend_for(args.backend), t, lam, lat)
             source = f"backend {args.backend} along the reference's path (lateral stress {residual:.1e} of the axial)"
-        png = Path(args.out).with_suffix(".png")
-        if not args.no_plot:
-            check_file_target(png, "--out (its plot)")
         write_csv(args.out, unit_header(point.UNIAXIAL_UNITS), [t, lam, P, lat])
         written = [str(args.out)]
-        if args.no_plot and png.is_file():
-            print(f"warning: {png} is from an earlier run: --no-plot wrote no plot of this one (remove it, or run "
-                  f"without --no-plot).", file=sys.stderr)
+        stale = stale_plot(png, "--no-plot wrote no plot of this one (remove it, or run without --no-plot)")
+        if args.no_plot and stale:
+            print(f"warning: {stale}", file=sys.stderr)
         if not args.no_plot:
             plot_uniaxial(png, lam, P, uniaxial_title(material, args.rate, source))
             written.append(str(png))
@@ -136,8 +133,16 @@ def _cmd_point(args) -> int:
         raise InputError("give --history F.csv (header t,F11,...,F33) or --uniaxial --rate R --stretch L.")
     t, F = point.read_history(args.history)
     backend = backend_for(args.backend) if args.backend else None
-    sigma = point.run_history(material, t, F, backend)
+    with warnings.catch_warnings(record=True) as caught:  # printed as the run checks' warnings are
+        warnings.simplefilter("always", RuntimeWarning)
+        sigma = point.run_history(material, t, F, backend)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     write_csv(args.out, unit_header(point.STRESS_UNITS), [t] + [sigma[:, k] for k in range(6)])
+    stale = stale_plot(png, "a --history run writes no plot, and its stress-stretch curve no longer matches "
+                            f"{args.out} (remove it)")
+    if stale:
+        print(f"warning: {stale}", file=sys.stderr)
     print(f"wrote {args.out}: {t.size} rows of Cauchy stress (Pa)")
     return 0
 

@@ -8,10 +8,13 @@ manifests existed) are removed and the new files moved in, with a manifest
 (:data:`MANIFEST`) naming them. Files cfm did not write are never touched. A failure removes the
 stage and leaves ``--out`` as it was, so no folder ever holds the files of two runs. A file the
 command names as its input (``inputs``) is never removed or replaced: an output that would do
-so is refused (:func:`refuse_inputs`).
+so is refused (:func:`refuse_inputs`). An earlier output that cannot be replaced whole (one of its
+files made immutable, in a folder that refuses changes) is refused before anything is removed
+(:func:`check_changeable`). A file made later from an output and written into its folder (``cfm
+fields RUN --png RUN/cut.png``) is recorded in its manifest (:func:`adopt`) and goes with it.
 
 Public API: :func:`staged_folder` (a context manager), :func:`check_folder_target`,
-:func:`check_file_target`, :func:`refuse_inputs`.
+:func:`check_file_target`, :func:`check_changeable`, :func:`refuse_inputs`, :func:`adopt`.
 """
 
 from __future__ import annotations
@@ -53,16 +56,89 @@ def _existing_ancestor(path: Path) -> Path:
     return path
 
 
+def _probe_name(folder: Path) -> Path:
+    return folder / f".cfm-probe-{os.getpid()}-{secrets.token_hex(4)}"
+
+
+def _touch(folder: Path) -> None:
+    """Create and remove a file in ``folder`` (raises OSError): the only reliable writability test
+    (root ignores modes; ``chattr +i`` and read-only mounts do not show in ``os.access``)."""
+    probe = _probe_name(folder)
+    probe.write_bytes(b"")
+    probe.unlink()
+
+
 def _probe(folder: Path, what: str, target: Path) -> None:
-    """Create and remove a file in ``folder``: the only reliable writability test (root ignores
-    modes; ``chattr +i`` and read-only mounts do not show in ``os.access``)."""
-    probe = folder / f".cfm-probe-{os.getpid()}-{secrets.token_hex(4)}"
+    """:func:`_touch` ``folder``, refused with a message naming ``target``."""
     try:
-        probe.write_bytes(b"")
-        probe.unlink()
+        _touch(folder)
     except OSError as exc:
         raise InputError(f"{what} {target} cannot be written: {folder} refuses new files "
                          f"({exc.strerror or exc}); choose a folder you can write to.") from None
+
+
+def _move_aside_and_back(path: Path) -> None:
+    """Rename ``path`` to a hidden name in its folder and back (raises OSError if it cannot be
+    renamed): what removing or replacing it needs (its folder writable, the entry neither
+    immutable nor append-only, not another user's in a sticky folder), tested by doing it.
+    Call it with signals deferred (:func:`deferred_signals`)."""
+    aside = _probe_name(path.parent)
+    os.rename(path, aside)
+    os.rename(aside, path)
+
+
+def _blocker(path: Path) -> tuple[Path, OSError] | None:
+    """The first entry that keeps ``path`` (a file, a link, or a folder with all it holds) from
+    being removed or rewritten, with the error; None when every entry can be. Each entry is moved
+    aside and back (:func:`_move_aside_and_back`), each folder is probed with a new file."""
+    todo = [path]
+    while todo:
+        entry = todo.pop()
+        try:
+            _move_aside_and_back(entry)
+            if entry.is_dir() and not entry.is_symlink():
+                _touch(entry)
+                todo.extend(sorted(entry.iterdir(), reverse=True))
+        except OSError as exc:
+            return entry, exc
+    return None
+
+
+def check_changeable(out, entries, what: str = "--out") -> None:
+    """Refuse an output in ``out`` when one of ``entries`` (the earlier output's files and folders
+    it removes or rewrites: a sweep's run cache it writes into) cannot be changed, before any of
+    them is: a file made immutable (``chattr +i``), a folder that refuses changes, another user's
+    file in a sticky folder. Without this check, publication stopped at that entry with part of
+    the earlier output already gone.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The output folder.
+    entries : iterable of pathlib.Path
+        Entries in ``out`` (missing ones are skipped); a folder is checked with all it holds.
+    what : str
+        How messages name ``out``.
+
+    Raises
+    ------
+    InputError
+        Naming the first entry that cannot be changed, why, and what to do; nothing was changed.
+    """
+    with deferred_signals() as caught:
+        found = None
+        for entry in entries:
+            if entry.exists() or entry.is_symlink():
+                found = _blocker(Path(entry))
+                if found is not None:
+                    break
+    redeliver(caught, None)
+    if found is not None:
+        entry, exc = found
+        raise InputError(f"{what} {out}: {entry} cannot be removed or rewritten ({exc.strerror or exc}), but writing "
+                         f"the output there changes it (it belongs to the earlier cfm output in {out}); nothing was "
+                         f"changed. Make it changeable (made immutable: chattr -i; another user's, or in a read-only "
+                         f"folder: ask its owner), or choose another {what} folder.")
 
 
 def _check_space(folder: Path, need_bytes: int, what: str, target: Path) -> None:
@@ -75,7 +151,13 @@ def _check_space(folder: Path, need_bytes: int, what: str, target: Path) -> None
                          f"(or store fewer frames: option frame_interval).")
 
 
-def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=()) -> Path:
+def _refuse_empty(path, what: str, kind: str) -> None:
+    """An empty string names no path (``Path("")`` is the current folder): refused."""
+    if isinstance(path, (str, bytes)) and not path:
+        raise InputError(f"{what} is empty; give a {kind}.")
+
+
+def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=(), keep: tuple[str, ...] = ()) -> Path:
     """Check that ``out`` can become an output folder, before any work is done.
 
     Parameters
@@ -90,6 +172,8 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=()
     inputs : iterable of path-like
         The files the command reads (None and empty entries are skipped): none of them may be a
         file that publishing an output in ``out`` removes (:func:`refuse_inputs`).
+    keep : tuple of str
+        Entries of the earlier output that the new one keeps (not checked for removal).
 
     Returns
     -------
@@ -99,10 +183,12 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=()
     Raises
     ------
     InputError
-        ``out`` or one of its parents is a file, it or the folder it would be made in cannot be
-        written, the disk is too full, or one of ``inputs`` is a file of the earlier cfm output
-        in ``out``.
+        ``out`` is empty text, or it or one of its parents is a file, it or the folder it would be
+        made in cannot be written, the disk is too full, one of ``inputs`` is a file of the
+        earlier cfm output in ``out``, or a file of that output cannot be removed
+        (:func:`check_changeable`).
     """
+    _refuse_empty(out, what, "folder")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{what} {out} exists and is not a directory; name a folder (new or of an earlier run).")
@@ -114,6 +200,8 @@ def check_folder_target(out, what: str = "--out", need_bytes: int = 0, inputs=()
         _probe(out, what, out)
     _check_space(base, need_bytes, what, out)
     refuse_inputs(out, inputs, what)
+    if out.is_dir():
+        check_changeable(out, [p for p in earlier_files(out) if p.name not in keep], what)
     return out
 
 
@@ -206,11 +294,13 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     Raises
     ------
     InputError
-        ``path`` is an existing directory, has another suffix than ``suffix``, is one of the files
-        of a cfm output folder (listed in its manifest: a run's acceleration.csv, specimen.pvd,
-        ...), is one of ``inputs``, a parent is a file, the folder cannot be written or the disk is
-        too full.
+        ``path`` is empty text or an existing directory, has another suffix than ``suffix``, is one
+        of the files of a cfm output folder (listed in its manifest: a run's acceleration.csv,
+        specimen.pvd, ...), is one of ``inputs``, a parent is a file, the folder cannot be written,
+        ``path`` exists and cannot be replaced (immutable, another user's in a sticky folder) or
+        the disk is too full.
     """
+    _refuse_empty(path, what, "file")
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{what} {path} is an existing directory, but a file is written there; name a file "
@@ -226,7 +316,7 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
                              f"input. Name another file.")
     owner = path.parent
     if (path.exists() and (owner / MANIFEST).is_file()
-            and path.absolute() in {p.absolute() for p in earlier_files(owner)}):
+            and path.name in {*_manifest_names(owner), MANIFEST}):
         raise InputError(f"{what} {path} is a file of the cfm output in {owner} (listed in its {MANIFEST}); "
                          f"writing there would replace it and leave that output incomplete. Choose another name "
                          f"or folder.")
@@ -234,6 +324,18 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     if not base.is_dir():
         raise InputError(f"{what} {path}: {base} is a file, so no folder can be made there; choose another path.")
     _probe(base, what, path)
+    if path.exists() or path.is_symlink():
+        with deferred_signals() as caught:
+            try:
+                _move_aside_and_back(path)
+                error = None
+            except OSError as exc:
+                error = exc
+        redeliver(caught, None)
+        if error is not None:
+            raise InputError(f"{what} {path} exists and cannot be replaced ({error.strerror or error}); make it "
+                             f"changeable (made immutable: chattr -i; another user's: ask its owner) or name another "
+                             f"file.")
     _check_space(base, need_bytes, what, path)
     return path
 
@@ -249,13 +351,15 @@ def earlier_files(out: Path) -> list[Path]:
     Returns
     -------
     list of pathlib.Path
-        Existing files (the manifest itself included), sorted; folders listed in a manifest are
-        included as folders.
+        Existing files (the manifest itself included, and the files made later from the output
+        that it records: :func:`adopt`), sorted; folders listed in a manifest are included as
+        folders.
     """
     found: set[Path] = set()
     manifest = out / MANIFEST
     if manifest.is_file():
-        found.update(out / n for n in _manifest_names(out) if "/" not in n and n not in ("", ".", ".."))
+        found.update(out / n for n in (*_manifest_names(out), *_manifest_names(out, DERIVED))
+                     if "/" not in n and n not in ("", ".", ".."))
         found.add(manifest)
     elif legacy_output(out):
         found.update(out / n for n in LEGACY_NAMES)
@@ -340,13 +444,15 @@ class PublishError(OSError):
         self.touched = touched
 
 
-def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=()) -> list[str]:
+def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=(), what: str = "--out") -> list[str]:
     """Move a finished stage's files into ``out``, replacing an earlier cfm output there.
 
-    The order keeps every intermediate state honest: the earlier output's completion markers
-    (:data:`MARKERS`) go first, so a folder interrupted mid-way never looks complete, and a marker
-    that cannot be removed (a file of another user, ``chattr +i``) stops the publication before
-    anything else changed; the manifest then lists the earlier and the new files until the end,
+    Every entry it removes or replaces (the earlier output's files, the manifest, a file of a name
+    the stage holds) is first checked to be removable (:func:`check_changeable`): one that is not
+    (a file of another user, ``chattr +i``) stops the publication before anything changed. The
+    order keeps every intermediate state honest: the earlier output's completion markers
+    (:data:`MARKERS`) go first, so a folder interrupted mid-way never looks complete; the
+    manifest then lists the earlier and the new files until the end,
     so that a later run still finds and removes them; the new markers come last. Call it with
     SIGINT and SIGTERM deferred (:func:`deferred_signals`, as :func:`staged_folder` does).
 
@@ -362,6 +468,8 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=()) -> li
     inputs : iterable of path-like
         Files the command read: if one of them would be removed or replaced, nothing is
         published (:func:`refuse_inputs`).
+    what : str
+        How messages name ``out``.
 
     Returns
     -------
@@ -373,10 +481,11 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=()) -> li
     PublishError
         A file could not be removed or moved; ``touched`` False: ``out`` is as it was.
     InputError
-        One of ``inputs`` would be removed or replaced; ``out`` is as it was.
+        One of ``inputs`` would be removed or replaced, or an entry to remove or replace cannot
+        be (:func:`check_changeable`); ``out`` is as it was.
     """
     names = sorted(p.name for p in stage.iterdir())
-    refuse_inputs(out, inputs, names=names, keep=keep)
+    refuse_inputs(out, inputs, what, names=names, keep=keep)
     if not out.exists():
         try:
             _write_manifest(stage, names)
@@ -385,9 +494,16 @@ def publish(stage: Path, out: Path, keep: tuple[str, ...] = (), inputs=()) -> li
             raise PublishError(exc, touched=False) from None
         return names
     earlier = earlier_files(out)
-    replaced_note(out, earlier, output_kind(names))
     going = [old for old in earlier if (old.name not in keep or old.name in names) and old.name != MANIFEST]
     gone = {p.name for p in going}  # removed below: not "kept"
+    foreign = [out / n for n in names if n not in gone and n != MANIFEST
+               and ((out / n).exists() or (out / n).is_symlink())]  # a file cfm did not write, of a name it writes
+    check_changeable(out, [*going, out / MANIFEST, *foreign], what)  # before anything changes
+    replaced_note(out, earlier, output_kind(names))
+    if foreign:
+        print(f"note: {out} held {', '.join(p.name for p in foreign)}, not of an earlier cfm output there, of the "
+              f"name{'' if len(foreign) == 1 else 's'} this command writes: replaced by its file"
+              f"{'' if len(foreign) == 1 else 's'}.", file=sys.stderr)
     read = [Path(p) for p in inputs if p]  # the command's own inputs are not "made from the earlier output"
     others = sorted(p.name for p in out.iterdir() if p.suffix.lower() in RESULT_SUFFIXES and p.name not in names
                     and p.name not in keep and p.name not in gone and not p.name.startswith(".")
@@ -462,13 +578,63 @@ def published_files(out) -> list[str]:
     return _manifest_names(Path(out))
 
 
-def _manifest_names(out: Path) -> list[str]:
-    """The file names ``out``'s manifest lists ([] when it is missing or unreadable)."""
+def _manifest_names(out: Path, key: str = "files") -> list[str]:
+    """The file names ``out``'s manifest lists under ``key`` ([] when it is missing or unreadable)."""
     try:
-        names = json.loads((out / MANIFEST).read_text(encoding="utf-8")).get("files", [])
+        names = json.loads((out / MANIFEST).read_text(encoding="utf-8")).get(key, [])
     except (OSError, ValueError, AttributeError):
         return []
     return [n for n in names if isinstance(n, str)] if isinstance(names, list) else []
+
+
+#: Key of a manifest listing the files made later from the output and written into its folder (:func:`adopt`).
+DERIVED = "derived"
+
+
+def adopt(path, sources=()) -> bool:
+    """Record a file just written into a cfm output's folder, and made from that output, in its
+    manifest (under :data:`DERIVED`), so that the output replacing that folder's later removes it
+    with the rest: ``cfm fields RUN --png RUN/cut.png`` left a picture of the earlier run beside
+    the files of the next one written into RUN.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file written.
+    sources : iterable of path-like
+        The output folders the file was made from: only when its folder is one of them (under any
+        spelling or link) and holds a manifest is it recorded.
+
+    Returns
+    -------
+    bool
+        Whether it was recorded. A manifest that cannot be rewritten leaves the file unrecorded
+        (the next output there names it as kept, not written by it).
+    """
+    path = Path(path)
+    folder = path.parent
+    if not (folder / MANIFEST).is_file() or not path.is_file() or path.name == MANIFEST:
+        return False
+    if not any(_same_file(folder, Path(s)) for s in sources if s):
+        return False
+    try:
+        doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        if not isinstance(doc, dict):
+            return False
+        if path.name in _manifest_names(folder) or path.name in _manifest_names(folder, DERIVED):
+            return True
+        doc[DERIVED] = sorted({*_manifest_names(folder, DERIVED), path.name})
+    except (OSError, ValueError):
+        return False
+    tmp = folder / f".{MANIFEST}.{os.getpid()}.tmp"
+    try:
+        tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, folder / MANIFEST)
+    except OSError:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        return False
+    return True
 
 
 def _write_manifest(folder: Path, names: list[str]) -> None:
@@ -513,12 +679,13 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
     Raises
     ------
     InputError
-        From :func:`check_folder_target` or :func:`refuse_inputs`, or ``overwrite`` is False and
-        ``out`` holds an earlier output. Exceptions of the block propagate after the stage is
+        From :func:`check_folder_target` (an earlier output there that cannot be removed whole
+        included) or :func:`refuse_inputs`, or ``overwrite`` is False and ``out`` holds an
+        earlier output. Exceptions of the block propagate after the stage is
         removed; ``out`` is untouched.
     """
     inputs = [p for p in inputs if p]
-    out = check_folder_target(out, what, need_bytes)
+    out = check_folder_target(out, what, need_bytes, keep=keep)  # an earlier output that cannot be removed too
     refuse_inputs(out, inputs, what, keep=keep)
     if not overwrite and out.is_dir() and earlier_files(out):
         raise InputError(f"{what} {out} holds the files of an earlier run ({', '.join(p.name for p in earlier_files(out)[:4])}"
@@ -542,7 +709,7 @@ def staged_folder(out, what: str = "--out", need_bytes: int = 0, overwrite: bool
         raise
     with deferred_signals() as caught:
         try:
-            publish(stage, out, keep, inputs)
+            publish(stage, out, keep, inputs, what)
         except InputError:
             shutil.rmtree(stage, ignore_errors=True)
             _remove_empty(made)

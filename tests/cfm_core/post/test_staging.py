@@ -170,7 +170,7 @@ def test_a_signal_during_publication_is_delivered_after_it_with_the_folder_compl
     real = staging.remove_entry
 
     def interrupted(path):  # Ctrl-C the moment the earlier files start to go
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.raise_signal(signal.SIGINT)   # to this thread: os.kill may hand it to another thread of the process
         real(path)
 
     monkeypatch.setattr(staging, "remove_entry", interrupted)
