@@ -45,11 +45,15 @@ def run_case(task) -> dict:
 
 
 def _case_result(outcome, run_time: float) -> dict:
-    """What a finished run of a case returns: t (s), a_raw and a_cfc (m/s^2) and the summary with
-    ``run_time`` (s) added to it and to its units."""
+    """What a finished run of a case returns: t (s), a_raw and a_cfc (m/s^2), the summary with
+    ``run_time`` (s) added to it and to its units, and ``scene_toml``: the text of the run's
+    ``scene.toml`` (the resolved scene with its [run] section, which repeats the run)."""
+    from ..scene.scene import scene_to_toml
+
     summary = dict(outcome.summary, run_time=run_time)
     summary["units"] = dict(summary.get("units", {}), run_time="s")
-    return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary}
+    return {"t": outcome.t, "a_raw": outcome.a_raw, "a_cfc": outcome.a_cfc, "summary": summary,
+            "scene_toml": scene_to_toml(outcome.scene)}
 
 
 def run_cases(task) -> list:

@@ -16,9 +16,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..post.staging import (MARKERS, check_file_target, check_folder_target, earlier_files, remove_entry,
-                            replaced_note, staged_folder)
-from ..post.writers import write_drop_test, write_json
+from ..errors import InputError
+from ..post.staging import (MARKERS, check_changeable, check_file_target, check_folder_target, earlier_files,
+                            remove_entry, replaced_note, staged_folder)
+from ..post.writers import write_drop_test, write_json, write_text
 from ..post.plots import subtitled
 from ..runs.provenance import describe_run, json_ready, material_record, provenance, scene_files
 from .sweep_output import plot_peaks, table_frame, write_sweep_json, write_table
@@ -33,6 +34,9 @@ def clear_earlier_output(out, keep: tuple = ()) -> Path:
     A study that writes its results at the end but keeps a cache in the folder while it runs
     (a sweep's ``runs/``) must not leave an earlier invocation's table and plot looking current
     if it is interrupted. Foreign files are never touched (:func:`cfm_core.post.staging.earlier_files`).
+    Nothing is removed unless every earlier file can be, and the kept entries (the run cache the
+    study writes into, with each run folder) can be written
+    (:func:`cfm_core.post.staging.check_changeable`).
 
     Parameters
     ----------
@@ -49,15 +53,24 @@ def clear_earlier_output(out, keep: tuple = ()) -> Path:
     Raises
     ------
     InputError
-        ``out`` cannot be an output folder (:func:`cfm_core.post.staging.check_folder_target`).
+        ``out`` cannot be an output folder (:func:`cfm_core.post.staging.check_folder_target`),
+        an earlier file cannot be removed or a kept entry written (``out`` as it was), or a
+        removal failed on the way (then named with the state it left).
     """
-    out = check_folder_target(out)
+    out = check_folder_target(out, keep=keep)  # every earlier file removable, before any is removed
     if out.is_dir():
+        check_changeable(out, [out / k for k in keep])  # the run cache and its run folders take new files
         earlier = earlier_files(out)
         replaced_note(out, earlier, "sweep")
         going = [p for p in earlier if p.name not in keep]
         for path in sorted(going, key=lambda p: p.name not in MARKERS):  # a completion marker first
-            remove_entry(path)
+            try:
+                remove_entry(path)
+            except OSError as exc:  # changed since the check (another process)
+                raise InputError(f"--out {out}: {path} of the earlier cfm output there could not be removed "
+                                 f"({exc.strerror or exc}); the earlier output was partly removed (its completion "
+                                 f"marker first, so the folder no longer looks complete). Make it removable and "
+                                 f"run the command again, or choose another --out folder.") from None
     return out
 
 
@@ -103,6 +116,9 @@ class SweepOutcome:
         The content-keyed run cache (``OUT/runs``), or None (histories kept in memory).
     histories : dict
         run_id -> (t s, a_raw m/s^2, a_cfc m/s^2, summary) of runs computed without a cache.
+    scene_texts : dict
+        run_id -> the ``scene.toml`` text of that run (the resolved scene with its [run] section),
+        for the runs in ``histories``: ``cfm run --scene runs/<id>/scene.toml`` repeats it.
     files : list of pathlib.Path
         The files written by the last :meth:`save`.
     """
@@ -118,6 +134,7 @@ class SweepOutcome:
     wall: float = 0.0
     cache: Path | None = None
     histories: dict = field(default_factory=dict)
+    scene_texts: dict = field(default_factory=dict)
     files: list = field(default_factory=list)
 
     @property
@@ -183,7 +200,8 @@ class SweepOutcome:
         """Write the sweep's files, the same ``cfm sweep`` writes.
 
         ``sweep.csv`` (and ``sweep.parquet`` with pyarrow), ``peaks.png``, ``runs/<id>/`` per run
-        (``acceleration.csv`` and ``summary.json``, or ``failed.json``) and ``sweep.json`` (values,
+        (``acceleration.csv``, ``scene.toml`` (the run's own, which ``cfm run --scene`` repeats) and
+        ``summary.json``, or ``failed.json``) and ``sweep.json`` (values,
         counts, provenance), published together; the run cache is kept in place when ``out`` is
         the folder it lives in.
 
@@ -222,6 +240,8 @@ class SweepOutcome:
         for r in self.rows:
             rid = r["run_id"]
             if rid in self.histories:
+                if rid in self.scene_texts:
+                    write_text(folder / rid / "scene.toml", self.scene_texts[rid])
                 write_drop_test(folder / rid, *self.histories[rid])
             elif self.cache is not None and (self.cache / rid).is_dir():
                 shutil.copytree(self.cache / rid, folder / rid)
@@ -252,6 +272,75 @@ def uniaxial_title(material, rate: float, source: str) -> str:
     m = material
     return subtitled(f"{m.name} ({'elastic' if m.elastic else m.moduli}), uniaxial stress at {rate:g} 1/s, "
                      f"{source.split(' along')[0]}", describe_run({"material": material_record(m)}), width=75)
+
+
+def _point_csv(path: Path) -> bool:
+    """Whether ``path`` is a CSV file ``cfm point`` wrote: its first line names the columns of the
+    uniaxial response or of the stress along F(t) (``t [s],stretch [-],...``, units optional)."""
+    from ..simulation.point import STRESS_UNITS, UNIAXIAL_UNITS
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            first = f.readline(4096)
+    except (OSError, UnicodeDecodeError):
+        return False
+    names = [h.split(" [", 1)[0].strip() for h in first.strip().split(",")]
+    return names in (list(UNIAXIAL_UNITS), list(STRESS_UNITS))
+
+
+def point_targets(path, plot: bool, what: str = "--out", suffix: str | None = None, inputs=()) -> tuple[Path, Path]:
+    """Check the files of a material-point output, all before any is written (``cfm point``,
+    :meth:`UniaxialOutcome.save`): the CSV ``path`` and, with ``plot``, the PNG of the same name
+    beside it.
+
+    The CSV is named by the caller and replaced. The PNG is not named: an existing one is replaced
+    only when it is the plot of an earlier ``cfm point`` output, the CSV beside it being one cfm
+    point wrote; any other (a picture of the user's own) is refused, as files cfm did not write are
+    never replaced by a name it derived (:mod:`cfm_core.post.staging`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file.
+    plot : bool
+        Whether the PNG is written.
+    what : str
+        How messages name ``path``.
+    suffix : str, optional
+        The suffix ``path`` must have (``".csv"``; None: any).
+    inputs : iterable of path-like
+        Files the command reads: neither file may be one of them.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        (the CSV, the PNG).
+
+    Raises
+    ------
+    InputError
+        A file cannot be written or replaced (:func:`cfm_core.post.staging.check_file_target`),
+        or the PNG exists and is not the plot of an earlier cfm point output.
+    """
+    csv = check_file_target(path, what, suffix=suffix, inputs=inputs)
+    png = csv.with_suffix(".png")
+    if plot:
+        if (png.exists() or png.is_symlink()) and not png.is_dir() and not _point_csv(csv):
+            raise InputError(f"{what} {csv}: its plot is written to {png}, which exists and is not the plot of an "
+                             f"earlier cfm point output ({csv} is {'not a CSV file cfm point wrote' if csv.exists() else 'missing'}); "
+                             f"cfm does not replace a file it did not write under a name it chose. Move or remove "
+                             f"{png.name}, name another {what} file, or "
+                             f"{'add --no-plot' if what.startswith('--') else 'pass plot=False'}.")
+        check_file_target(png, f"{what} (its plot)", inputs=inputs)
+    return csv, png
+
+
+def stale_plot(png: Path, why: str) -> str | None:
+    """The warning for a plot an earlier ``cfm point`` run left beside the CSV a run that writes no
+    plot replaced (``why``: what wrote none, and what to do); None if there is no such file."""
+    if not png.is_file():
+        return None
+    return f"{png} is from an earlier run: {why}."
 
 
 @dataclass
@@ -318,17 +407,17 @@ class UniaxialOutcome:
         Raises
         ------
         InputError
-            ``path`` is a directory or cannot be written (checked first).
+            ``path`` is a directory or cannot be written, or the PNG cannot be replaced or is
+            not the plot of an earlier cfm point output (:func:`point_targets`): checked first,
+            nothing written.
         """
         from ..post.plots import plot_uniaxial
         from ..post.writers import write_csv
         from ..simulation.point import UNIAXIAL_UNITS
         from ..tables import unit_header
 
-        path = check_file_target(path)
-        if plot:
-            check_file_target(path.with_suffix(".png"), "--out (its plot)")
+        path, png = point_targets(path, plot, "path")
         write_csv(path, unit_header(UNIAXIAL_UNITS), [self.t, self.stretch, self.nominal, self.lateral])
         if plot:
-            plot_uniaxial(path.with_suffix(".png"), self.stretch, self.nominal, self.title())
+            plot_uniaxial(png, self.stretch, self.nominal, self.title())
         return path

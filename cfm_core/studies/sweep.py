@@ -38,7 +38,7 @@ from ..errors import InputError
 from ..material.cache import definition_digest
 from ..material.registry import get_material, make_material
 from ..post.metrics import drop_test_metrics
-from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json
+from ..post.writers import DROP_TEST_COLUMN_UNITS, write_drop_test, write_json, write_text
 from ..runs import pipeline as simulate  # noqa: F401  (sweep.simulate: what the runs call)
 from ..runs.provenance import resolved_options, scene_files
 from ..scene.scene import _UNITS as SCENE_UNITS
@@ -518,10 +518,15 @@ def execute(scene, axes: list[Axis], backend: str = "numba", options: dict | Non
                 summary = dict(done.value["summary"], sweep=case, run_id=rid)
                 try:
                     if cache is not None:
+                        if done.value.get("scene_toml"):   # the run's own scene.toml: repeats it
+                            (cache / rid).mkdir(parents=True, exist_ok=True)
+                            write_text(cache / rid / "scene.toml", done.value["scene_toml"])
                         write_drop_test(cache / rid, done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
                         (cache / rid / "failed.json").unlink(missing_ok=True)
                     else:
                         result.histories[rid] = (done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
+                        if done.value.get("scene_toml"):
+                            result.scene_texts[rid] = done.value["scene_toml"]
                 except (ValueError, RuntimeError) as exc:  # InputError, NumericalError: non-finite data
                     error = error_text(exc)
             if error is not None and cache is not None:

@@ -233,3 +233,24 @@ def test_cli_backend_option_reaches_the_runs_and_sweep_json(scene, tmp_path):
     assert peak == cfm.drop_test(stiff, hourglass=0.05).peak_g != cfm.drop_test(stiff).peak_g  # the option ran
     assert main(args) == 0  # the default hourglass: another run, not the cached one
     assert json.loads((out / "sweep.json").read_text())["run_ids"] != [rid]
+
+
+def test_each_run_of_a_sweep_is_repeated_from_its_own_scene_toml(scene_file, tmp_path):
+    """runs/<id>/ held acceleration.csv and summary.json only: no run of a sweep could be repeated from its
+    folder (`cfm run --scene runs/<id>/summary.json`: "not valid TOML"). Each run now has its scene.toml,
+    with the case's values and the sweep's options, and repeating it gives the same bytes."""
+    out = tmp_path / "sw"
+    assert main(["sweep", "--scene", scene_file, "--vary", "k1=1000,2000", "--option", "hourglass=0.05", "--serial",
+                 "--quiet", "--out", str(out)]) == 0
+    runs = sorted((out / "runs").iterdir())
+    assert len(runs) == 2
+    for run in runs:
+        summary = json.loads((run / "summary.json").read_text())
+        again = cfm.load_scene(run / "scene.toml")
+        assert again.material.parameter_dict["k1"] == summary["sweep"]["k1"] and again.run.option_dict["hourglass"] == 0.05
+        assert main(["run", "--scene", str(run / "scene.toml"), "--quiet", "--no-plot",
+                     "--out", str(tmp_path / run.name)]) == 0
+        assert (tmp_path / run.name / "acceleration.csv").read_bytes() == (run / "acceleration.csv").read_bytes()
+    saved = cfm.sweep(cfm.load_scene(scene_file), vary={"k1": [1000.0]}, progress=False).save(tmp_path / "api")
+    (rid,) = [p.name for p in (saved / "runs").iterdir()]
+    assert (saved / "runs" / rid / "scene.toml").is_file()   # computed without a cache, saved afterwards
