@@ -169,6 +169,11 @@ def decode(path, raw: bytes, kind: str = "CSV", what: str = "") -> str:
     elif raw.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
         enc = "UTF-16"
     elif b"\x00" in raw[:4096]:
+        head = raw[:4096]
+        zeros = max(head[0::2].count(0), head[1::2].count(0)) / max(len(head) // 2, 1)
+        if zeros < 0.4:   # UTF-16/32 text has a zero in every other byte of its ASCII; binary data does not
+            raise InputError(f"{name} is not a text file (it holds zero bytes, and not in the pattern of UTF-16 or "
+                             f"UTF-32 text): a binary file; {kind} files are UTF-8 text. {save}")
         enc = "UTF-16 or UTF-32 (it contains zero bytes)"
     else:
         enc = None

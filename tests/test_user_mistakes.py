@@ -305,3 +305,38 @@ def test_an_empty_backend_name_is_refused_not_taken_for_the_default(tmp_path):
     code, _, err, _ = cfm("drop-test", "--element-size", "0.002", "--backend", "", "--out", str(tmp_path / "o"))
     assert code == 2 and "--backend '' is empty; give a backend name" in err and not (tmp_path / "o").exists()
     _one_paragraph(err)
+
+
+def test_wrong_paths_and_files_are_named_for_what_they_are(tmp_path):
+    """A folder that does not exist was "not a directory" (compare) or "no specimen.pvd" (fields); random bytes
+    were "encoded as UTF-16 or UTF-32"; `--material neo-hookean` on a cfm run's scene.toml blamed the user for the
+    file's own c ("material 'neo-hookean' has no parameter 'c' (given ...)")."""
+    import os
+
+    from cfm_core.cli import main
+
+    code, _, err, _ = cfm("compare", str(tmp_path / "nope1"), str(tmp_path / "nope2"))
+    assert code == 2 and "nope1: no such folder" in err
+    code, _, err, _ = cfm("fields", str(tmp_path / "nope"), "--at", "0.001", "--field", "J", "--png", str(tmp_path / "f.png"))
+    assert code == 2 and "nope: no such folder" in err
+    (tmp_path / "x.csv").write_bytes(os.urandom(3000).replace(b"\x00", b"\x01") + b"\x00" * 3)
+    code, _, err, _ = cfm("point", "--history", str(tmp_path / "x.csv"), "--out", str(tmp_path / "o.csv"))
+    assert code == 2 and "is not a text file" in err and "UTF-16" in err   # named as binary, not as UTF-16
+    (tmp_path / "u.csv").write_bytes("t,F11\n0,1\n".encode("utf-16-le"))
+    code, _, err, _ = cfm("point", "--history", str(tmp_path / "u.csv"), "--out", str(tmp_path / "o.csv"))
+    assert code == 2 and "is encoded as UTF-16 or UTF-32" in err
+    first = tmp_path / "first"
+    assert main(["run", "--scene", "single-element", "--quiet", "--no-plot", "--out", str(first)]) == 0
+    code, _, err, _ = cfm("run", "--scene", str(first / "scene.toml"), "--material", "neo-hookean", "--quiet",
+                          "--no-plot", "--out", str(tmp_path / "nh"))
+    assert code == 0 and "has no parameter" not in err
+    assert "its parameters c, g1, g2, g3, k1, k2, tau1, tau2, tau3, which neo-hookean does not have, are left out" in err
+
+
+@pytest.mark.parametrize("kind, over, reached", [("single-element", {"end_time": 0.001}, "0.9"),
+                                                  ("relaxation", {"end_time": 5e-4}, "0.85")])
+def test_an_end_time_before_the_ramp_ends_is_warned_with_the_stretch_reached(kind, over, reached):
+    """single-element, end_time = 1 ms before its 5 ms ramp to 0.5: the run stopped at 0.9 with exit 0 and no word."""
+    (w,) = [w for w in check_plausible(builtin_scene(kind).with_overrides(**over)) if "ramp" in w]
+    assert f"the run stops at the stretch {reached}" in w and "never reached" in w
+    assert not [w for w in check_plausible(builtin_scene(kind)) if "ramp" in w]   # automatic end time

@@ -12,7 +12,7 @@ from ..runs.provenance import scene_paths
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
 from ..scene.layers import refuse_unused
-from ..scene.scene import builtin_scene, builtin_scenes
+from ..scene.scene import builtin_scene, builtin_scenes, scene_from_dict, scene_to_dict
 from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
 from .options import add_material_options, parse_params, plan_from_args, scene_named
@@ -89,11 +89,36 @@ def _apply_overrides(scene, args, keys=()):
     keys_given = [k for k in ("density", "material", "moduli", "elastic") if k in over]
     refuse_unused(scene, [*keys_given, *params],
                   lambda name: f"--{name}" if name in keys_given else f"--param {name}", "the value would not be applied")
+    if "material" in over and over["material"] != scene.material.name and scene.material.parameter_dict:
+        scene = _without_foreign_parameters(scene, over["material"])
     new = scene.with_overrides(**over)
     if getattr(args, "scene", None) and Path(args.scene).exists():
         for text in _override_notes(scene, new, over, Path(args.scene).name):
             print(f"note: {text}", file=sys.stderr)
     return new
+
+
+def _without_foreign_parameters(scene, material: str):
+    """The scene without the [material] parameters that ``material`` (replacing the scene's material
+    by --material) does not have: they were values of the other material (a cfm run's scene.toml
+    holds c, k1, ...), and "material 'neo-hookean' has no parameter 'c'" blamed the user for them.
+    Says on stderr which were left out; an unknown material name is left to the scene's own error."""
+    from ..material.registry import get_material
+
+    try:
+        names = {p.name for p in get_material(material).parameters}
+    except InputError:
+        return scene
+    given = scene.material.parameter_dict
+    dropped = sorted(k for k in given if k not in names)
+    if not dropped:
+        return scene
+    print(f"note: --material {material} replaces the scene's material '{scene.material.name}'; its parameters "
+          f"{', '.join(dropped)}, which {material} does not have, are left out (give {material}'s own with --param).",
+          file=sys.stderr)
+    d = scene_to_dict(scene)
+    d["material"]["parameters"] = {k: v for k, v in given.items() if k in names}
+    return scene_from_dict(d)
 
 
 def _override_notes(old, new, over: dict, where: str) -> list[str]:

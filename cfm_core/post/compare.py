@@ -78,6 +78,8 @@ def _cfm_record(prov) -> bool:
 def read_run(path) -> Run:
     """Read a run directory; InputError naming the directory and what is missing or malformed."""
     d = Path(path)
+    if not d.exists():
+        raise InputError(f"{d}: no such folder; give output directories of 'cfm drop-test' or 'cfm run'.")
     if not d.is_dir():
         raise InputError(f"{d}: not a directory; give output directories of 'cfm drop-test' or 'cfm run'.")
     if not (d / "summary.json").is_file():

@@ -176,6 +176,9 @@ def read_series(run_dir) -> list[tuple[float, Path, Path | None]]:
         a time that is not a finite number of seconds.
     """
     folder = Path(run_dir)
+    if not folder.is_dir():
+        raise InputError(f"RUN_DIR {run_dir}: {'no such folder' if not folder.exists() else 'not a folder'}; give "
+                         f"the output folder of a run written with --vtu ('cfm drop-test --vtu --out DIR').")
     if not (folder / "specimen.pvd").exists():
         raise InputError(f"RUN_DIR {run_dir}: no specimen.pvd; write one with 'cfm drop-test --vtu --out DIR' "
                          f"(or 'cfm run --scene ... --vtu').")

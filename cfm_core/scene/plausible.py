@@ -168,7 +168,7 @@ def check_plausible(scene, material=None) -> list[str]:
         m = scene.material
         material = make_material(m.name, m.parameter_dict, m.moduli, m.elastic)
     warnings = _drop_test_warnings(scene) if scene.type == "drop-test" else []
-    warnings += _cube_warnings(scene) + _density_warnings(scene)
+    warnings += _cube_warnings(scene) + _ramp_warnings(scene) + _density_warnings(scene)
     return warnings + check_material(material) + _region_material_warnings(scene, material)
 
 
@@ -277,6 +277,22 @@ def _cube_warnings(scene) -> list[str]:
         return [f"[{name}] size = {size:g} m is unusually large for the edge of a tissue cube (above "
                 f"{CUBE_USUAL:g} m); it runs as given. {unit_hint('size', size, 'm', 1e-5, CUBE_USUAL)}".rstrip()]
     return []
+
+
+def _ramp_warnings(scene) -> list[str]:
+    """A single-element or relaxation scene whose [scene] end_time comes before its ramp ends: the
+    stretch it names is never reached (end_time = 1 ms before a 5 ms ramp ran with exit 0)."""
+    sec = scene.element if scene.element is not None else scene.relaxation
+    if sec is None or scene.settings.end_time is None:
+        return []
+    name = "element" if scene.element is not None else "relaxation"
+    ramp, end = float(sec.load_time), float(scene.settings.end_time)
+    if end >= ramp * (1.0 - 1e-9):
+        return []
+    reached = 1.0 + (float(sec.stretch) - 1.0) * end / ramp
+    return [f"[scene] end_time = {end:g} s ends before the [{name}] ramp does ({ramp:g} s to the stretch "
+            f"{float(sec.stretch):g}): the run stops at the stretch {reached:.4g}, so the stretch of the scene is never "
+            f"reached. Raise end_time (or leave it out: automatic), or lower the stretch. It runs as given."]
 
 
 def layers_through_thickness(specimen) -> int:
