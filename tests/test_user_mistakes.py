@@ -340,3 +340,15 @@ def test_an_end_time_before_the_ramp_ends_is_warned_with_the_stretch_reached(kin
     (w,) = [w for w in check_plausible(builtin_scene(kind).with_overrides(**over)) if "ramp" in w]
     assert f"the run stops at the stretch {reached}" in w and "never reached" in w
     assert not [w for w in check_plausible(builtin_scene(kind)) if "ramp" in w]   # automatic end time
+
+
+def test_a_run_too_long_to_record_names_what_made_its_end_time_not_the_disk(tmp_path):
+    """A single element at a rate of 1e-6 1/s was refused as "the output needs about 2.48e+06 MiB but only ... are
+    free", and a drop test at 0.001 m/s only blamed output_rate: the automatic end time (5e5 s, 80 s) is the cause."""
+    (tmp_path / "slow.toml").write_text('[scene]\ntype = "single-element"\n[element]\nrate = 1e-6\n')
+    code, _, err, _ = cfm("run", "--scene", str(tmp_path / "slow.toml"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "(automatic: the ramp of 500000 s to the stretch 0.5 and the hold of 0 s)" in err
+    assert "MiB" not in err
+    _one_paragraph(err)
+    code, _, err, _ = cfm("drop-test", "--velocity", "0.001", "--out", str(tmp_path / "d"))
+    assert code == 2 and "automatic: 10 x the thickness 0.008 m over the impact speed 0.001 m/s" in err

@@ -11,6 +11,7 @@ from ..post.staging import staged_folder
 from ..runs.provenance import scene_paths
 from ..runs import pipeline
 from ..runs.outcomes import output_bytes
+from ..scene.builder import check_history_size
 from ..scene.layers import refuse_unused
 from ..scene.scene import builtin_scene, builtin_scenes, scene_from_dict, scene_to_dict
 from ..post.fields import parse_fields
@@ -174,6 +175,7 @@ def _run_and_write(args, scene) -> tuple:
         print(f"note: the scene's [run] frame_interval = {plan.options['frame_interval']:g} s stores specimen "
               f"frames: they are written as VTU (specimen.pvd) with the fields {','.join(fields)}"
               f"{', mirrored into the whole specimen' if full else ''}, as by --vtu", file=sys.stderr)
+    check_history_size(scene)   # before the free-space check: an end time of 5e5 s is the cause, not the disk
     need = output_bytes(scene, plan.options, plot=plot, vtu=vtu) * (4 if vtu and full else 1)
     with staged_folder(args.out, "--out", need_bytes=need, overwrite=not args.no_overwrite,
                        inputs=scene_paths(scene)) as stage, figure_process.started(plot):

@@ -123,12 +123,25 @@ def check_history_size(scene: Scene) -> int:
     if rows > MAX_HISTORY_ROWS:
         limit = (MAX_HISTORY_ROWS - 1) / end
         raise InputError(
-            f"[scene] output_rate = {rate:g} Hz over the end time {end:g} s would record up to {rows:,} history "
+            f"[scene] output_rate = {rate:g} Hz over the end time {end:g} s{_end_time_source(scene)} would record up "
+            f"to {rows:,} history "
             f"rows, a CSV of about {rows * ROW_BYTES / 1e6:,.0f} MB (at most {MAX_HISTORY_ROWS:,} rows are "
             f"allowed). An explicit solver steps every 1e-6 .. 1e-5 s (1 .. 2 mm elements), so rows above its step "
             f"rate only interpolate; an implicit one steps at least once per output interval. Use output_rate <= {limit:.4g} Hz "
             f"(the paper's 50 000 Hz for drop tests, 100 Hz for relaxation) or a shorter end_time (s).")
     return rows
+
+
+def _end_time_source(scene) -> str:
+    """What set an automatic end time, for messages: a slow impactor or a slow ramp gives a long
+    run, and naming the value that made it (0.001 m/s; a rate of 1e-6 1/s) points at the slip."""
+    if scene.settings.end_time is not None:
+        return ""
+    if scene.type == "drop-test":
+        return (f" (automatic: 10 x the thickness {scene.specimen.thickness:g} m over the impact speed "
+                f"{scene.impactor.normal_speed:g} m/s, + 5 ms; is the speed in m/s?)")
+    sec = scene.element if scene.type == "single-element" else scene.relaxation
+    return f" (automatic: the ramp of {sec.load_time:g} s to the stretch {sec.stretch:g} and the hold of {sec.hold:g} s)"
 
 
 def _specimen_size(sp) -> tuple[int, int, str]:

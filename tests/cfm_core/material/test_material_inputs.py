@@ -174,3 +174,12 @@ def test_a_huge_bulk_modulus_is_told_with_the_pressure_noise_that_round_off_of_j
     noise = 6.661e20 * np.finfo(np.float64).eps
     assert np.abs(sigma).max() <= 10 * noise         # the noise the warning names, not more
     assert check_material(make_material("cfm", {"kappa": 6.661e5})) == []
+
+
+def test_a_dimensionless_exponent_far_above_its_typical_value_is_warned():
+    """k2 = 500 (Table 1: 1.66) ran the drop test to 207 g with exit 0 and no word; no unit can slip in an
+    exponent, but the value is far outside what the material was fitted with."""
+    (note,) = check_material(make_material("cfm", {"k2": 500.0}))
+    assert "k2 = 500 (-, fibre stiffening exponent) is 301x the typical 1.66 of material 'cfm' (Table 1)" in note
+    assert check_material(make_material("cfm", {"k2": 10.0})) == []          # stiff, but within reach
+    assert check_material(make_material("cfm", {"k2": 500.0}), above=False) == []   # a layer's own material
