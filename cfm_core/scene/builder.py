@@ -139,7 +139,7 @@ def _end_time_source(scene) -> str:
         return ""
     if scene.type == "drop-test":
         return (f" (automatic: 10 x the thickness {scene.specimen.thickness:g} m over the impact speed "
-                f"{scene.impactor.normal_speed:g} m/s, + 5 ms; is the speed in m/s?)")
+                f"{scene.impactor.normal_speed:g} m/s, + 5 ms)")
     sec = scene.element if scene.type == "single-element" else scene.relaxation
     return f" (automatic: the ramp of {sec.load_time:g} s to the stretch {sec.stretch:g} and the hold of {sec.hold:g} s)"
 

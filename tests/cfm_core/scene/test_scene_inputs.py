@@ -68,7 +68,8 @@ def test_a_relaxation_scene_without_output_rate_gets_the_documented_100_hz():
 def test_a_history_longer_than_the_row_limit_is_refused_with_its_size():
     """output_rate = 1e9 Hz was accepted and wrote a 568 MB CSV; now refused before the build."""
     scene = builtin_scene("drop-test").with_overrides(output_rate=1e9)
-    with pytest.raises(InputError, match=r"\[scene\] output_rate = 1e\+09 Hz over the end time 0.085 s would record up "
+    with pytest.raises(InputError, match=r"\[scene\] output_rate = 1e\+09 Hz over the end time 0.085 s \(automatic: 10 x "
+                                         r"the thickness 0.008 m over the impact speed 1 m/s, \+ 5 ms\) would record up "
                                          r"to 85,000,001 history rows, a CSV of about 4,250 MB .*output_rate <= 1.176e\+07"):
         build_model(scene)
     relax = scene_from_dict({"scene": {"type": "relaxation", "output_rate": 50_000.0}})

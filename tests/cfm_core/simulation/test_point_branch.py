@@ -71,7 +71,9 @@ def test_cli_prints_the_warning_and_writes_units(tmp_path):
                           "3", "--steps", "40", "--param", "k2=500", "--elastic", "--no-plot", "--out", str(out)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
-    assert run.stderr.startswith("warning: uniaxial: from stretch") and "Traceback" not in run.stderr
+    lines = run.stderr.splitlines()
+    assert lines[0].startswith("warning: [material] k2 = 500 (-, fibre stiffening exponent) is 301x the typical")
+    assert lines[1].startswith("warning: uniaxial: from stretch") and "Traceback" not in run.stderr
     assert out.read_text().splitlines()[0] == "t [s],stretch [-],nominal_stress [Pa],lateral_stretch [-]"
 
 
