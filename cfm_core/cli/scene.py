@@ -13,7 +13,7 @@ from ..runs import pipeline
 from ..runs.outcomes import output_bytes
 from ..scene.builder import check_history_size
 from ..scene.layers import refuse_unused
-from ..scene.scene import builtin_scene, builtin_scenes, scene_from_dict, scene_to_dict
+from ..scene.scene import builtin_scene, builtin_scenes
 from ..post.fields import parse_fields
 from .fields import add_vtu_options, check_vtu_options
 from .options import add_material_options, parse_params, plan_from_args, scene_named
@@ -117,9 +117,8 @@ def _without_foreign_parameters(scene, material: str):
     print(f"note: --material {material} replaces the scene's material '{scene.material.name}'; its parameters "
           f"{', '.join(dropped)}, which {material} does not have, are left out (give {material}'s own with --param).",
           file=sys.stderr)
-    d = scene_to_dict(scene)
-    d["material"]["parameters"] = {k: v for k, v in given.items() if k in names}
-    return scene_from_dict(d)
+    kept = {k: v for k, v in given.items() if k in names}
+    return scene.with_overrides(parameters=None).with_overrides(parameters=kept)
 
 
 def _override_notes(old, new, over: dict, where: str) -> list[str]:

@@ -104,6 +104,20 @@ def _blocker(path: Path) -> tuple[Path, OSError] | None:
     return None
 
 
+def _first_blocker(entries) -> tuple[Path, OSError] | None:
+    """:func:`_blocker` of each existing entry in turn, with SIGINT and SIGTERM deferred (an entry
+    is never left under its temporary name); the first entry that cannot be changed and why."""
+    found = None
+    with deferred_signals() as caught:
+        for entry in entries:
+            if entry.exists() or entry.is_symlink():
+                found = _blocker(Path(entry))
+                if found is not None:
+                    break
+    redeliver(caught, None)
+    return found
+
+
 def check_changeable(out, entries, what: str = "--out") -> None:
     """Refuse an output in ``out`` when one of ``entries`` (the earlier output's files and folders
     it removes or rewrites: a sweep's run cache it writes into) cannot be changed, before any of
@@ -125,14 +139,7 @@ def check_changeable(out, entries, what: str = "--out") -> None:
     InputError
         Naming the first entry that cannot be changed, why, and what to do; nothing was changed.
     """
-    with deferred_signals() as caught:
-        found = None
-        for entry in entries:
-            if entry.exists() or entry.is_symlink():
-                found = _blocker(Path(entry))
-                if found is not None:
-                    break
-    redeliver(caught, None)
+    found = _first_blocker(entries)
     if found is not None:
         entry, exc = found
         raise InputError(f"{what} {out}: {entry} cannot be removed or rewritten ({exc.strerror or exc}), but writing "
@@ -324,18 +331,12 @@ def check_file_target(path, what: str = "--out", need_bytes: int = 0, suffix: st
     if not base.is_dir():
         raise InputError(f"{what} {path}: {base} is a file, so no folder can be made there; choose another path.")
     _probe(base, what, path)
-    if path.exists() or path.is_symlink():
-        with deferred_signals() as caught:
-            try:
-                _move_aside_and_back(path)
-                error = None
-            except OSError as exc:
-                error = exc
-        redeliver(caught, None)
-        if error is not None:
-            raise InputError(f"{what} {path} exists and cannot be replaced ({error.strerror or error}); make it "
-                             f"changeable (made immutable: chattr -i; another user's: ask its owner) or name another "
-                             f"file.")
+    found = _first_blocker([path])   # a directory was refused above
+    if found is not None:
+        error = found[1]
+        raise InputError(f"{what} {path} exists and cannot be replaced ({error.strerror or error}); make it "
+                         f"changeable (made immutable: chattr -i; another user's: ask its owner) or name another "
+                         f"file.")
     _check_space(base, need_bytes, what, path)
     return path
 

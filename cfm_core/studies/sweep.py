@@ -519,7 +519,6 @@ def execute(scene, axes: list[Axis], backend: str = "numba", options: dict | Non
                 try:
                     if cache is not None:
                         if done.value.get("scene_toml"):   # the run's own scene.toml: repeats it
-                            (cache / rid).mkdir(parents=True, exist_ok=True)
                             write_text(cache / rid / "scene.toml", done.value["scene_toml"])
                         write_drop_test(cache / rid, done.value["t"], done.value["a_raw"], done.value["a_cfc"], summary)
                         (cache / rid / "failed.json").unlink(missing_ok=True)
